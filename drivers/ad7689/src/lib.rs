@@ -1,0 +1,3 @@
+//! Driver for the ad7689.
+#![no_std]
+#![forbid(unsafe_code)]

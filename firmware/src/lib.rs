@@ -1,0 +1,3 @@
+//! The slave application of the analog I/O module, independent of the MCU.
+#![no_std]
+#![forbid(unsafe_code)]

@@ -1,0 +1,40 @@
+//! Project automation: `cargo xtask <command>` (alias in `.cargo/config.toml`).
+//!
+//! Each command lives in its own module; `main` only parses arguments and dispatches.
+
+mod setup;
+mod test;
+mod util;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "cargo xtask", about = "Build, test, flash and simulate the EtherCAT analog I/O module")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Everything CI checks: rustfmt, clippy, host tests, cross-builds.
+    Test(test::Args),
+    /// Install what the project needs on this machine (idempotent).
+    Setup,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Test(args) => test::run(&args),
+        Command::Setup => setup::all(),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,91 @@
+//! Idempotent installation of what the project needs: rustup targets, cargo tools, Debian packages.
+
+use crate::util::{exec, have, Result};
+use std::process::Command;
+
+/// Cross-compilation targets of the library crates (also in `rust-toolchain.toml`).
+pub const TARGETS: [&str; 3] = [
+    "thumbv7m-none-eabi",
+    "thumbv7em-none-eabihf",
+    "riscv32imac-unknown-none-elf",
+];
+
+/// Everything: targets, cargo tools and Debian packages.
+pub fn all() -> Result {
+    targets()?;
+    flip_link()?;
+    debian(&["tshark"]);
+    Ok(())
+}
+
+/// Adds the rustup targets (a no-op when present).
+pub fn targets() -> Result {
+    if !have("rustup") {
+        return Ok(()); // toolchain not managed by rustup: assume targets are provided
+    }
+    let installed = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+        .unwrap_or_default();
+    let missing: Vec<&str> = TARGETS
+        .iter()
+        .copied()
+        .filter(|t| !installed.lines().any(|l| l.trim() == *t))
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    exec(Command::new("rustup").args(["target", "add"]).args(&missing))
+}
+
+/// flip-link, the linker wrapper the firmware links with.
+pub fn flip_link() -> Result {
+    if have("flip-link") {
+        return Ok(());
+    }
+    eprintln!("flip-link is missing: installing it with cargo (once)");
+    exec(Command::new("cargo").args(["install", "--locked", "flip-link"]))
+}
+
+/// Installs Debian packages when they are missing and we are allowed to (root, apt-get present).
+/// Returns whether all of them are available afterwards; failing to install is not an error,
+/// the callers skip what needs the package and say so.
+pub fn debian(packages: &[&str]) -> bool {
+    let missing: Vec<&str> = packages
+        .iter()
+        .copied()
+        .filter(|p| {
+            !Command::new("dpkg")
+                .args(["-s", p])
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .status()
+                .map(|s| s.success())
+                .unwrap_or(false)
+        })
+        .collect();
+    if missing.is_empty() {
+        return true;
+    }
+    if !have("apt-get") || !is_root() {
+        eprintln!(
+            "note: Debian packages {missing:?} are missing and cannot be installed here (need root and apt-get)"
+        );
+        return false;
+    }
+    let _ = exec(Command::new("apt-get").arg("update").arg("-qq"));
+    exec(Command::new("apt-get")
+        .env("DEBIAN_FRONTEND", "noninteractive")
+        .args(["install", "-y", "-qq", "--no-install-recommends"])
+        .args(&missing))
+    .is_ok()
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| o.stdout.starts_with(b"0"))
+        .unwrap_or(false)
+}

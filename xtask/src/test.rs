@@ -1,0 +1,33 @@
+//! `cargo xtask test`: everything CI checks.
+
+use crate::setup;
+use crate::util::{cargo, exec, Result};
+
+/// The `no_std` crates that must build for every embedded target.
+const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Skip rustfmt and clippy (faster local iterations).
+    #[arg(long)]
+    pub no_lint: bool,
+}
+
+pub fn run(args: &Args) -> Result {
+    setup::targets()?;
+    if !args.no_lint {
+        exec(cargo().args(["fmt", "--all", "--check"]))?;
+        exec(cargo().args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]))?;
+    }
+    exec(cargo().args(["test", "--workspace"]))?;
+    for target in setup::TARGETS {
+        let mut cmd = cargo();
+        cmd.args(["build", "--release", "--target", target]);
+        for c in PORTABLE_CRATES {
+            cmd.args(["-p", c]);
+        }
+        cmd.env("RUSTFLAGS", "-D warnings");
+        exec(&mut cmd)?;
+    }
+    Ok(())
+}
