@@ -1,7 +1,21 @@
-//! CANopen over EtherCAT (CoE) application-layer core.
+//! CANopen over EtherCAT (CoE) application-layer core (ETG.1000.6).
+//!
+//! `no_std`, no allocation, no `unsafe`, and no panic on any input.
 #![no_std]
 #![forbid(unsafe_code)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 #[cfg(any(test, feature = "std"))]
 extern crate std;
+
+#[macro_use]
+mod open_enum;
+
+pub mod abort;
+pub mod esm;
+
+pub use abort::SdoAbortCode;
+pub use esm::AlState;

@@ -10,7 +10,10 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "cargo xtask", about = "Build, test, flash and simulate the EtherCAT analog I/O module")]
+#[command(
+    name = "cargo xtask",
+    about = "Build, test, flash and simulate the EtherCAT analog I/O module"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

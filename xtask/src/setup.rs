@@ -36,7 +36,11 @@ pub fn targets() -> Result {
     if missing.is_empty() {
         return Ok(());
     }
-    exec(Command::new("rustup").args(["target", "add"]).args(&missing))
+    exec(
+        Command::new("rustup")
+            .args(["target", "add"])
+            .args(&missing),
+    )
 }
 
 /// flip-link, the linker wrapper the firmware links with.
@@ -75,10 +79,12 @@ pub fn debian(packages: &[&str]) -> bool {
         return false;
     }
     let _ = exec(Command::new("apt-get").arg("update").arg("-qq"));
-    exec(Command::new("apt-get")
-        .env("DEBIAN_FRONTEND", "noninteractive")
-        .args(["install", "-y", "-qq", "--no-install-recommends"])
-        .args(&missing))
+    exec(
+        Command::new("apt-get")
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .args(["install", "-y", "-qq", "--no-install-recommends"])
+            .args(&missing),
+    )
     .is_ok()
 }
 

@@ -17,7 +17,14 @@ pub fn run(args: &Args) -> Result {
     setup::targets()?;
     if !args.no_lint {
         exec(cargo().args(["fmt", "--all", "--check"]))?;
-        exec(cargo().args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]))?;
+        exec(cargo().args([
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]))?;
     }
     exec(cargo().args(["test", "--workspace"]))?;
     for target in setup::TARGETS {

@@ -1,0 +1,60 @@
+//! The `open_enum!` macro: protocol codes that keep unknown values (smoltcp's `enum_with_unknown!`).
+//!
+//! A code from the specification becomes a variant; any other value survives a round trip as
+//! `Unknown(raw)`, so a parser never rejects a code the specification allows to be extended.
+
+/// Declares an enum with named codes plus `Unknown(raw)` and the two `From` conversions.
+///
+/// ```
+/// coe_core::open_enum! {
+///     /// Example codes.
+///     pub enum Example(u8) {
+///         /// The first one.
+///         One = 1,
+///     }
+/// }
+/// assert_eq!(Example::from(1u8), Example::One);
+/// assert_eq!(u8::from(Example::Unknown(9)), 9);
+/// ```
+#[macro_export]
+macro_rules! open_enum {
+    (
+        $( #[$enum_attr:meta] )*
+        pub enum $name:ident($ty:ty) {
+            $(
+              $( #[$variant_attr:meta] )*
+              $variant:ident = $value:expr
+            ),+ $(,)?
+        }
+    ) => {
+        $( #[$enum_attr] )*
+        #[derive(Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Clone, Copy)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum $name {
+            $(
+              $( #[$variant_attr] )*
+              $variant
+            ),*,
+            /// A value the specification does not name (kept, not rejected).
+            Unknown($ty)
+        }
+
+        impl ::core::convert::From<$ty> for $name {
+            fn from(value: $ty) -> Self {
+                match value {
+                    $( value if value == $value => $name::$variant ),*,
+                    other => $name::Unknown(other)
+                }
+            }
+        }
+
+        impl ::core::convert::From<$name> for $ty {
+            fn from(value: $name) -> Self {
+                match value {
+                    $( $name::$variant => $value ),*,
+                    $name::Unknown(other) => other
+                }
+            }
+        }
+    }
+}
