@@ -16,6 +16,7 @@ mod open_enum;
 
 pub mod abort;
 pub mod esm;
+pub mod od;
 
 pub use abort::SdoAbortCode;
 pub use esm::AlState;

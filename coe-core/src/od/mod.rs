@@ -1,0 +1,633 @@
+//! The object dictionary model (CiA 301 / ETG.1000.6 5.6): a constant, static description of
+//! every object and entry, from which the SDO server, the ESI XML and the SII image are all
+//! generated, plus the [`ObjectAccess`] trait through which the application supplies values.
+//!
+//! The firmware describes its dictionary once:
+//!
+//! ```
+//! use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value};
+//!
+//! static OD: ObjectDictionary = ObjectDictionary::new(&[
+//!     ObjectDesc::var(0x1000, "Device type", &[
+//!         EntryDesc::new(0, "Device type", DataType::Unsigned32, Access::RO)
+//!             .with_default(Value::Uint(0x000C_0191)),
+//!     ]),
+//!     ObjectDesc::var(0x1008, "Device name", &[EntryDesc::string(0, "Device name", "DAC")]),
+//!     ObjectDesc::array(0x6401, "Read analog input 16-bit", &[
+//!         EntryDesc::count(2),
+//!         EntryDesc::new(1, "Channel 1", DataType::Integer16, Access::RO.tx_mappable()),
+//!         EntryDesc::new(2, "Channel 2", DataType::Integer16, Access::RO.tx_mappable()),
+//!     ]),
+//! ]);
+//! // Checked at compile time:
+//! const _: () = if let Err(e) = OD.validate() { panic!("{}", e.message()) };
+//! assert_eq!(OD.entry(0x6401, 2).map(|(_, e)| e.bit_len), Ok(16));
+//! ```
+
+mod access;
+mod store;
+mod types;
+mod value;
+
+pub use access::ObjectAccess;
+pub use store::{OdStore, StoreError};
+pub use types::{Access, DataType, EsiTypeName, ObjectCode};
+pub use value::{check_range, decode_int, decode_real, int_limits, Value};
+
+use crate::abort::SdoAbortCode;
+use core::fmt;
+
+/// One entry (subindex) of an object: type, length, access, limits and the name the SDO
+/// Information service and the ESI file show.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EntryDesc {
+    /// Subindex (0 for a VAR).
+    pub subindex: u8,
+    /// Entry name.
+    pub name: &'static str,
+    /// Data type.
+    pub data_type: DataType,
+    /// Length in bits; for strings and OCTET_STRING the maximum length (8 bits per byte).
+    /// A DOMAIN may give 0: its length is whatever the application reads or accepts.
+    pub bit_len: u16,
+    /// Access rights and PDO/backup/settings flags.
+    pub access: Access,
+    /// Unit (ETG.1004 unit code, the SDO Information "unit type" u32), if any.
+    pub unit: Option<u32>,
+    /// Default value (ESI `DefaultValue`, SDO Information value info 0x10).
+    pub default: Value,
+    /// Minimum value (ESI `MinValue`, value info 0x20); writes below it are refused.
+    pub min: Value,
+    /// Maximum value (ESI `MaxValue`, value info 0x40); writes above it are refused.
+    pub max: Value,
+}
+
+impl EntryDesc {
+    /// An entry of a fixed-size type with the type's bit length and no value info.
+    pub const fn new(
+        subindex: u8,
+        name: &'static str,
+        data_type: DataType,
+        access: Access,
+    ) -> Self {
+        let bit_len = match data_type.bit_len() {
+            Some(bits) => bits,
+            None => 0,
+        };
+        Self {
+            subindex,
+            name,
+            data_type,
+            bit_len,
+            access,
+            unit: None,
+            default: Value::None,
+            min: Value::None,
+            max: Value::None,
+        }
+    }
+
+    /// A read-only VISIBLE_STRING entry holding `value` (its length is the entry length).
+    pub const fn string(subindex: u8, name: &'static str, value: &'static str) -> Self {
+        Self::new(subindex, name, DataType::VisibleString, Access::RO)
+            .with_bits((value.len() * 8) as u16)
+            .with_default(Value::Str(value))
+    }
+
+    /// Sub 0 of an ARRAY or RECORD: UNSIGNED8 "SubIndex 000", read-only, default `count`.
+    pub const fn count(count: u8) -> Self {
+        Self::new(0, "SubIndex 000", DataType::Unsigned8, Access::RO)
+            .with_default(Value::Int(count as i64))
+    }
+
+    /// Replaces the bit length (strings, OCTET_STRING, DOMAIN).
+    pub const fn with_bits(mut self, bit_len: u16) -> Self {
+        self.bit_len = bit_len;
+        self
+    }
+
+    /// Replaces the access rights.
+    pub const fn with_access(mut self, access: Access) -> Self {
+        self.access = access;
+        self
+    }
+
+    /// Replaces the name.
+    pub const fn with_name(mut self, name: &'static str) -> Self {
+        self.name = name;
+        self
+    }
+
+    /// Sets the default value.
+    pub const fn with_default(mut self, default: Value) -> Self {
+        self.default = default;
+        self
+    }
+
+    /// Sets minimum and maximum.
+    pub const fn with_range(mut self, min: Value, max: Value) -> Self {
+        self.min = min;
+        self.max = max;
+        self
+    }
+
+    /// Sets the unit.
+    pub const fn with_unit(mut self, unit: u32) -> Self {
+        self.unit = Some(unit);
+        self
+    }
+
+    /// Size in bytes of the entry in an SDO transfer (`ceil(bit_len / 8)`; BOOLEAN and BITn
+    /// take one byte).
+    pub const fn byte_len(&self) -> usize {
+        (self.bit_len as usize).div_ceil(8)
+    }
+
+    /// Checks `bytes` (a value to be written) against `min`/`max`
+    /// (0x06090031 ValueTooHigh / 0x06090032 ValueTooLow).
+    pub fn check_range(&self, bytes: &[u8]) -> Result<(), SdoAbortCode> {
+        value::check_range(self.data_type, self.bit_len, &self.min, &self.max, bytes)
+    }
+
+    /// Value info bits of the SDO Information entry description this entry can fill:
+    /// 0x08 unit, 0x10 default, 0x20 minimum, 0x40 maximum.
+    pub const fn value_info(&self) -> u8 {
+        let mut info = 0;
+        if self.unit.is_some() {
+            info |= 0x08;
+        }
+        if self.default.is_some() {
+            info |= 0x10;
+        }
+        if self.min.is_some() {
+            info |= 0x20;
+        }
+        if self.max.is_some() {
+            info |= 0x40;
+        }
+        info
+    }
+}
+
+/// One object: index, name, object code and its entries in subindex order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ObjectDesc {
+    /// Object index.
+    pub index: u16,
+    /// Object name.
+    pub name: &'static str,
+    /// VAR, ARRAY or RECORD.
+    pub code: ObjectCode,
+    /// The object's data type as the SDO Information object description gives it: the entry
+    /// type of a VAR, the element type of an ARRAY, the record type of a RECORD (e.g.
+    /// 0x0023 IDENTITY, 0x0021 PDO_MAPPING).
+    pub data_type: DataType,
+    /// Entries sorted by subindex; an ARRAY/RECORD starts with sub 0 (UNSIGNED8).
+    pub entries: &'static [EntryDesc],
+}
+
+impl ObjectDesc {
+    /// A VAR: `entries` holds the single entry (subindex 0).
+    pub const fn var(index: u16, name: &'static str, entries: &'static [EntryDesc]) -> Self {
+        let data_type = match entries {
+            [first, ..] => first.data_type,
+            [] => DataType::Unknown(0),
+        };
+        Self {
+            index,
+            name,
+            code: ObjectCode::Var,
+            data_type,
+            entries,
+        }
+    }
+
+    /// An ARRAY: sub 0 then elements of one type; the object's type is the element type.
+    pub const fn array(index: u16, name: &'static str, entries: &'static [EntryDesc]) -> Self {
+        let data_type = match entries {
+            [_, element, ..] => element.data_type,
+            _ => DataType::Unknown(0),
+        };
+        Self {
+            index,
+            name,
+            code: ObjectCode::Array,
+            data_type,
+            entries,
+        }
+    }
+
+    /// A RECORD of the given record type.
+    pub const fn record(
+        index: u16,
+        name: &'static str,
+        data_type: DataType,
+        entries: &'static [EntryDesc],
+    ) -> Self {
+        Self {
+            index,
+            name,
+            code: ObjectCode::Record,
+            data_type,
+            entries,
+        }
+    }
+
+    /// The highest subindex (the "MaxSubindex" of the object description): the last entry's
+    /// subindex, 0 for a VAR.
+    pub const fn max_subindex(&self) -> u8 {
+        match self.entries {
+            [.., last] => last.subindex,
+            [] => 0,
+        }
+    }
+
+    /// The entry with this subindex.
+    pub fn entry(&self, subindex: u8) -> Option<&'static EntryDesc> {
+        let entries: &'static [EntryDesc] = self.entries;
+        entries
+            .binary_search_by_key(&subindex, |e| e.subindex)
+            .ok()
+            .and_then(|i| entries.get(i))
+    }
+
+    /// True if any entry has all bits of `mask` in its access word (e.g. [`Access::RXPDO`]).
+    pub fn any_entry_has(&self, mask: u16) -> bool {
+        self.entries.iter().any(|e| e.access.contains(mask))
+    }
+}
+
+/// The whole object dictionary: objects sorted by index.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ObjectDictionary {
+    /// Objects in ascending index order.
+    pub objects: &'static [ObjectDesc],
+}
+
+impl ObjectDictionary {
+    /// Wraps a table; call [`ObjectDictionary::validate`] (at compile time) to check it.
+    pub const fn new(objects: &'static [ObjectDesc]) -> Self {
+        Self { objects }
+    }
+
+    /// Number of objects.
+    pub const fn len(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// True if there are no objects.
+    pub const fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+
+    /// Objects in index order.
+    pub fn iter(&self) -> core::slice::Iter<'static, ObjectDesc> {
+        self.objects.iter()
+    }
+
+    /// The object with this index (binary search).
+    pub fn find(&self, index: u16) -> Option<&'static ObjectDesc> {
+        let objects: &'static [ObjectDesc] = self.objects;
+        objects
+            .binary_search_by_key(&index, |o| o.index)
+            .ok()
+            .and_then(|i| objects.get(i))
+    }
+
+    /// The object and entry at `index:subindex`, or the SDO abort code a server answers:
+    /// 0x06020000 ObjectDoesNotExist, 0x06090011 SubindexDoesNotExist.
+    pub fn entry(
+        &self,
+        index: u16,
+        subindex: u8,
+    ) -> Result<(&'static ObjectDesc, &'static EntryDesc), SdoAbortCode> {
+        let object = self.find(index).ok_or(SdoAbortCode::ObjectDoesNotExist)?;
+        let entry = object
+            .entry(subindex)
+            .ok_or(SdoAbortCode::SubindexDoesNotExist)?;
+        Ok((object, entry))
+    }
+
+    /// Checks the table; usable in a `const` item:
+    /// `const _: () = if let Err(e) = OD.validate() { panic!("{}", e.message()) };`
+    ///
+    /// Rejected: unsorted or duplicate indices; objects without entries; a VAR that is not
+    /// exactly one entry at subindex 0; an ARRAY/RECORD whose sub 0 is not UNSIGNED8;
+    /// unsorted or duplicate subindices; ARRAY elements of differing type or length; empty
+    /// names; a bit length that does not match the type (fixed types) or is not a whole
+    /// number of bytes (strings) or is zero (strings); PDO-mappable flags on a type that
+    /// cannot be mapped; a default/min/max of the wrong kind or outside the type's range;
+    /// `min > max`; a default outside `min..=max`; a string default longer than the entry.
+    pub const fn validate(&self) -> Result<(), OdError> {
+        let mut rest = self.objects;
+        let mut previous: Option<u16> = None;
+        while let [object, tail @ ..] = rest {
+            if let Some(prev) = previous {
+                if object.index == prev {
+                    return Err(OdError::new(OdErrorKind::DuplicateIndex, object.index, 0));
+                }
+                if object.index < prev {
+                    return Err(OdError::new(OdErrorKind::UnsortedIndex, object.index, 0));
+                }
+            }
+            if let Err(e) = validate_object(object) {
+                return Err(e);
+            }
+            previous = Some(object.index);
+            rest = tail;
+        }
+        Ok(())
+    }
+}
+
+const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
+    let index = object.index;
+    if object.name.is_empty() {
+        return Err(OdError::new(OdErrorKind::EmptyName, index, 0));
+    }
+    match (object.code, object.entries) {
+        (_, []) => return Err(OdError::new(OdErrorKind::NoEntries, index, 0)),
+        (ObjectCode::Var, [only]) => {
+            if only.subindex != 0 {
+                return Err(OdError::new(
+                    OdErrorKind::VarNotSubindexZero,
+                    index,
+                    only.subindex,
+                ));
+            }
+        }
+        (ObjectCode::Var, [_, second, ..]) => {
+            return Err(OdError::new(
+                OdErrorKind::VarNotSubindexZero,
+                index,
+                second.subindex,
+            ))
+        }
+        (_, [first, ..]) => {
+            if first.subindex != 0
+                || !matches!(first.data_type, DataType::Unsigned8)
+                || first.bit_len != 8
+            {
+                return Err(OdError::new(
+                    OdErrorKind::BadSubindexZero,
+                    index,
+                    first.subindex,
+                ));
+            }
+        }
+    }
+    let mut rest = object.entries;
+    let mut previous: Option<u8> = None;
+    let mut element: Option<&EntryDesc> = None;
+    while let [entry, tail @ ..] = rest {
+        if let Some(prev) = previous {
+            if entry.subindex == prev {
+                return Err(OdError::new(
+                    OdErrorKind::DuplicateSubindex,
+                    index,
+                    entry.subindex,
+                ));
+            }
+            if entry.subindex < prev {
+                return Err(OdError::new(
+                    OdErrorKind::UnsortedSubindex,
+                    index,
+                    entry.subindex,
+                ));
+            }
+        }
+        if let Err(kind) = validate_entry(entry) {
+            return Err(OdError::new(kind, index, entry.subindex));
+        }
+        if matches!(object.code, ObjectCode::Array) && entry.subindex != 0 {
+            match element {
+                Some(first) => {
+                    if first.data_type.code() != entry.data_type.code()
+                        || first.bit_len != entry.bit_len
+                    {
+                        return Err(OdError::new(
+                            OdErrorKind::ArrayElementMismatch,
+                            index,
+                            entry.subindex,
+                        ));
+                    }
+                }
+                None => element = Some(entry),
+            }
+        }
+        previous = Some(entry.subindex);
+        rest = tail;
+    }
+    Ok(())
+}
+
+const fn validate_entry(entry: &EntryDesc) -> Result<(), OdErrorKind> {
+    let t = entry.data_type;
+    if entry.name.is_empty() {
+        return Err(OdErrorKind::EmptyName);
+    }
+    match t.bit_len() {
+        Some(bits) => {
+            if entry.bit_len != bits {
+                return Err(OdErrorKind::BitLengthMismatch);
+            }
+        }
+        None => {
+            if !t.is_variable_length() {
+                return Err(OdErrorKind::UnsupportedType);
+            }
+            let unit = if matches!(t, DataType::UnicodeString) {
+                16
+            } else {
+                8
+            };
+            if entry.bit_len % unit != 0 || (entry.bit_len == 0 && !matches!(t, DataType::Domain)) {
+                return Err(OdErrorKind::BitLengthMismatch);
+            }
+        }
+    }
+    if (entry.access.is_rx_mappable() || entry.access.is_tx_mappable()) && !t.is_pdo_mappable() {
+        return Err(OdErrorKind::NotMappableType);
+    }
+    if !value_fits(entry, &entry.default)
+        || !value_fits(entry, &entry.min)
+        || !value_fits(entry, &entry.max)
+    {
+        return Err(OdErrorKind::ValueDoesNotFitType);
+    }
+    // Order of min, default, max.
+    match (entry.min, entry.max) {
+        (Value::Real(lo), Value::Real(hi)) => {
+            if lo > hi {
+                return Err(OdErrorKind::MinGreaterThanMax);
+            }
+        }
+        _ => {
+            if let (Some(lo), Some(hi)) = (entry.min.as_i128(), entry.max.as_i128()) {
+                if lo > hi {
+                    return Err(OdErrorKind::MinGreaterThanMax);
+                }
+            }
+        }
+    }
+    if let Some(d) = entry.default.as_i128() {
+        if let Some(lo) = entry.min.as_i128() {
+            if d < lo {
+                return Err(OdErrorKind::DefaultOutOfRange);
+            }
+        }
+        if let Some(hi) = entry.max.as_i128() {
+            if d > hi {
+                return Err(OdErrorKind::DefaultOutOfRange);
+            }
+        }
+    }
+    if let Value::Real(d) = entry.default {
+        if let Value::Real(lo) = entry.min {
+            if d < lo {
+                return Err(OdErrorKind::DefaultOutOfRange);
+            }
+        }
+        if let Value::Real(hi) = entry.max {
+            if d > hi {
+                return Err(OdErrorKind::DefaultOutOfRange);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// True if `value` is of a kind that suits the entry and fits its range/length.
+const fn value_fits(entry: &EntryDesc, value: &Value) -> bool {
+    let t = entry.data_type;
+    match *value {
+        Value::None => true,
+        Value::Int(_) | Value::Uint(_) => {
+            let v = match value.as_i128() {
+                Some(v) => v,
+                None => return false,
+            };
+            match int_limits(t, entry.bit_len) {
+                Some((lo, hi)) => v >= lo && v <= hi,
+                None => false,
+            }
+        }
+        Value::Real(_) => matches!(t, DataType::Real32 | DataType::Real64),
+        Value::Str(_) | Value::Bytes(_) => {
+            let len = value.encoded_len(t, entry.bit_len);
+            if t.is_variable_length() {
+                entry.bit_len == 0 || len <= entry.byte_len()
+            } else {
+                // A raw image of a fixed-size type must be exactly its size.
+                matches!(value, Value::Bytes(_)) && len == entry.byte_len()
+            }
+        }
+    }
+}
+
+/// What [`ObjectDictionary::validate`] found wrong.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OdErrorKind {
+    /// An object index is lower than the one before it.
+    UnsortedIndex,
+    /// An object index appears twice.
+    DuplicateIndex,
+    /// An object has no entries.
+    NoEntries,
+    /// A VAR must have exactly one entry, at subindex 0.
+    VarNotSubindexZero,
+    /// Sub 0 of an ARRAY/RECORD must exist and be UNSIGNED8.
+    BadSubindexZero,
+    /// A subindex is lower than the one before it.
+    UnsortedSubindex,
+    /// A subindex appears twice.
+    DuplicateSubindex,
+    /// ARRAY elements differ in type or length.
+    ArrayElementMismatch,
+    /// An object or entry has an empty name.
+    EmptyName,
+    /// The bit length does not match the data type.
+    BitLengthMismatch,
+    /// The data type is a record type or unknown and cannot describe an entry.
+    UnsupportedType,
+    /// An entry is marked PDO-mappable but its type cannot be mapped.
+    NotMappableType,
+    /// A default/min/max value is of the wrong kind or outside the type's range.
+    ValueDoesNotFitType,
+    /// The minimum is greater than the maximum.
+    MinGreaterThanMax,
+    /// The default is outside `min..=max`.
+    DefaultOutOfRange,
+}
+
+impl OdErrorKind {
+    /// A human-readable description.
+    pub const fn message(self) -> &'static str {
+        match self {
+            Self::UnsortedIndex => "object indices are not in ascending order",
+            Self::DuplicateIndex => "duplicate object index",
+            Self::NoEntries => "object has no entries",
+            Self::VarNotSubindexZero => "a VAR must have exactly one entry, at subindex 0",
+            Self::BadSubindexZero => "sub 0 of an ARRAY/RECORD must be an UNSIGNED8 entry",
+            Self::UnsortedSubindex => "subindices are not in ascending order",
+            Self::DuplicateSubindex => "duplicate subindex",
+            Self::ArrayElementMismatch => "ARRAY elements differ in type or bit length",
+            Self::EmptyName => "empty object or entry name",
+            Self::BitLengthMismatch => "bit length does not match the data type",
+            Self::UnsupportedType => "data type cannot describe an entry",
+            Self::NotMappableType => "PDO-mappable flag on a type that cannot be mapped",
+            Self::ValueDoesNotFitType => {
+                "default/min/max of the wrong kind or out of the type's range"
+            }
+            Self::MinGreaterThanMax => "minimum greater than maximum",
+            Self::DefaultOutOfRange => "default value outside min..max",
+        }
+    }
+}
+
+/// An object dictionary validation error: what and where.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OdError {
+    /// What is wrong.
+    pub kind: OdErrorKind,
+    /// Object index.
+    pub index: u16,
+    /// Subindex (0 for object-level errors).
+    pub subindex: u8,
+}
+
+impl OdError {
+    /// Creates an error.
+    pub const fn new(kind: OdErrorKind, index: u16, subindex: u8) -> Self {
+        Self {
+            kind,
+            index,
+            subindex,
+        }
+    }
+
+    /// The description of the kind (for a `const` panic message).
+    pub const fn message(&self) -> &'static str {
+        self.kind.message()
+    }
+}
+
+impl fmt::Display for OdError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "object dictionary {:#06X}:{:02X}: {}",
+            self.index,
+            self.subindex,
+            self.kind.message()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,255 @@
+use super::*;
+use crate::esm::AlState;
+
+static OD: ObjectDictionary = ObjectDictionary::new(&[
+    ObjectDesc::var(
+        0x1000,
+        "Device type",
+        &[
+            EntryDesc::new(0, "Device type", DataType::Unsigned32, Access::RO)
+                .with_default(Value::Uint(0x000C_0191)),
+        ],
+    ),
+    ObjectDesc::var(
+        0x1008,
+        "Device name",
+        &[EntryDesc::string(0, "Device name", "DAC")],
+    ),
+    ObjectDesc::record(
+        0x1018,
+        "Identity",
+        DataType::Identity,
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "Vendor ID", DataType::Unsigned32, Access::RO),
+            EntryDesc::new(2, "Product code", DataType::Unsigned32, Access::RO),
+        ],
+    ),
+    ObjectDesc::array(
+        0x6411,
+        "Write analog output 16-bit",
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(
+                1,
+                "Channel 1",
+                DataType::Integer16,
+                Access::RW.rx_mappable(),
+            )
+            .with_range(Value::Int(-1000), Value::Int(1000)),
+            EntryDesc::new(
+                2,
+                "Channel 2",
+                DataType::Integer16,
+                Access::RW.rx_mappable(),
+            ),
+        ],
+    ),
+]);
+
+const _: () = if let Err(e) = OD.validate() {
+    panic!("{}", e.message())
+};
+
+#[test]
+fn lookup_and_iteration() {
+    assert_eq!(OD.len(), 4);
+    assert_eq!(OD.find(0x1018).map(|o| o.max_subindex()), Some(2));
+    assert!(OD.find(0x1001).is_none());
+    assert_eq!(
+        OD.entry(0x1001, 0).err(),
+        Some(SdoAbortCode::ObjectDoesNotExist)
+    );
+    assert_eq!(
+        OD.entry(0x1018, 3).err(),
+        Some(SdoAbortCode::SubindexDoesNotExist)
+    );
+    let (obj, e) = OD.entry(0x6411, 1).unwrap_or_else(|_| panic!());
+    assert_eq!(obj.code, ObjectCode::Array);
+    assert_eq!(obj.data_type, DataType::Integer16);
+    assert_eq!(e.bit_len, 16);
+    assert_eq!(e.value_info(), 0x60);
+    let indices: std::vec::Vec<u16> = OD.iter().map(|o| o.index).collect();
+    assert_eq!(indices, [0x1000, 0x1008, 0x1018, 0x6411]);
+    assert!(OD
+        .find(0x6411)
+        .is_some_and(|o| o.any_entry_has(Access::RXPDO)));
+    assert_eq!(OD.find(0x1008).map(|o| o.entries[0].bit_len), Some(24));
+}
+
+macro_rules! check {
+    ($($t:tt)*) => {{
+        const OBJECTS: &[ObjectDesc] = $($t)*;
+        ObjectDictionary::new(OBJECTS).validate().map_err(|e| e.kind)
+    }};
+}
+
+const U8: EntryDesc = EntryDesc::new(0, "x", DataType::Unsigned8, Access::RW);
+
+#[test]
+fn validate_rejects_bad_tables() {
+    assert_eq!(
+        check!(&[
+            ObjectDesc::var(2, "a", &[U8]),
+            ObjectDesc::var(1, "b", &[U8])
+        ]),
+        Err(OdErrorKind::UnsortedIndex)
+    );
+    assert_eq!(
+        check!(&[
+            ObjectDesc::var(2, "a", &[U8]),
+            ObjectDesc::var(2, "b", &[U8])
+        ]),
+        Err(OdErrorKind::DuplicateIndex)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(2, "a", &[])]),
+        Err(OdErrorKind::NoEntries)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(2, "a", &[U8, U8])]),
+        Err(OdErrorKind::VarNotSubindexZero)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::array(
+            2,
+            "a",
+            &[EntryDesc::count(2), U8.with_access(Access::RO), U8]
+        )]),
+        Err(OdErrorKind::DuplicateSubindex)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::record(
+            2,
+            "a",
+            DataType::Unknown(0x40),
+            &[
+                EntryDesc::count(2),
+                EntryDesc::new(2, "b", DataType::Unsigned8, Access::RO),
+                EntryDesc::new(1, "c", DataType::Unsigned8, Access::RO),
+            ]
+        )]),
+        Err(OdErrorKind::UnsortedSubindex)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::array(
+            2,
+            "a",
+            &[EntryDesc::new(0, "n", DataType::Unsigned16, Access::RO)]
+        )]),
+        Err(OdErrorKind::BadSubindexZero)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::array(
+            2,
+            "a",
+            &[
+                EntryDesc::count(2),
+                EntryDesc::new(1, "b", DataType::Unsigned8, Access::RO),
+                EntryDesc::new(2, "c", DataType::Unsigned16, Access::RO),
+            ]
+        )]),
+        Err(OdErrorKind::ArrayElementMismatch)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(2, "a", &[U8.with_bits(16)])]),
+        Err(OdErrorKind::BitLengthMismatch)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(
+            2,
+            "a",
+            &[EntryDesc::new(0, "s", DataType::VisibleString, Access::RO)]
+        )]),
+        Err(OdErrorKind::BitLengthMismatch)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(
+            2,
+            "a",
+            &[
+                EntryDesc::new(0, "s", DataType::VisibleString, Access::RO.tx_mappable())
+                    .with_bits(8)
+            ]
+        )]),
+        Err(OdErrorKind::NotMappableType)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(
+            2,
+            "a",
+            &[U8.with_range(Value::Int(10), Value::Int(5))]
+        )]),
+        Err(OdErrorKind::MinGreaterThanMax)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(
+            2,
+            "a",
+            &[U8.with_range(Value::Int(1), Value::Int(5))
+                .with_default(Value::Int(6))]
+        )]),
+        Err(OdErrorKind::DefaultOutOfRange)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(2, "a", &[U8.with_default(Value::Int(256))])]),
+        Err(OdErrorKind::ValueDoesNotFitType)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(2, "a", &[U8.with_default(Value::Str("x"))])]),
+        Err(OdErrorKind::ValueDoesNotFitType)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(
+            2,
+            "a",
+            &[EntryDesc::string(0, "s", "abc").with_bits(16)]
+        )]),
+        Err(OdErrorKind::ValueDoesNotFitType)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(2, "", &[U8])]),
+        Err(OdErrorKind::EmptyName)
+    );
+    assert_eq!(
+        check!(&[ObjectDesc::var(
+            2,
+            "a",
+            &[EntryDesc::new(0, "r", DataType::Identity, Access::RO).with_bits(8)]
+        )]),
+        Err(OdErrorKind::UnsupportedType)
+    );
+    const BAD: &[ObjectDesc] = &[ObjectDesc::var(0x2000, "a", &[U8.with_bits(9)])];
+    let e = ObjectDictionary::new(BAD).validate().err();
+    assert_eq!(
+        e.map(|e| std::format!("{e}")).as_deref(),
+        Some("object dictionary 0x2000:00: bit length does not match the data type")
+    );
+}
+
+#[test]
+fn store_defaults_and_writes() {
+    let mut store: OdStore<64> = OdStore::new(OD).unwrap_or_else(|_| panic!());
+    assert_eq!(OdStore::<64>::required_size(&OD), 4 + 5 + 1 + 8 + 1 + 4);
+    assert_eq!(store.get(0x1000, 0), Some(&[0x91, 0x01, 0x0C, 0x00][..]));
+    assert_eq!(store.get(0x1008, 0), Some(&b"DAC"[..]));
+    assert_eq!(store.get(0x6411, 0), Some(&[2][..]));
+    let mut buf = [0u8; 8];
+    assert_eq!(store.read(0x1008, 0, &mut buf), Ok(3));
+    assert_eq!(store.write(0x6411, 2, &[0x34, 0x12], AlState::Op), Ok(()));
+    assert_eq!(store.get(0x6411, 2), Some(&[0x34, 0x12][..]));
+    assert_eq!(
+        store.write(0x6411, 2, &[0x34], AlState::Op),
+        Err(SdoAbortCode::LengthMismatch)
+    );
+    assert_eq!(store.set(0x1008, 0, b"AB"), Ok(()));
+    assert_eq!(store.get(0x1008, 0), Some(&b"AB"[..]));
+    assert_eq!(
+        store.set(0x1008, 0, b"ABCD"),
+        Err(SdoAbortCode::LengthTooHigh)
+    );
+    assert_eq!(
+        OdStore::<8>::new(OD).err(),
+        Some(StoreError::TooSmall { needed: 23 })
+    );
+}
