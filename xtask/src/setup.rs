@@ -10,11 +10,15 @@ pub const TARGETS: [&str; 3] = [
     "riscv32imac-unknown-none-elf",
 ];
 
+/// Debian packages the tests use when present: `tshark` decodes the virtual board's pcaps,
+/// `xmllint` (libxml2-utils) validates the generated ESI against the ETG.2000 schema.
+pub const DEBIAN_PACKAGES: [&str; 2] = ["tshark", "libxml2-utils"];
+
 /// Everything: targets, cargo tools and Debian packages.
 pub fn all() -> Result {
     targets()?;
     flip_link()?;
-    debian(&["tshark"]);
+    debian(&DEBIAN_PACKAGES);
     Ok(())
 }
 

@@ -14,7 +14,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> Result {
-    setup::targets()?;
+    setup::all()?;
     if !args.no_lint {
         exec(cargo().args(["fmt", "--all", "--check"]))?;
         exec(cargo().args([
