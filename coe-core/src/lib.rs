@@ -17,6 +17,7 @@ mod open_enum;
 pub mod abort;
 pub mod esm;
 pub mod od;
+pub mod pdo;
 
 pub use abort::SdoAbortCode;
 pub use esm::AlState;
