@@ -1,0 +1,186 @@
+//! Distributed clocks: receive-time latching, system time with offset and delay, a
+//! simple drift control on writes to 0x0910, and the SYNC0/SYNC1 cyclic unit
+//! (ESC datasheet Section I ch. 9, Section II 0x0900..0x09FF).
+
+use super::{regs, regs::al_event, Esc, Side};
+
+/// Which SYNC output produced an edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SyncSignal {
+    /// SYNC0.
+    Sync0,
+    /// SYNC1.
+    Sync1,
+}
+
+/// A rising edge of a SYNC output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncEdge {
+    /// Which output.
+    pub signal: SyncSignal,
+    /// Virtual time of the edge (ns).
+    pub time_ns: u64,
+    /// DC system time of the edge (ns).
+    pub system_time_ns: u64,
+}
+
+#[derive(Default)]
+pub(super) struct DcState {
+    /// System time latched by the first byte of a read of 0x0910 (per side).
+    latch_ecat: u64,
+    latch_pdi: u64,
+    /// Drift-control correction added to the local clock (ns).
+    correction: i64,
+    /// Next SYNC0 pulse (system time) while the cyclic unit runs.
+    next_sync0: Option<u64>,
+    /// Next SYNC1 pulse (system time).
+    next_sync1: Option<u64>,
+}
+
+impl Esc {
+    /// The local clock of the ESC (ns), including drift-control correction.
+    pub fn dc_local_time(&self) -> u64 {
+        (self.now_ns + self.cfg.dc_local_start_ns).wrapping_add_signed(self.dc.correction)
+    }
+
+    /// The DC system time (local time + 0x0920 offset).
+    pub fn dc_system_time(&self) -> u64 {
+        self.dc_local_time()
+            .wrapping_add(self.get_u64(regs::DC_SYSTEM_TIME_OFFSET))
+    }
+
+    pub(super) fn dc_read_system_time_byte(&mut self, side: Side, a: u16) -> u8 {
+        let now = self.dc_system_time();
+        let latch = match side {
+            Side::Ecat => &mut self.dc.latch_ecat,
+            Side::Pdi => &mut self.dc.latch_pdi,
+        };
+        if a == regs::DC_SYSTEM_TIME {
+            *latch = now;
+        }
+        latch.to_le_bytes()[(a - regs::DC_SYSTEM_TIME) as usize]
+    }
+
+    /// A write to 0x0900 latched the receive times of all ports.
+    pub(super) fn dc_latch_receive_times(&mut self) {
+        let local = self.dc_local_time();
+        // Port 0 receives the frame; it comes back through the closed ports 1..3 at once.
+        let t = local as u32;
+        self.set_u32(regs::DC_RECEIVE_TIME_PORT0, t);
+        self.set_u32(0x0904, t.wrapping_add(40));
+        self.set_u32(0x0908, t.wrapping_add(40));
+        self.set_u32(0x090C, t.wrapping_add(40));
+        self.set_u64(regs::DC_RECEIVE_TIME_PU, local);
+    }
+
+    /// A write to 0x0910 (FRMW from the reference clock, or a plain write): compare with
+    /// the local copy of the system time and nudge the local clock (a simple control loop:
+    /// at most 4 ns per write, like the ESC's rate-limited speed correction).
+    pub(super) fn dc_system_time_written(&mut self, bytes: &[Option<u8>; 8]) {
+        let mut own = self.dc_system_time().to_le_bytes();
+        for (i, b) in bytes.iter().enumerate() {
+            if let Some(b) = b {
+                own[i] = *b;
+            }
+        }
+        let received = u64::from_le_bytes(own);
+        let wide = bytes[4..].iter().any(|b| b.is_some());
+        let delay = self.peek_u32(regs::DC_SYSTEM_TIME_DELAY) as u64;
+        let local_copy = self.dc_system_time();
+        let expected = received.wrapping_add(delay);
+        let diff: i64 = if wide {
+            local_copy.wrapping_sub(expected) as i64
+        } else {
+            (local_copy as u32).wrapping_sub(expected as u32) as i32 as i64
+        };
+        let mag = diff.unsigned_abs().min(0x7FFF_FFFF) as u32;
+        let reg = if diff < 0 { mag | 0x8000_0000 } else { mag };
+        self.set_u32(regs::DC_SYSTEM_TIME_DIFF, reg);
+        self.dc.correction -= diff.clamp(-4, 4);
+    }
+
+    /// 0x0981 was written: start or stop the cyclic unit.
+    pub(super) fn dc_activation_written(&mut self) {
+        let act = self.peek_u8(regs::DC_ACTIVATION);
+        self.dc.next_sync0 = None;
+        self.dc.next_sync1 = None;
+        let mut status = 0u8;
+        if act & 0x01 != 0 && act & 0x06 != 0 {
+            let start = self.get_u64(regs::DC_START_TIME);
+            let now = self.dc_system_time();
+            if start < now {
+                // A start time in the past: the unit waits (on the real chip for a
+                // 32-bit wrap); the model never starts and flags it.
+                status |= 0x04;
+            } else {
+                if act & 0x02 != 0 {
+                    self.dc.next_sync0 = Some(start);
+                    status |= 0x01;
+                }
+                if act & 0x04 != 0 {
+                    let d = self.peek_u32(regs::DC_SYNC1_CYCLE) as u64;
+                    self.dc.next_sync1 = Some(start + d);
+                    status |= 0x02;
+                }
+            }
+        }
+        self.mem[regs::DC_ACTIVATION_STATUS as usize] = status;
+    }
+
+    /// Virtual time of the next SYNC edge.
+    pub(super) fn dc_next_edge_time(&self) -> Option<u64> {
+        let sys_now = self.dc_system_time();
+        [self.dc.next_sync0, self.dc.next_sync1]
+            .into_iter()
+            .flatten()
+            .min()
+            .map(|t| self.now_ns + t.saturating_sub(sys_now))
+    }
+
+    /// Fires the edges that are due at the current time.
+    pub(super) fn dc_fire(&mut self, edges: &mut Vec<SyncEdge>) {
+        let sys_now = self.dc_system_time();
+        let cycle0 = self.peek_u32(regs::DC_SYNC0_CYCLE) as u64;
+        let cycle1 = self.peek_u32(regs::DC_SYNC1_CYCLE) as u64;
+        let cfg = self.peek_u8(regs::SYNC_LATCH_CONFIG);
+        if let Some(t) = self.dc.next_sync0.filter(|t| *t <= sys_now) {
+            edges.push(SyncEdge {
+                signal: SyncSignal::Sync0,
+                time_ns: self.now_ns,
+                system_time_ns: t,
+            });
+            self.mem[regs::DC_SYNC0_STATUS as usize] = 1;
+            if cfg & 0x08 != 0 {
+                self.set_al_event(al_event::SYNC0);
+            }
+            self.mem[regs::DC_ACTIVATION_STATUS as usize] &= !0x01;
+            self.dc.next_sync0 = (cycle0 != 0).then_some(t + cycle0);
+            if let Some(n) = self.dc.next_sync0 {
+                self.set_u64(regs::DC_START_TIME, n);
+            }
+        }
+        if let Some(t) = self.dc.next_sync1.filter(|t| *t <= sys_now) {
+            edges.push(SyncEdge {
+                signal: SyncSignal::Sync1,
+                time_ns: self.now_ns,
+                system_time_ns: t,
+            });
+            self.mem[regs::DC_SYNC1_STATUS as usize] = 1;
+            if cfg & 0x80 != 0 {
+                self.set_al_event(al_event::SYNC1);
+            }
+            self.mem[regs::DC_ACTIVATION_STATUS as usize] &= !0x02;
+            // SYNC1 follows each SYNC0 by the SYNC1 cycle time (when shorter than SYNC0's).
+            self.dc.next_sync1 = if cycle0 == 0 {
+                None
+            } else if cycle1 < cycle0 {
+                Some(t + cycle0)
+            } else {
+                Some(t + cycle1)
+            };
+            if let Some(n) = self.dc.next_sync1 {
+                self.set_u64(regs::DC_NEXT_SYNC1, n);
+            }
+        }
+    }
+}
