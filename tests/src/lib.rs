@@ -7,3 +7,6 @@ pub mod pcap;
 pub mod clock;
 pub mod dac;
 pub mod adc;
+pub mod board;
+pub mod master;
+pub mod sii_builder;

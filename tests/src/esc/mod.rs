@@ -221,6 +221,11 @@ impl Esc {
         edges
     }
 
+    /// Virtual time of the next SYNC0/SYNC1 edge, if the cyclic unit runs.
+    pub fn next_sync_edge_ns(&self) -> Option<u64> {
+        self.dc_next_edge_time()
+    }
+
     fn set_time(&mut self, t: u64) {
         if t > self.now_ns {
             self.now_ns = t;

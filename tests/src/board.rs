@@ -1,0 +1,273 @@
+//! The virtual board: ESC + DAC + ADC + virtual clock + pcap, with a pluggable
+//! PDI-side "CPU" (the firmware's slave application, or a test responder).
+//!
+//! Frames enter through [`VirtualBoard::exchange`]. Time moves only through the board:
+//! each frame advances the clock by its wire time plus `frame_gap_ns`, and
+//! [`VirtualBoard::step`] advances it explicitly. The CPU is called in priority order at
+//! the virtual time of each event: SYNC0/SYNC1 edges first, then the (level) IRQ line
+//! while it stays asserted, then `poll`.
+
+use crate::adc::{Ad7689, AdcSpi, SharedAdc};
+use crate::clock::Clock;
+use crate::dac::{Ad5663, DacSpi, LdacPin, SharedDac};
+use crate::esc::{Esc, EscConfig, SyncEdge, SyncSignal};
+use crate::pcap::PcapWriter;
+use crate::spi::{EscSpi, SharedEsc};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// The peripherals as the CPU sees them: cloneable handles on the board's chips.
+#[derive(Clone)]
+pub struct BoardIo {
+    /// The ET1100 SPI port (also gives the IRQ line level).
+    pub esc: EscSpi,
+    /// The AD5663 SPI port.
+    pub dac: DacSpi,
+    /// The AD5663 LDAC pin.
+    pub ldac: LdacPin,
+    /// The AD7689 SPI port.
+    pub adc: AdcSpi,
+    /// The virtual clock.
+    pub clock: Clock,
+}
+
+impl BoardIo {
+    /// Current virtual time (ns).
+    pub fn now_ns(&self) -> u64 {
+        self.clock.now_ns()
+    }
+    /// Level of the ESC IRQ line.
+    pub fn irq(&self) -> bool {
+        self.esc.irq()
+    }
+}
+
+/// The PDI-side CPU: the firmware's slave application plugged into the board.
+///
+/// Methods are called in priority order (SYNC0 > IRQ > poll) at the virtual time of the
+/// event. A CPU may keep its own clones of the handles in [`BoardIo`] (e.g. owning an
+/// `et1100` driver built on an [`EscSpi`]), or use the ones passed in.
+pub trait PdiCpu {
+    /// A SYNC0 edge (highest priority; the board's SYNC0 line to a timer capture input).
+    fn on_sync0(&mut self, _io: &mut BoardIo, _edge: &SyncEdge) {}
+    /// A SYNC1 edge.
+    fn on_sync1(&mut self, _io: &mut BoardIo, _edge: &SyncEdge) {}
+    /// The ESC IRQ line is asserted (level). Called again while it stays asserted.
+    fn on_irq(&mut self, _io: &mut BoardIo) {}
+    /// Background work after every event (lowest priority).
+    fn poll(&mut self, _io: &mut BoardIo) {}
+}
+
+/// A CPU that does nothing (an unprogrammed board).
+pub struct IdleCpu;
+
+impl PdiCpu for IdleCpu {}
+
+/// Board construction parameters.
+#[derive(Clone, Debug)]
+pub struct BoardConfig {
+    /// The ESC (SII image etc.).
+    pub esc: EscConfig,
+    /// Virtual time added after every frame on top of its wire time.
+    pub frame_gap_ns: u64,
+    /// Capture frames into a pcap.
+    pub capture: bool,
+    /// How often `on_irq` is called for one event before the board gives up (an IRQ
+    /// the CPU never clears).
+    pub max_irq_calls: u32,
+}
+
+impl BoardConfig {
+    /// Defaults around an SII image.
+    pub fn new(sii: Vec<u8>) -> Self {
+        Self {
+            esc: EscConfig::new(sii),
+            frame_gap_ns: 10_000,
+            capture: true,
+            max_irq_calls: 64,
+        }
+    }
+}
+
+/// Counters of the board.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BoardStats {
+    /// Frames exchanged.
+    pub frames: u64,
+    /// SYNC0 edges delivered.
+    pub sync0_edges: u64,
+    /// SYNC1 edges delivered.
+    pub sync1_edges: u64,
+    /// `on_irq` calls.
+    pub irq_calls: u64,
+    /// Events after which the IRQ line was still asserted after `max_irq_calls`.
+    pub irq_stuck: u64,
+}
+
+/// The virtual board.
+pub struct VirtualBoard {
+    cfg: BoardConfig,
+    clock: Clock,
+    esc: SharedEsc,
+    dac: SharedDac,
+    adc: SharedAdc,
+    io: BoardIo,
+    cpu: Box<dyn PdiCpu>,
+    pcap: Option<PcapWriter>,
+    /// All SYNC edges so far.
+    pub sync_edges: Vec<SyncEdge>,
+    /// Counters.
+    pub stats: BoardStats,
+}
+
+impl VirtualBoard {
+    /// A board with an idle CPU.
+    pub fn new(cfg: BoardConfig) -> Self {
+        let clock = Clock::new();
+        let esc = Rc::new(RefCell::new(Esc::new(cfg.esc.clone())));
+        let dac = Rc::new(RefCell::new(Ad5663::new(clock.clone())));
+        let adc = Rc::new(RefCell::new(Ad7689::new(clock.clone())));
+        let io = BoardIo {
+            esc: EscSpi::new(esc.clone()),
+            dac: DacSpi::new(dac.clone()),
+            ldac: LdacPin::new(dac.clone()),
+            adc: AdcSpi::new(adc.clone()),
+            clock: clock.clone(),
+        };
+        let pcap = cfg.capture.then(PcapWriter::new);
+        Self {
+            cfg,
+            clock,
+            esc,
+            dac,
+            adc,
+            io,
+            cpu: Box::new(IdleCpu),
+            pcap,
+            sync_edges: Vec::new(),
+            stats: BoardStats::default(),
+        }
+    }
+
+    /// Installs the PDI-side CPU (returns the previous one).
+    pub fn set_cpu(&mut self, cpu: Box<dyn PdiCpu>) -> Box<dyn PdiCpu> {
+        std::mem::replace(&mut self.cpu, cpu)
+    }
+
+    /// Handles on the peripherals (for a CPU to keep).
+    pub fn io(&self) -> BoardIo {
+        self.io.clone()
+    }
+
+    /// The ESC model.
+    pub fn esc(&self) -> &SharedEsc {
+        &self.esc
+    }
+
+    /// The DAC model.
+    pub fn dac(&self) -> &SharedDac {
+        &self.dac
+    }
+
+    /// The ADC model.
+    pub fn adc(&self) -> &SharedAdc {
+        &self.adc
+    }
+
+    /// The virtual clock.
+    pub fn clock(&self) -> &Clock {
+        &self.clock
+    }
+
+    /// Current virtual time (ns).
+    pub fn now_ns(&self) -> u64 {
+        self.clock.now_ns()
+    }
+
+    /// The capture so far.
+    pub fn pcap(&self) -> Option<&PcapWriter> {
+        self.pcap.as_ref()
+    }
+
+    /// One frame from the master: processed by the ESC, recorded in both directions;
+    /// then time advances by the frame's wire time plus the gap, with the CPU running.
+    /// Returns the frame as it comes back to the master.
+    pub fn exchange(&mut self, frame: &[u8]) -> Vec<u8> {
+        self.stats.frames += 1;
+        let now = self.now_ns();
+        if let Some(p) = self.pcap.as_mut() {
+            p.record(now, frame);
+        }
+        let mut reply = frame.to_vec();
+        self.esc.borrow_mut().process_frame(&mut reply);
+        // 100 Mbit/s: 80 ns per byte, plus preamble, FCS and inter-frame gap (24 bytes).
+        let wire = (frame.len().max(60) as u64 + 24) * 80;
+        self.advance(wire);
+        if let Some(p) = self.pcap.as_mut() {
+            p.record(self.clock.now_ns(), &reply);
+        }
+        self.service();
+        self.advance(self.cfg.frame_gap_ns);
+        reply
+    }
+
+    /// Advances virtual time by `ns` with the CPU running.
+    pub fn step(&mut self, ns: u64) {
+        self.advance(ns);
+        self.service();
+    }
+
+    fn advance(&mut self, ns: u64) {
+        let target = self.now_ns() + ns;
+        loop {
+            let next = self.esc.borrow().next_sync_edge_ns();
+            match next {
+                Some(t) if t <= target => {
+                    let now = self.now_ns();
+                    let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
+                    self.clock.set_ns(self.esc.borrow().now_ns());
+                    for e in edges {
+                        self.deliver(e);
+                    }
+                    self.service();
+                }
+                _ => break,
+            }
+        }
+        let now = self.esc.borrow().now_ns();
+        let edges = self.esc.borrow_mut().advance(target.saturating_sub(now));
+        self.clock.set_ns(target);
+        for e in edges {
+            self.deliver(e);
+        }
+    }
+
+    fn deliver(&mut self, e: SyncEdge) {
+        self.sync_edges.push(e);
+        match e.signal {
+            SyncSignal::Sync0 => {
+                self.stats.sync0_edges += 1;
+                self.cpu.on_sync0(&mut self.io, &e);
+            }
+            SyncSignal::Sync1 => {
+                self.stats.sync1_edges += 1;
+                self.cpu.on_sync1(&mut self.io, &e);
+            }
+        }
+    }
+
+    /// Runs the IRQ handler while the line is asserted, then `poll`.
+    fn service(&mut self) {
+        let mut calls = 0;
+        while self.esc.borrow().irq() {
+            if calls == self.cfg.max_irq_calls {
+                self.stats.irq_stuck += 1;
+                break;
+            }
+            calls += 1;
+            self.stats.irq_calls += 1;
+            self.cpu.on_irq(&mut self.io);
+        }
+        self.cpu.poll(&mut self.io);
+    }
+}

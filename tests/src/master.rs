@@ -1,0 +1,51 @@
+//! In-process EtherCAT master rig: ethercrab's PDU loop wired to a [`VirtualBoard`]
+//! without any network interface (see `shared/masters.md`).
+//!
+//! ```ignore
+//! static STORAGE: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();
+//! let (tx, rx, pdu_loop) = STORAGE.try_split().unwrap();
+//! let board = Rc::new(RefCell::new(VirtualBoard::new(cfg)));
+//! let md = MainDevice::new(pdu_loop, timeouts, config);
+//! futures_lite::future::block_on(futures_lite::future::or(
+//!     async { /* use md */ },
+//!     virtual_board::master::tx_rx_task(board.clone(), tx, rx),
+//! ));
+//! ```
+
+use crate::board::VirtualBoard;
+use ethercrab::{PduRx, PduTx};
+use std::cell::RefCell;
+use std::future::Future;
+use std::rc::Rc;
+use std::task::Poll;
+
+/// A board shared between the rig and the test.
+pub type SharedBoard = Rc<RefCell<VirtualBoard>>;
+
+/// Moves every sendable frame through the board and hands the reply back to ethercrab.
+/// Never completes: race it against the master's work (`futures_lite::future::or`).
+pub fn tx_rx_task<'sto, T>(
+    board: SharedBoard,
+    mut tx: PduTx<'sto>,
+    mut rx: PduRx<'sto>,
+) -> impl Future<Output = T> + 'sto {
+    std::future::poll_fn(move |cx| {
+        tx.replace_waker(cx.waker());
+        while let Some(frame) = tx.next_sendable_frame() {
+            let mut reply = None;
+            let sent = frame.send_blocking(|bytes| {
+                reply = Some(board.borrow_mut().exchange(bytes));
+                Ok(bytes.len())
+            });
+            if sent.is_err() {
+                continue;
+            }
+            if let Some(reply) = reply {
+                // A reply ethercrab does not match (e.g. a frame it already timed out)
+                // is dropped, as a real NIC would.
+                let _ = rx.receive_frame(&reply);
+            }
+        }
+        Poll::Pending
+    })
+}
