@@ -73,7 +73,8 @@ impl Esc {
         let ado = u16::from_le_bytes([head[4], head[5]]);
         let logical = u32::from_le_bytes([head[2], head[3], head[4], head[5]]);
         let station = self.peek_u16(regs::STATION_ADDRESS);
-        let alias_enabled = self.peek_u8(0x0101) & 0x01 != 0;
+        // DL control b24 (0x0103 b0) enables the station alias.
+        let alias_enabled = self.peek_u8(0x0103) & 0x01 != 0;
         let alias = self.peek_u16(regs::STATION_ALIAS);
         let fp_match = adp == station || (alias_enabled && adp == alias);
         let ap_match = adp == 0;

@@ -649,6 +649,11 @@ impl Esc {
         if p.dc_activation {
             self.dc_activation_written();
         }
+        // Mirror the SM status registers into memory (so raw peeks see them too).
+        for n in 0..8 {
+            let v = self.sm_status(n);
+            self.mem[regs::sm(n) as usize + 5] = v;
+        }
         let _ = side;
     }
 
