@@ -1,0 +1,163 @@
+//! Distributed clocks and SYNC0/SYNC1 generation.
+
+mod common;
+use common::*;
+use virtual_board::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
+use virtual_board::esc::{cmd, regs, SyncEdge, SyncSignal};
+use virtual_board::sii_builder::minimal_io_device;
+
+#[test]
+fn receive_times_latch_on_bwr_0x0900() {
+    let mut esc = esc();
+    esc.advance(12_345);
+    let local = esc.dc_local_time();
+    let d = one(&mut esc, cmd::BWR, 0, regs::DC_RECEIVE_TIME_PORT0, &[0; 4]);
+    assert_eq!(d.wkc, 1, "WKC counts DC slaves");
+    esc.advance(1_000);
+    assert_eq!(esc.peek_u32(regs::DC_RECEIVE_TIME_PORT0), local as u32);
+    let d = one(&mut esc, cmd::BRD, 0, regs::DC_RECEIVE_TIME_PU, &[0; 8]);
+    assert_eq!(u64::from_le_bytes(d.data.try_into().unwrap()), local);
+}
+
+#[test]
+fn system_time_is_local_time_plus_offset_and_latched() {
+    let mut esc = esc();
+    esc.advance(1_000);
+    esc.ecat_write(regs::DC_SYSTEM_TIME_OFFSET, &1_000_000_000u64.to_le_bytes());
+    let expect = esc.dc_local_time() + 1_000_000_000;
+    let d = one(&mut esc, cmd::BRD, 0, regs::DC_SYSTEM_TIME, &[0; 8]);
+    assert_eq!(u64::from_le_bytes(d.data.try_into().unwrap()), expect);
+    esc.ecat_write(regs::DC_SYSTEM_TIME_DELAY, &100u32.to_le_bytes());
+    // A 32-bit write compares only the low half.
+    let t = esc.dc_system_time();
+    esc.ecat_write(regs::DC_SYSTEM_TIME, &((t as u32).wrapping_sub(100)).to_le_bytes());
+    assert_eq!(esc.peek_u32(regs::DC_SYSTEM_TIME_DIFF), 0, "received + delay == local");
+    // The PDI reads the system time too (first byte latches).
+    esc.advance(10);
+    let mut b = [0; 8];
+    esc.pdi_read(regs::DC_SYSTEM_TIME, &mut b);
+    assert_eq!(u64::from_le_bytes(b), esc.dc_system_time());
+}
+
+#[test]
+fn drift_control_converges_on_the_reference() {
+    let mut esc = esc();
+    // The reference clock runs 37 ns ahead of this ESC's system time.
+    let reference_base = esc.dc_system_time() - esc.now_ns() + 37;
+    for _ in 0..20 {
+        esc.advance(1_000);
+        let t = esc.now_ns() + reference_base;
+        esc.ecat_write(regs::DC_SYSTEM_TIME, &t.to_le_bytes());
+    }
+    let diff = esc.peek_u32(regs::DC_SYSTEM_TIME_DIFF) & 0x7FFF_FFFF;
+    assert!(diff <= 4, "difference {diff} ns after 20 writes");
+}
+
+fn start_sync(esc: &mut virtual_board::esc::Esc, start_in: u64, cycle: u32, act: u8) -> u64 {
+    let start = esc.dc_system_time() + start_in;
+    esc.ecat_write(regs::DC_SYNC0_CYCLE, &cycle.to_le_bytes());
+    esc.ecat_write(regs::DC_START_TIME, &start.to_le_bytes());
+    esc.ecat_write(regs::DC_ACTIVATION, &[act]);
+    start
+}
+
+#[test]
+fn sync0_edges_at_start_time_and_cycle() {
+    let mut esc = esc();
+    esc.advance(5_000);
+    let t0 = esc.now_ns();
+    let start = start_sync(&mut esc, 50_000, 100_000, 0x03);
+    assert_eq!(esc.peek_u8(regs::DC_ACTIVATION_STATUS) & 1, 1, "first pulse pending");
+    let edges = esc.advance(1_000_000);
+    assert_eq!(edges.len(), 10);
+    for (k, e) in edges.iter().enumerate() {
+        assert_eq!(e.signal, SyncSignal::Sync0);
+        assert_eq!(e.system_time_ns, start + k as u64 * 100_000);
+        assert_eq!(e.time_ns, t0 + 50_000 + k as u64 * 100_000);
+    }
+    assert_eq!(esc.peek_u8(regs::DC_SYNC0_STATUS), 1);
+    assert_eq!(esc.peek_u8(regs::DC_ACTIVATION_STATUS) & 1, 0);
+    // 0x0990 reads the next SYNC0 time.
+    let mut b = [0; 8];
+    esc.ecat_read(regs::DC_START_TIME, &mut b);
+    assert_eq!(u64::from_le_bytes(b), start + 1_000_000);
+    // Not mapped to 0x0220 by default (0x0151 b3 = 0).
+    assert_eq!(esc.al_event_request() & 0x04, 0);
+    // Deactivation stops it.
+    esc.ecat_write(regs::DC_ACTIVATION, &[0]);
+    assert!(esc.advance(1_000_000).is_empty());
+}
+
+#[test]
+fn sync0_single_shot_sync1_and_past_start() {
+    let mut esc = esc();
+    start_sync(&mut esc, 10_000, 0, 0x03);
+    assert_eq!(esc.advance(1_000_000).len(), 1, "cycle 0 = single shot");
+    // SYNC1 20 us after each SYNC0.
+    esc.ecat_write(regs::DC_SYNC1_CYCLE, &20_000u32.to_le_bytes());
+    start_sync(&mut esc, 10_000, 100_000, 0x07);
+    let edges = esc.advance(250_000);
+    let kinds: Vec<_> = edges.iter().map(|e| (e.signal, e.system_time_ns)).collect();
+    let s0 = edges[0].system_time_ns;
+    assert_eq!(
+        kinds,
+        vec![
+            (SyncSignal::Sync0, s0),
+            (SyncSignal::Sync1, s0 + 20_000),
+            (SyncSignal::Sync0, s0 + 100_000),
+            (SyncSignal::Sync1, s0 + 120_000),
+            (SyncSignal::Sync0, s0 + 200_000),
+            (SyncSignal::Sync1, s0 + 220_000),
+        ]
+    );
+    // A start time in the past never starts (flagged in 0x0984 b2).
+    esc.ecat_write(regs::DC_ACTIVATION, &[0]);
+    let past = esc.dc_system_time() - 1;
+    esc.ecat_write(regs::DC_START_TIME, &past.to_le_bytes());
+    esc.ecat_write(regs::DC_ACTIVATION, &[0x03]);
+    assert_eq!(esc.peek_u8(regs::DC_ACTIVATION_STATUS) & 0x04, 0x04);
+    assert!(esc.advance(10_000_000).is_empty());
+}
+
+#[test]
+fn sync0_mapped_to_al_event_when_configured() {
+    let image = virtual_board::sii_builder::SiiBuilder::new()
+        .config_word(1, 0x0E03)
+        .build();
+    let mut esc = virtual_board::esc::Esc::new(virtual_board::esc::EscConfig::new(image));
+    start_sync(&mut esc, 1_000, 10_000, 0x03);
+    esc.advance(2_000);
+    assert_ne!(esc.al_event_request() & 0x04, 0);
+    assert!(esc.irq());
+    let mut s = [0];
+    esc.pdi_read(regs::DC_SYNC0_STATUS, &mut s);
+    assert_eq!(s[0], 1);
+    assert_eq!(esc.al_event_request() & 0x04, 0, "read of 0x098E acknowledges");
+}
+
+struct RecordingCpu(std::rc::Rc<std::cell::RefCell<Vec<(u64, u64)>>>);
+
+impl PdiCpu for RecordingCpu {
+    fn on_sync0(&mut self, io: &mut BoardIo, edge: &SyncEdge) {
+        self.0.borrow_mut().push((io.now_ns(), edge.time_ns));
+    }
+}
+
+#[test]
+fn board_delivers_sync0_to_the_cpu_at_the_edge_time() {
+    let mut board = VirtualBoard::new(BoardConfig::new(minimal_io_device()));
+    let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    board.set_cpu(Box::new(RecordingCpu(seen.clone())));
+    {
+        let mut esc = board.esc().borrow_mut();
+        start_sync(&mut esc, 25_000, 50_000, 0x03);
+    }
+    board.step(1_000_000);
+    let seen = seen.borrow();
+    assert_eq!(seen.len(), 20);
+    for (k, (cpu_now, edge)) in seen.iter().enumerate() {
+        assert_eq!(cpu_now, edge, "CPU runs at the edge's virtual time");
+        assert_eq!(*edge, 25_000 + k as u64 * 50_000);
+    }
+    assert_eq!(board.stats.sync0_edges, 20);
+}
