@@ -9,8 +9,8 @@
 //!
 //! Pipeline: a CFG written in frame N is latched at the end of the conversion that
 //! starts when frame N ends, so it governs the conversion after that, whose data is
-//! read in frame N + 2. The first two conversions after power-up are dummies and
-//! return 0.
+//! read in frame N + 2. The first two conversions after power-up (the one power-up
+//! starts, and the one started at the end of frame 0) are dummies and return 0.
 
 use crate::clock::Clock;
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
@@ -164,16 +164,26 @@ pub struct Ad7689 {
 
 impl Ad7689 {
     /// An ADC at power-up with all inputs at 0 V and 25 deg C.
+    ///
+    /// Power-up starts the first (dummy) conversion, so the first frame reads junk and
+    /// the conversion started at its end is the second dummy (it still runs with the
+    /// undefined power-up CFG).
     pub fn new(clock: Clock) -> Self {
+        let power_up = Conversion {
+            time_ns: clock.now_ns(),
+            source: Source::Dummy,
+            code: 0,
+            cfg: Cfg::POWER_UP.0,
+        };
         Self {
             clock,
             inputs: std::array::from_fn(|_| Signal::Constant(0.0)),
             temperature_c: 25.0,
             cfg: Cfg::POWER_UP,
             seq_pos: 0,
-            pending: None,
+            pending: Some(power_up),
             last_cnv_ns: None,
-            conversions: Vec::new(),
+            conversions: vec![power_up],
             frames: 0,
             cycle_violations: 0,
         }
