@@ -16,8 +16,10 @@ mod open_enum;
 
 pub mod abort;
 pub mod esm;
+pub mod mailbox;
 pub mod od;
 pub mod pdo;
+pub mod sdo_server;
 
 pub use abort::SdoAbortCode;
 pub use esm::AlState;

@@ -26,4 +26,12 @@ pub trait ObjectAccess {
         data: &[u8],
         state: AlState,
     ) -> Result<(), SdoAbortCode>;
+
+    /// True if `index:subindex` is currently mapped into an assigned RxPDO. The SDO server
+    /// refuses SDO downloads to such an entry in OP (0x06010006 MappedToRxPdo), since the
+    /// process data would overwrite the value every cycle. The default says "never".
+    fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
+        let _ = (index, subindex);
+        false
+    }
 }

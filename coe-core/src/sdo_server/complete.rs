@@ -1,0 +1,212 @@
+//! SDO complete access (ETG.1000.6 5.6.2.1.2 / 5.6.2.4.2; ETG.1020 12.2): the whole object as
+//! one byte image.
+//!
+//! Layout rules (the same as SOES `complete_access_subindex_loop` and the Beckhoff SSC):
+//! - a transfer starts at subindex 0 (sub 0 included) or subindex 1 (sub 0 left out);
+//! - sub 0 of an ARRAY/RECORD takes 16 bits: its UNSIGNED8 value and one padding byte;
+//! - entries whose length is a multiple of 8 bits start at the next byte boundary;
+//!   BOOLEAN/BITn entries are packed bit by bit, LSB first, right after the previous entry;
+//! - only entries up to the object's current sub 0 value take part; subindices the
+//!   description does not have (gaps in a RECORD) take no room;
+//! - objects with strings or DOMAIN entries cannot be accessed completely (0x06010004);
+//! - an upload gives zeros for entries that are not readable in the current state; a
+//!   download skips entries that are not writable.
+
+use crate::abort::SdoAbortCode;
+use crate::esm::AlState;
+use crate::od::{EntryDesc, ObjectAccess, ObjectCode, ObjectDesc};
+use crate::pdo::{read_bits, write_bits};
+
+/// Largest entry a complete access handles (64-bit types).
+const MAX_ENTRY: usize = 8;
+
+/// The entries that take part and their bit offsets in the image.
+struct Layout<'a> {
+    object: &'a ObjectDesc,
+    start: u8,
+    count: u8,
+}
+
+impl Layout<'_> {
+    fn entries(&self) -> impl Iterator<Item = (&'static EntryDesc, u32)> + '_ {
+        let is_var = self.object.code == ObjectCode::Var;
+        let start = self.start;
+        let count = self.count;
+        let entries: &'static [EntryDesc] = self.object.entries;
+        let mut bits = 0u32;
+        entries
+            .iter()
+            .filter(move |e| e.subindex >= start && (is_var || e.subindex <= count))
+            .map(move |e| {
+                if e.bit_len % 8 == 0 && bits % 8 != 0 {
+                    bits += 8 - bits % 8;
+                }
+                let offset = bits;
+                bits += if e.subindex == 0 && !is_var {
+                    16
+                } else {
+                    u32::from(e.bit_len)
+                };
+                (e, offset)
+            })
+    }
+
+    fn byte_len(&self) -> usize {
+        let is_var = self.object.code == ObjectCode::Var;
+        self.entries()
+            .last()
+            .map(|(e, offset)| {
+                let len = if e.subindex == 0 && !is_var {
+                    16
+                } else {
+                    u32::from(e.bit_len)
+                };
+                (offset + len).div_ceil(8) as usize
+            })
+            .unwrap_or(0)
+    }
+}
+
+pub(crate) fn check_start(object: &ObjectDesc, start: u8) -> Result<(), SdoAbortCode> {
+    let allowed = match object.code {
+        ObjectCode::Var => start == 0,
+        ObjectCode::Array | ObjectCode::Record => start <= 1,
+    };
+    if !allowed {
+        return Err(SdoAbortCode::UnsupportedAccess);
+    }
+    if object
+        .entries
+        .iter()
+        .any(|e| e.data_type.is_variable_length() || e.byte_len() > MAX_ENTRY)
+    {
+        return Err(SdoAbortCode::CompleteAccessVariableLength);
+    }
+    Ok(())
+}
+
+/// The current sub 0 value of an ARRAY/RECORD (the number of entries that take part).
+fn current_count<A: ObjectAccess + ?Sized>(
+    object: &ObjectDesc,
+    app: &mut A,
+) -> Result<u8, SdoAbortCode> {
+    if object.code == ObjectCode::Var {
+        return Ok(0);
+    }
+    let mut value = [0u8; 1];
+    app.read(object.index, 0, &mut value)?;
+    Ok(value[0])
+}
+
+/// Reads the whole object into `out`; returns the image length.
+pub(crate) fn upload<A: ObjectAccess + ?Sized>(
+    object: &ObjectDesc,
+    start: u8,
+    app: &mut A,
+    state: AlState,
+    out: &mut [u8],
+) -> Result<usize, SdoAbortCode> {
+    check_start(object, start)?;
+    let count = current_count(object, app)?;
+    let layout = Layout {
+        object,
+        start,
+        count,
+    };
+    let len = layout.byte_len();
+    let image = out.get_mut(..len).ok_or(SdoAbortCode::OutOfMemory)?;
+    image.fill(0);
+    for (entry, offset) in layout.entries() {
+        if !entry.access.readable_in(state) {
+            continue;
+        }
+        let mut value = [0u8; MAX_ENTRY];
+        let n = app.read(object.index, entry.subindex, &mut value)?;
+        let readable_bits = u8::try_from(n.saturating_mul(8)).unwrap_or(u8::MAX);
+        let bits = u8::try_from(entry.bit_len).unwrap_or(64).min(readable_bits);
+        write_bits(image, offset, bits, &value);
+    }
+    Ok(len)
+}
+
+/// Writes the whole object from `data`.
+pub(crate) fn download<A: ObjectAccess + ?Sized>(
+    object: &ObjectDesc,
+    start: u8,
+    data: &[u8],
+    app: &mut A,
+    state: AlState,
+) -> Result<(), SdoAbortCode> {
+    check_start(object, start)?;
+    let is_var = object.code == ObjectCode::Var;
+    let sub0 = object.entry(0).filter(|_| !is_var);
+    let sub0_writable = sub0.is_some_and(|e| e.access.writable_in(state));
+    // The number of entries: the new sub 0 value when the image carries a writable sub 0,
+    // else the current one.
+    let count = if start == 0 && sub0_writable {
+        let n = *data.first().ok_or(SdoAbortCode::LengthTooLow)?;
+        if n > object.max_subindex() {
+            return Err(SdoAbortCode::ValueTooHigh);
+        }
+        n
+    } else {
+        current_count(object, app)?
+    };
+    let layout = Layout {
+        object,
+        start,
+        count,
+    };
+    let expected = layout.byte_len();
+    if data.len() < expected {
+        return Err(SdoAbortCode::LengthTooLow);
+    }
+    if data.len() > expected {
+        return Err(SdoAbortCode::LengthTooHigh);
+    }
+    // Check everything before anything is written.
+    let mut any_writable = false;
+    for (entry, offset) in layout.entries() {
+        if !entry.access.writable_in(state) {
+            continue;
+        }
+        any_writable = true;
+        if entry.subindex != 0 || is_var {
+            let mut value = [0u8; MAX_ENTRY];
+            read_bits(data, offset, entry.bit_len as u8, &mut value);
+            entry.check_range(&value)?;
+            if state == AlState::Op && app.is_rx_mapped(object.index, entry.subindex) {
+                return Err(SdoAbortCode::MappedToRxPdo);
+            }
+        }
+    }
+    if !any_writable {
+        let writable_elsewhere = layout.entries().any(|(e, _)| e.access.is_writable());
+        return Err(if writable_elsewhere {
+            SdoAbortCode::DeviceState
+        } else {
+            SdoAbortCode::WriteOfReadOnly
+        });
+    }
+    // ETG.1020 order: sub 0 = 0, the entries, sub 0 = n.
+    let write_sub0 = start == 0 && sub0_writable;
+    if write_sub0 {
+        app.write(object.index, 0, &[0], state)?;
+    }
+    for (entry, offset) in layout.entries() {
+        if entry.subindex == 0 && !is_var {
+            continue;
+        }
+        if !entry.access.writable_in(state) {
+            continue;
+        }
+        let mut value = [0u8; MAX_ENTRY];
+        read_bits(data, offset, entry.bit_len as u8, &mut value);
+        let bytes = value.get(..entry.byte_len()).unwrap_or(&value);
+        app.write(object.index, entry.subindex, bytes, state)?;
+    }
+    if write_sub0 {
+        app.write(object.index, 0, &[count], state)?;
+    }
+    Ok(())
+}
