@@ -218,14 +218,11 @@ impl Ad7689 {
         let c = self.cfg;
         let vref = c.vref();
         let unipolar = |v: f64| (v / vref * 65536.0).floor().clamp(0.0, 65535.0) as u16;
-        let bipolar = |v: f64| {
-            (v / vref * 65536.0).floor().clamp(-32768.0, 32767.0) as i32 as i16 as u16
-        };
+        let bipolar =
+            |v: f64| (v / vref * 65536.0).floor().clamp(-32768.0, 32767.0) as i32 as i16 as u16;
         match source {
             Source::Dummy => 0,
-            Source::Temperature => {
-                unipolar(0.283 + (self.temperature_c - 25.0) * 0.001)
-            }
+            Source::Temperature => unipolar(0.283 + (self.temperature_c - 25.0) * 0.001),
             Source::Channel(ch) => {
                 let v = self.pin_volts(ch, t);
                 let pair = || v - self.pin_volts(ch ^ 1, t);
@@ -290,7 +287,11 @@ impl Ad7689 {
             } else {
                 self.cfg.inx()
             };
-            self.seq_pos = if self.seq_pos >= last { 0 } else { self.seq_pos + 1 };
+            self.seq_pos = if self.seq_pos >= last {
+                0
+            } else {
+                self.seq_pos + 1
+            };
         }
         if let Some(c) = new_cfg {
             self.cfg = c;

@@ -92,8 +92,7 @@ impl Ad5663 {
 
     /// Output voltage of a channel (None when powered down).
     pub fn output_volts(&self, ch: usize) -> Option<f64> {
-        (self.power[ch] == PowerMode::Normal)
-            .then(|| self.dac[ch] as f64 / 65536.0 * VREF * GAIN)
+        (self.power[ch] == PowerMode::Normal).then(|| self.dac[ch] as f64 / 65536.0 * VREF * GAIN)
     }
 
     fn load(&mut self, ch: usize) {

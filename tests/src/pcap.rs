@@ -42,8 +42,10 @@ impl PcapWriter {
         let nsec = (time_ns % 1_000_000_000) as u32;
         self.buf.extend_from_slice(&sec.to_le_bytes());
         self.buf.extend_from_slice(&nsec.to_le_bytes());
-        self.buf.extend_from_slice(&(frame.len() as u32).to_le_bytes());
-        self.buf.extend_from_slice(&(frame.len() as u32).to_le_bytes());
+        self.buf
+            .extend_from_slice(&(frame.len() as u32).to_le_bytes());
+        self.buf
+            .extend_from_slice(&(frame.len() as u32).to_le_bytes());
         self.buf.extend_from_slice(frame);
         self.frames += 1;
     }
@@ -81,7 +83,10 @@ pub fn read_records(bytes: &[u8]) -> Option<Vec<(u64, Vec<u8>)>> {
         let nsec = u32::from_le_bytes(bytes[pos + 4..pos + 8].try_into().ok()?) as u64;
         let len = u32::from_le_bytes(bytes[pos + 8..pos + 12].try_into().ok()?) as usize;
         pos += 16;
-        out.push((sec * 1_000_000_000 + nsec, bytes.get(pos..pos + len)?.to_vec()));
+        out.push((
+            sec * 1_000_000_000 + nsec,
+            bytes.get(pos..pos + len)?.to_vec(),
+        ));
         pos += len;
     }
     Some(out)

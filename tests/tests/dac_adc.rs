@@ -15,7 +15,8 @@ fn dac() -> (Clock, Rc<RefCell<Ad5663>>, DacSpi, LdacPin) {
 }
 
 fn word(spi: &mut DacSpi, w: u32) {
-    spi.write(&[(w >> 16) as u8, (w >> 8) as u8, w as u8]).unwrap();
+    spi.write(&[(w >> 16) as u8, (w >> 8) as u8, w as u8])
+        .unwrap();
 }
 
 #[test]
@@ -68,7 +69,11 @@ fn dac_ldac_pin_pulse_latches_non_transparent_channels() {
     ldac.set_high().unwrap();
     let dd = d.borrow();
     assert_eq!(dd.dac[0], 0x1111);
-    assert_eq!(dd.updates.len(), 1, "B (transparent) is not loaded by the pin");
+    assert_eq!(
+        dd.updates.len(),
+        1,
+        "B (transparent) is not loaded by the pin"
+    );
     assert_eq!(dd.updates[0].time_ns, 7_000);
 }
 
@@ -154,9 +159,21 @@ fn adc_cfg_takes_effect_two_frames_later() {
     let cfg_in5 = 0x2000 | 0b111 << 10 | 5 << 7 | 1 << 6 | 0b110 << 3 | 1;
     frame16(&clock, &mut spi, cfg_in3);
     frame16(&clock, &mut spi, 0);
-    assert_eq!(frame16(&clock, &mut spi, cfg_in5), 0xFFFF, "IN3 at full scale");
-    assert_eq!(frame16(&clock, &mut spi, 0), 0xFFFF, "still IN3: CFG of frame N+0");
-    assert_eq!(frame16(&clock, &mut spi, 0), 0x8000, "frame N+2 has IN5 (5 V)");
+    assert_eq!(
+        frame16(&clock, &mut spi, cfg_in5),
+        0xFFFF,
+        "IN3 at full scale"
+    );
+    assert_eq!(
+        frame16(&clock, &mut spi, 0),
+        0xFFFF,
+        "still IN3: CFG of frame N+0"
+    );
+    assert_eq!(
+        frame16(&clock, &mut spi, 0),
+        0x8000,
+        "frame N+2 has IN5 (5 V)"
+    );
 }
 
 #[test]
@@ -176,7 +193,11 @@ fn adc_readback_gives_32_bit_frames_and_temperature_in_sequence() {
     for _ in 0..6 {
         let mut z = [0u8; 4];
         spi.transfer_in_place(&mut z).unwrap();
-        assert_eq!(u16::from_be_bytes([z[2], z[3]]), (cfg << 2) as u16, "CFG read back");
+        assert_eq!(
+            u16::from_be_bytes([z[2], z[3]]),
+            (cfg << 2) as u16,
+            "CFG read back"
+        );
         clock.advance_ns(4_000);
     }
     for c in a.borrow().conversions.iter().skip(2) {

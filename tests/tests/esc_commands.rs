@@ -13,7 +13,11 @@ fn brd_reads_type_increments_adp_and_marks_source_mac() {
     assert!(esc.process_frame(&mut frame));
     assert_eq!(frame[6], 0x12, "source MAC bit 1 set on the way back");
     let d = &parse_frame(&frame).unwrap()[0];
-    assert_eq!(d.data, vec![0x11, 0x80], "BRD ORs the ESC data into the datagram");
+    assert_eq!(
+        d.data,
+        vec![0x11, 0x80],
+        "BRD ORs the ESC data into the datagram"
+    );
     assert_eq!(d.wkc, 1);
     assert_eq!(d.adp, 1, "ADP incremented by the slave");
 }
@@ -86,7 +90,11 @@ fn broadcast_write_and_read_write() {
     assert_eq!(esc.peek_u16(regs::AL_CONTROL), 0x11);
     let d = one(&mut esc, cmd::BRW, 0, regs::AL_CONTROL, &[0x02, 0]);
     assert_eq!(d.wkc, 3);
-    assert_eq!(d.data, vec![0x13, 0], "old value ORed into the incoming data");
+    assert_eq!(
+        d.data,
+        vec![0x13, 0],
+        "old value ORed into the incoming data"
+    );
     assert_eq!(esc.peek_u16(regs::AL_CONTROL), 0x02);
 }
 
@@ -116,11 +124,21 @@ fn armw_and_frmw_read_on_addressed_write_elsewhere() {
     assert_eq!((d.wkc, d.data.clone()), (1, written.to_vec()));
     let diff = esc.peek_u32(regs::DC_SYSTEM_TIME_DIFF);
     assert_eq!(diff, 500, "local copy 500 ns ahead of the received time");
-    let d = one(&mut esc, cmd::ARMW, 5, regs::DC_SYSTEM_TIME, &(t + 700).to_le_bytes());
+    let d = one(
+        &mut esc,
+        cmd::ARMW,
+        5,
+        regs::DC_SYSTEM_TIME,
+        &(t + 700).to_le_bytes(),
+    );
     assert_eq!((d.wkc, d.adp), (1, 6));
     // The first write nudged the local clock by a few ns (drift control).
     let diff = esc.peek_u32(regs::DC_SYSTEM_TIME_DIFF);
-    assert_eq!(diff & 0x8000_0000, 0x8000_0000, "local copy behind: sign bit");
+    assert_eq!(
+        diff & 0x8000_0000,
+        0x8000_0000,
+        "local copy behind: sign bit"
+    );
     assert!((700..=704).contains(&(diff & 0x7FFF_FFFF)), "{diff:#x}");
 }
 
@@ -150,7 +168,10 @@ fn several_datagrams_follow_the_more_bit() {
 fn read_only_registers_ignore_ecat_writes() {
     let mut esc = esc();
     let d = one(&mut esc, cmd::BWR, 0, regs::AL_STATUS, &[0x08, 0]);
-    assert_eq!(d.wkc, 1, "register writes count even where bits are read-only");
+    assert_eq!(
+        d.wkc, 1,
+        "register writes count even where bits are read-only"
+    );
     assert_eq!(esc.peek_u16(regs::AL_STATUS), 1);
     esc.pdi_write(regs::AL_STATUS, &[0x02, 0]);
     assert_eq!(esc.peek_u16(regs::AL_STATUS), 2);

@@ -30,8 +30,15 @@ fn system_time_is_local_time_plus_offset_and_latched() {
     esc.ecat_write(regs::DC_SYSTEM_TIME_DELAY, &100u32.to_le_bytes());
     // A 32-bit write compares only the low half.
     let t = esc.dc_system_time();
-    esc.ecat_write(regs::DC_SYSTEM_TIME, &((t as u32).wrapping_sub(100)).to_le_bytes());
-    assert_eq!(esc.peek_u32(regs::DC_SYSTEM_TIME_DIFF), 0, "received + delay == local");
+    esc.ecat_write(
+        regs::DC_SYSTEM_TIME,
+        &((t as u32).wrapping_sub(100)).to_le_bytes(),
+    );
+    assert_eq!(
+        esc.peek_u32(regs::DC_SYSTEM_TIME_DIFF),
+        0,
+        "received + delay == local"
+    );
     // The PDI reads the system time too (first byte latches).
     esc.advance(10);
     let mut b = [0; 8];
@@ -67,7 +74,11 @@ fn sync0_edges_at_start_time_and_cycle() {
     esc.advance(5_000);
     let t0 = esc.now_ns();
     let start = start_sync(&mut esc, 50_000, 100_000, 0x03);
-    assert_eq!(esc.peek_u8(regs::DC_ACTIVATION_STATUS) & 1, 1, "first pulse pending");
+    assert_eq!(
+        esc.peek_u8(regs::DC_ACTIVATION_STATUS) & 1,
+        1,
+        "first pulse pending"
+    );
     let edges = esc.advance(1_000_000);
     assert_eq!(edges.len(), 10);
     for (k, e) in edges.iter().enumerate() {
@@ -132,7 +143,11 @@ fn sync0_mapped_to_al_event_when_configured() {
     let mut s = [0];
     esc.pdi_read(regs::DC_SYNC0_STATUS, &mut s);
     assert_eq!(s[0], 1);
-    assert_eq!(esc.al_event_request() & 0x04, 0, "read of 0x098E acknowledges");
+    assert_eq!(
+        esc.al_event_request() & 0x04,
+        0,
+        "read of 0x098E acknowledges"
+    );
 }
 
 struct RecordingCpu(std::rc::Rc<std::cell::RefCell<Vec<(u64, u64)>>>);

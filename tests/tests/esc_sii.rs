@@ -9,7 +9,10 @@ use virtual_board::sii_builder::{minimal_io_device, SiiBuilder};
 fn sii_read(esc: &mut Esc, word: u32) -> Vec<u8> {
     let mut req = vec![0x00, 0x01];
     req.extend_from_slice(&word.to_le_bytes());
-    assert_eq!(one(esc, cmd::FPWR, 0x1000, regs::EEPROM_CONTROL, &req).wkc, 1);
+    assert_eq!(
+        one(esc, cmd::FPWR, 0x1000, regs::EEPROM_CONTROL, &req).wkc,
+        1
+    );
     for _ in 0..100 {
         let d = one(esc, cmd::FPRD, 0x1000, regs::EEPROM_CONTROL, &[0, 0]);
         let ctl = u16::from_le_bytes([d.data[0], d.data[1]]);
@@ -51,14 +54,24 @@ fn configuration_words_load_into_registers() {
 fn bad_checksum_leaves_the_pdi_down() {
     let mut image = minimal_io_device();
     image[14] ^= 0xFF;
-    assert!(matches!(check_config_area(&image), Err(SiiConfigError::Checksum { .. })));
+    assert!(matches!(
+        check_config_area(&image),
+        Err(SiiConfigError::Checksum { .. })
+    ));
     let mut esc = Esc::new(EscConfig::new(image));
     assert!(!esc.pdi_operational());
-    assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0x0800, 0x0800, "checksum error");
+    assert_eq!(
+        esc.peek_u16(regs::EEPROM_CONTROL) & 0x0800,
+        0x0800,
+        "checksum error"
+    );
     assert_eq!(esc.peek_u16(regs::DL_STATUS) & 1, 0);
     assert_eq!(esc.peek_u8(regs::PDI_CONTROL), 0);
     // The SPI interface does not answer.
-    assert_eq!(esc.spi_transfer(&[0x00, 0x08 | 0x03, 0xFF, 0xFF]), vec![0xFF; 4]);
+    assert_eq!(
+        esc.spi_transfer(&[0x00, 0x08 | 0x03, 0xFF, 0xFF]),
+        vec![0xFF; 4]
+    );
 }
 
 #[test]
@@ -79,7 +92,10 @@ fn sii_reads_8_bytes_with_busy_time() {
     assert_eq!(d.data, image[16..24].to_vec());
     // Helper loop over the whole image.
     for w in (0..64).step_by(4) {
-        assert_eq!(sii_read(&mut esc, w), image[w as usize * 2..w as usize * 2 + 8].to_vec());
+        assert_eq!(
+            sii_read(&mut esc, w),
+            image[w as usize * 2..w as usize * 2 + 8].to_vec()
+        );
     }
 }
 
@@ -88,18 +104,34 @@ fn sii_write_needs_write_enable_and_reload_reapplies_config() {
     let mut esc = esc();
     esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);
     // Write word 4 (alias) without write enable: error b14.
-    one(&mut esc, cmd::FPWR, 0x1000, regs::EEPROM_DATA, &[0x11, 0x22]);
+    one(
+        &mut esc,
+        cmd::FPWR,
+        0x1000,
+        regs::EEPROM_DATA,
+        &[0x11, 0x22],
+    );
     let mut req = vec![0x00, 0x02];
     req.extend_from_slice(&4u32.to_le_bytes());
     one(&mut esc, cmd::FPWR, 0x1000, regs::EEPROM_CONTROL, &req);
     assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0x4000, 0x4000);
     req[0] = 0x01;
     one(&mut esc, cmd::FPWR, 0x1000, regs::EEPROM_CONTROL, &req);
-    assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0xC000, 0x8000, "busy, error cleared");
+    assert_eq!(
+        esc.peek_u16(regs::EEPROM_CONTROL) & 0xC000,
+        0x8000,
+        "busy, error cleared"
+    );
     esc.advance(50_000);
     assert_eq!(&esc.sii_image()[8..10], &[0x11, 0x22]);
     // The checksum no longer matches: a reload flags it.
-    one(&mut esc, cmd::FPWR, 0x1000, regs::EEPROM_CONTROL, &[0x00, 0x04]);
+    one(
+        &mut esc,
+        cmd::FPWR,
+        0x1000,
+        regs::EEPROM_CONTROL,
+        &[0x00, 0x04],
+    );
     esc.advance(50_000);
     assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0x0800, 0x0800);
     assert!(!esc.pdi_operational());
@@ -149,7 +181,10 @@ fn real_sii_images_load_and_read_back() {
         let mut esc = Esc::new(EscConfig::new(image.clone()));
         assert!(esc.pdi_operational(), "{}", path.display());
         assert_eq!(esc.peek_u8(regs::PDI_CONTROL), image[0]);
-        assert_eq!(esc.peek_u16(regs::STATION_ALIAS), u16::from_le_bytes([image[8], image[9]]));
+        assert_eq!(
+            esc.peek_u16(regs::STATION_ALIAS),
+            u16::from_le_bytes([image[8], image[9]])
+        );
         let big = esc.peek_u16(regs::EEPROM_CONTROL) & 0x0080 != 0;
         assert_eq!(big, image.len() > 2048, "address algorithm bit");
         esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);

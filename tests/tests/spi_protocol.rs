@@ -68,7 +68,11 @@ fn nop_shifts_out_events_only() {
     let mut esc = with_al_control_event();
     let miso = esc.spi_transfer(&[0x00, 0x00, 0x00, 0x00]);
     assert_eq!(miso, vec![0x01, 0x00, 0x00, 0x00]);
-    assert_eq!(esc.al_event_request() & 1, 1, "NOP does not acknowledge anything");
+    assert_eq!(
+        esc.al_event_request() & 1,
+        1,
+        "NOP does not acknowledge anything"
+    );
     assert_eq!(esc.spi_stats.errors, 0);
 }
 
@@ -106,8 +110,11 @@ fn spi_device_splits_the_stream_across_operations() {
     assert_eq!(wait, [0xFF], "MISO during the wait byte");
     assert!(!spi.irq());
     // Write split into address and data operations.
-    spi.transaction(&mut [Operation::Write(&[0x09, 0x84]), Operation::Write(&[0x02, 0x00])])
-        .unwrap();
+    spi.transaction(&mut [
+        Operation::Write(&[0x09, 0x84]),
+        Operation::Write(&[0x02, 0x00]),
+    ])
+    .unwrap();
     assert_eq!(esc.borrow().peek_u16(regs::AL_STATUS), 2);
     let s = esc.borrow().spi_stats.clone();
     assert_eq!(s.transactions, 2);
@@ -123,8 +130,11 @@ fn read_operation_without_termination_is_flagged() {
     let esc = Rc::new(RefCell::new(esc()));
     let mut spi = EscSpi::new(esc.clone());
     let mut data = [0u8; 2];
-    spi.transaction(&mut [Operation::Write(&[0x09, 0x03, 0xFF]), Operation::Read(&mut data)])
-        .unwrap();
+    spi.transaction(&mut [
+        Operation::Write(&[0x09, 0x03, 0xFF]),
+        Operation::Read(&mut data),
+    ])
+    .unwrap();
     assert_eq!(data, [0x01, 0x00], "AL control reset value");
     assert_eq!(esc.borrow().peek_u8(regs::PDI_ERROR_CODE) & 0x10, 0x10);
 }

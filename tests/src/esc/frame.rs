@@ -95,12 +95,18 @@ impl Esc {
             APWR | FPWR if (command == APWR && ap_match) || (command == FPWR && fp_match) => {
                 count(self.access(Side::Ecat, ado as u32, data, Op::Write), 0, 1)
             }
-            APRW | FPRW if (command == APRW && ap_match) || (command == FPRW && fp_match) => {
-                count(self.access(Side::Ecat, ado as u32, data, Op::ReadWrite), 1, 2)
-            }
+            APRW | FPRW if (command == APRW && ap_match) || (command == FPRW && fp_match) => count(
+                self.access(Side::Ecat, ado as u32, data, Op::ReadWrite),
+                1,
+                2,
+            ),
             BRD => count(self.access(Side::Ecat, ado as u32, data, Op::ReadOr), 1, 0),
             BWR => count(self.access(Side::Ecat, ado as u32, data, Op::Write), 0, 1),
-            BRW => count(self.access(Side::Ecat, ado as u32, data, Op::ReadOrWrite), 1, 2),
+            BRW => count(
+                self.access(Side::Ecat, ado as u32, data, Op::ReadOrWrite),
+                1,
+                2,
+            ),
             LRD => count(self.logical_access(logical, data, Op::Read), 1, 0),
             LWR => count(self.logical_access(logical, data, Op::Write), 0, 1),
             LRW => count(self.logical_access(logical, data, Op::ReadWrite), 1, 2),
@@ -158,7 +164,8 @@ impl FrameBuilder {
     /// Adds a datagram with every field given (index = position in the frame).
     pub fn datagram_raw(mut self, command: u8, addr: u32, data: &[u8], wkc: u16) -> Self {
         let idx = self.datagrams.len() as u8;
-        self.datagrams.push((command, idx, addr, data.to_vec(), wkc));
+        self.datagrams
+            .push((command, idx, addr, data.to_vec(), wkc));
         self
     }
 

@@ -464,96 +464,43 @@ impl Esc {
         let sync_owner_pdi = self.peek_u8(regs::DC_CYCLIC_UNIT_CONTROL) & 0x01 != 0;
         let dc_side = if sync_owner_pdi { Pdi } else { Ecat };
         let eeprom_owner = self.sii_owner();
+        let sm_n = a.wrapping_sub(regs::SM_BASE) as usize / 8;
+        let sm_off = a.wrapping_sub(regs::SM_BASE) % 8;
+        let sm_enabled = sm_n < 8 && self.peek_u8(regs::sm(sm_n) + 6) & 0x01 != 0;
         match a {
-            0x0010..=0x0011 => ecat(side),
-            0x0012..=0x0013 => pdi(side),
-            0x0020..=0x0031 | 0x0040..=0x0041 => ecat(side),
-            0x0100..=0x0103 | 0x0108..=0x0109 => ecat(side),
-            0x0120..=0x0121 => ecat(side),
-            0x0130..=0x0131 | 0x0134..=0x0135 => pdi(side),
-            0x0138..=0x0139 => ecat(side),
-            0x0200..=0x0201 => ecat(side),
-            0x0204..=0x0207 => pdi(side),
-            0x0300..=0x0313 => ecat(side), // error counters: a write clears
-            0x0400..=0x0401 | 0x0410..=0x0411 | 0x0420..=0x0421 => ecat(side),
-            0x0442..=0x0443 => ecat(side),
-            regs::EEPROM_CONFIG => {
-                if side == Ecat {
-                    0x03
-                } else {
-                    0
-                }
-            }
-            regs::EEPROM_PDI_ACCESS => {
-                if side == Pdi {
-                    0x01
-                } else {
-                    0
-                }
-            }
-            0x0502..=0x050F => {
-                if side == eeprom_owner {
-                    match a {
-                        0x0502 => 0x01,
-                        0x0503 => 0x07,
-                        _ => 0xFF,
-                    }
-                } else {
-                    0
-                }
-            }
-            0x0510..=0x0517 => ecat(side),
-            0x0600..=0x067F => {
-                // FMMU: 13 meaningful bytes per entry.
-                if (a - regs::FMMU_BASE) % 16 < 13 {
-                    ecat(side)
-                } else {
-                    0
-                }
-            }
-            0x0800..=0x083F => {
-                let n = ((a - regs::SM_BASE) / 8) as usize;
-                let off = (a - regs::SM_BASE) % 8;
-                let enabled = self.peek_u8(regs::sm(n) + 6) & 0x01 != 0;
-                match off {
-                    0..=4 if !enabled => ecat(side),
-                    6 => {
-                        if side == Ecat {
-                            0xC3
-                        } else {
-                            0
-                        }
-                    }
-                    7 => {
-                        if side == Pdi {
-                            0x03
-                        } else {
-                            0
-                        }
-                    }
-                    _ => 0,
-                }
-            }
+            0x0010..=0x0011 => only(side, Ecat, 0xFF),
+            0x0012..=0x0013 => only(side, Pdi, 0xFF),
+            0x0020..=0x0031 | 0x0040..=0x0041 => only(side, Ecat, 0xFF),
+            0x0100..=0x0103 | 0x0108..=0x0109 => only(side, Ecat, 0xFF),
+            0x0120..=0x0121 => only(side, Ecat, 0xFF),
+            0x0130..=0x0131 | 0x0134..=0x0135 => only(side, Pdi, 0xFF),
+            0x0138..=0x0139 => only(side, Ecat, 0xFF),
+            0x0200..=0x0201 => only(side, Ecat, 0xFF),
+            0x0204..=0x0207 => only(side, Pdi, 0xFF),
+            // Error counters: a write clears (handled before the mask).
+            0x0300..=0x0313 => only(side, Ecat, 0xFF),
+            0x0400..=0x0401 | 0x0410..=0x0411 | 0x0420..=0x0421 => only(side, Ecat, 0xFF),
+            0x0442..=0x0443 => only(side, Ecat, 0xFF),
+            regs::EEPROM_CONFIG => only(side, Ecat, 0x03),
+            regs::EEPROM_PDI_ACCESS => only(side, Pdi, 0x01),
+            0x0502 => only(side, eeprom_owner, 0x01),
+            0x0503 => only(side, eeprom_owner, 0x07),
+            0x0504..=0x050F => only(side, eeprom_owner, 0xFF),
+            0x0510..=0x0517 => only(side, Ecat, 0xFF),
+            // FMMU: 13 meaningful bytes per entry.
+            0x0600..=0x067F if (a - regs::FMMU_BASE) % 16 < 13 => only(side, Ecat, 0xFF),
+            // SM: start/length/control only while disabled; activate (ECAT), PDI control.
+            0x0800..=0x083F if sm_off <= 4 && !sm_enabled => only(side, Ecat, 0xFF),
+            0x0800..=0x083F if sm_off == 6 => only(side, Ecat, 0xC3),
+            0x0800..=0x083F if sm_off == 7 => only(side, Pdi, 0x03),
             // 0x0900..0x0917 are handled as actions (latch / drift control), not stored.
-            0x0920..=0x092B => ecat(side),
-            0x0930..=0x0931 | 0x0934..=0x0935 => ecat(side),
-            0x0980 => ecat(side),
-            regs::DC_ACTIVATION => {
-                if side == dc_side {
-                    0xFF
-                } else {
-                    0
-                }
-            }
-            0x0990..=0x0997 | 0x09A0..=0x09A7 => {
-                if side == dc_side {
-                    0xFF
-                } else {
-                    0
-                }
-            }
-            0x09A8..=0x09A9 => ecat(side),
-            0x0F00..=0x0F03 => pdi(side),
+            0x0920..=0x092B => only(side, Ecat, 0xFF),
+            0x0930..=0x0931 | 0x0934..=0x0935 => only(side, Ecat, 0xFF),
+            0x0980 => only(side, Ecat, 0xFF),
+            regs::DC_ACTIVATION => only(side, dc_side, 0xFF),
+            0x0990..=0x0997 | 0x09A0..=0x09A7 => only(side, dc_side, 0xFF),
+            0x09A8..=0x09A9 => only(side, Ecat, 0xFF),
+            0x0F00..=0x0F03 => only(side, Pdi, 0xFF),
             0x0F10..=0x0F1F | 0x0F80..=0x0FFF => 0xFF,
             0x1000..=0x2FFF => 0xFF,
             _ => 0,
@@ -685,17 +632,10 @@ impl Esc {
     }
 }
 
-fn ecat(side: Side) -> u8 {
-    if side == Side::Ecat {
-        0xFF
-    } else {
-        0
-    }
-}
-
-fn pdi(side: Side) -> u8 {
-    if side == Side::Pdi {
-        0xFF
+/// `mask` when `side` is `owner`, else 0.
+fn only(side: Side, owner: Side, mask: u8) -> u8 {
+    if side == owner {
+        mask
     } else {
         0
     }
