@@ -156,7 +156,7 @@ fn ethercrab_init_to_op_with_process_data() {
     let b = board.borrow();
     assert_eq!(b.esc().borrow().peek_u8(regs::AL_STATUS), 8);
     let pcap = b.pcap().unwrap();
-    let path = std::env::temp_dir().join("virtual-board-ethercrab-esm.pcap");
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("ethercrab-esm.pcap");
     pcap.save(&path).unwrap();
     eprintln!("pcap: {} frames -> {}", pcap.frames(), path.display());
     check_with_tshark(&path);
@@ -201,4 +201,78 @@ fn check_with_tshark(path: &std::path::Path) {
         "tshark found malformed frames in {}",
         path.display()
     );
+}
+
+static STORAGE_DC: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();
+
+/// ethercrab's DC set-up (receive-time latch, offsets, static drift compensation with
+/// FRMW, `configure_dc_sync`) makes the virtual ESC generate SYNC0 at the requested
+/// period, delivered to the PDI-side CPU.
+#[test]
+fn ethercrab_dc_sync0_reaches_the_board() {
+    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
+        minimal_io_device(),
+    ))));
+    let shared = Rc::new(RefCell::new(Shared::default()));
+    board.borrow_mut().set_cpu(Box::new(MinimalSlaveCpu {
+        shared: shared.clone(),
+    }));
+    let (tx, rx, pdu_loop) = STORAGE_DC.try_split().expect("split once");
+    let md = MainDevice::new(
+        pdu_loop,
+        Timeouts {
+            wait_loop_delay: Duration::from_micros(100),
+            ..Default::default()
+        },
+        MainDeviceConfig {
+            dc_static_sync_iterations: 20,
+            ..Default::default()
+        },
+    );
+    const PERIOD_NS: u64 = 50_000;
+    block_on(or(
+        async {
+            let mut group = md
+                .init_single_group::<2, 16>(ethercat_now)
+                .await
+                .expect("init");
+            for mut sd in group.iter_mut(&md) {
+                sd.set_dc_sync(ethercrab::DcSync::Sync0);
+            }
+            let group = group
+                .configure_dc_sync(
+                    &md,
+                    ethercrab::subdevice_group::DcConfiguration {
+                        start_delay: Duration::from_millis(1),
+                        sync0_period: Duration::from_nanos(PERIOD_NS),
+                        sync0_shift: Duration::ZERO,
+                    },
+                )
+                .await
+                .expect("configure DC");
+            let group = group.into_safe_op(&md).await.expect("SAFE-OP");
+            let group = group.request_into_op(&md).await.expect("request OP");
+            for _ in 0..200 {
+                group.tx_rx_dc(&md).await.expect("tx_rx_dc");
+            }
+        },
+        tx_rx_task(board.clone(), tx, rx),
+    ));
+    let b = board.borrow();
+    let edges = &b.sync_edges;
+    assert!(edges.len() > 10, "only {} SYNC0 edges", edges.len());
+    for w in edges.windows(2) {
+        assert_eq!(w[1].system_time_ns - w[0].system_time_ns, PERIOD_NS);
+    }
+    assert_eq!(
+        edges[0].system_time_ns % PERIOD_NS,
+        0,
+        "start rounded to the period"
+    );
+    assert_eq!(b.esc().borrow().peek_u8(regs::DC_ACTIVATION), 0x03);
+    assert_eq!(shared.borrow().states.last(), Some(&8));
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("ethercrab-dc.pcap");
+    b.pcap().unwrap().save(&path).unwrap();
+    eprintln!("{} SYNC0 edges; pcap -> {}", edges.len(), path.display());
+    check_with_tshark(&path);
 }
