@@ -195,3 +195,14 @@ fn real_sii_images_load_and_read_back() {
     }
     assert!(n >= 7, "expected the 7 real images, found {n}");
 }
+
+#[test]
+fn four_byte_read_variant() {
+    let image = minimal_io_device();
+    let mut cfg = EscConfig::new(image.clone());
+    cfg.eeprom_read_8 = false;
+    let mut esc = Esc::new(cfg);
+    esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);
+    assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0x0040, 0);
+    assert_eq!(sii_read(&mut esc, 10), image[20..24].to_vec());
+}

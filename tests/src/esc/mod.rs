@@ -87,6 +87,8 @@ pub struct EscConfig {
     pub dc_local_start_ns: u64,
     /// Build number reported at 0x0002.
     pub build: u16,
+    /// EEPROM reads return 8 bytes (0x0502 b6 = 1, as the ET1100) instead of 4.
+    pub eeprom_read_8: bool,
 }
 
 impl EscConfig {
@@ -97,6 +99,7 @@ impl EscConfig {
             eeprom_busy_ns: 20_000,
             dc_local_start_ns: 1_000_000,
             build: 0x0003,
+            eeprom_read_8: true,
         }
     }
 }

@@ -97,7 +97,10 @@ impl Esc {
         self.sii.loaded_ok = ok;
         let mut ctl = self.peek_u16(regs::EEPROM_CONTROL) & !(0x1800);
         // b6: 8-byte reads (ET1100); b7: 2-byte addressing for EEPROMs > 16 Kbit.
-        ctl |= 0x0040;
+        ctl &= !0x00C0;
+        if self.cfg.eeprom_read_8 {
+            ctl |= 0x0040;
+        }
         if self.sii.image.len() > 2048 {
             ctl |= 0x0080;
         }
@@ -161,8 +164,10 @@ impl Esc {
         let addr = self.peek_u32(regs::EEPROM_ADDRESS);
         match cmd {
             1 => {
+                let words = if self.cfg.eeprom_read_8 { 4 } else { 2 };
                 let mut data = [0u8; 8];
-                for i in 0..4 {
+                self.peek(regs::EEPROM_DATA, &mut data);
+                for i in 0..words {
                     let w = self.sii.word(addr.wrapping_add(i));
                     data[i as usize * 2..i as usize * 2 + 2].copy_from_slice(&w);
                 }
