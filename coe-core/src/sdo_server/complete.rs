@@ -139,6 +139,15 @@ pub(crate) fn download<A: ObjectAccess + ?Sized>(
 ) -> Result<(), SdoAbortCode> {
     check_start(object, start)?;
     let is_var = object.code == ObjectCode::Var;
+    // Access first: nothing writable at all, or nothing writable in this state.
+    let in_scope = || object.entries.iter().filter(move |e| e.subindex >= start);
+    if !in_scope().any(|e| e.access.writable_in(state)) {
+        return Err(if in_scope().any(|e| e.access.is_writable()) {
+            SdoAbortCode::DeviceState
+        } else {
+            SdoAbortCode::WriteOfReadOnly
+        });
+    }
     let sub0 = object.entry(0).filter(|_| !is_var);
     let sub0_writable = sub0.is_some_and(|e| e.access.writable_in(state));
     // The number of entries: the new sub 0 value when the image carries a writable sub 0,
@@ -181,12 +190,7 @@ pub(crate) fn download<A: ObjectAccess + ?Sized>(
         }
     }
     if !any_writable {
-        let writable_elsewhere = layout.entries().any(|(e, _)| e.access.is_writable());
-        return Err(if writable_elsewhere {
-            SdoAbortCode::DeviceState
-        } else {
-            SdoAbortCode::WriteOfReadOnly
-        });
+        return Err(SdoAbortCode::DeviceState);
     }
     // ETG.1020 order: sub 0 = 0, the entries, sub 0 = n.
     let write_sub0 = start == 0 && sub0_writable;
