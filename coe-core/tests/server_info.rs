@@ -26,9 +26,9 @@ fn info_error(code: A) -> Vec<u8> {
     info_resp(0x07, 0, &u32::from(code).to_le_bytes())
 }
 
-const ALL: [u16; 17] = [
-    0x1000, 0x1008, 0x1009, 0x1018, 0x2000, 0x2001, 0x2002, 0x2003, 0x2004, 0x2005, 0x2006, 0x2007,
-    0x2008, 0x3000, 0x3001, 0x6401, 0x6411,
+const ALL: [u16; 19] = [
+    0x1000, 0x1008, 0x1009, 0x1018, 0x1A00, 0x1C13, 0x2000, 0x2001, 0x2002, 0x2003, 0x2004, 0x2005,
+    0x2006, 0x2007, 0x2008, 0x3000, 0x3001, 0x6401, 0x6411,
 ];
 
 fn le16(values: &[u16]) -> Vec<u8> {
@@ -38,10 +38,10 @@ fn le16(values: &[u16]) -> Vec<u8> {
 #[test]
 fn od_list_counts() {
     let mut b = Bench::new();
-    // List type 0: the lengths of lists 1..5: all 17, RxPDO 1 (0x6411), TxPDO 1 (0x6401),
+    // List type 0: the lengths of lists 1..5: all 19, RxPDO 1 (0x6411), TxPDO 1 (0x6401),
     // backup 1 (0x2001), settings 1 (0x2002).
     let mut body = vec![0x00, 0x00];
-    body.extend_from_slice(&le16(&[17, 1, 1, 1, 1]));
+    body.extend_from_slice(&le16(&[19, 1, 1, 1, 1]));
     assert_eq!(b.ask(&info(0x01, &[0x00, 0x00])), info_resp(0x02, 0, &body));
 }
 
@@ -68,23 +68,28 @@ fn od_list_each_type() {
 
 #[test]
 fn od_list_in_fragments() {
-    // 24-byte mailbox: 24 - 12 = 12 data bytes per fragment; 2 + 34 = 36 bytes = 3 fragments.
+    // 24-byte mailbox: 24 - 12 = 12 data bytes per fragment; 2 + 38 = 40 bytes = 4 fragments.
     let mut b = Bench::with_mailbox(24);
     let mut stream = vec![0x01, 0x00];
     stream.extend_from_slice(&le16(&ALL));
-    // First: opcode 2 with the incomplete bit (0x82), 2 fragments left.
+    assert_eq!(stream.len(), 40);
+    // First: opcode 2 with the incomplete bit (0x82), 3 fragments left.
     assert_eq!(
         b.ask(&info(0x01, &[0x01, 0x00])),
-        info_resp(0x82, 2, &stream[..12])
+        info_resp(0x82, 3, &stream[..12])
     );
     // The rest come without a request, one per free mailbox.
     assert_eq!(
         check_coe_frame(&b.poll().unwrap()),
-        info_resp(0x82, 1, &stream[12..24])
+        info_resp(0x82, 2, &stream[12..24])
     );
     assert_eq!(
         check_coe_frame(&b.poll().unwrap()),
-        info_resp(0x02, 0, &stream[24..36])
+        info_resp(0x82, 1, &stream[24..36])
+    );
+    assert_eq!(
+        check_coe_frame(&b.poll().unwrap()),
+        info_resp(0x02, 0, &stream[36..40])
     );
     assert_eq!(b.poll(), None);
 }

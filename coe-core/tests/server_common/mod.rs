@@ -6,6 +6,7 @@ use coe_core::esm::AlState;
 use coe_core::od::{
     Access, DataType, EntryDesc, ObjectAccess, ObjectDesc, ObjectDictionary, OdStore, Value,
 };
+use coe_core::pdo::{PdoAssignment, PdoEntry, PdoMapping};
 use coe_core::sdo_server::{Reply, SdoServer};
 use coe_core::SdoAbortCode;
 
@@ -48,6 +49,26 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             EntryDesc::new(3, "Revision", DataType::Unsigned32, Access::RO)
                 .with_default(Value::Uint(0x0001_0000)),
             EntryDesc::new(4, "Serial number", DataType::Unsigned32, Access::RO),
+        ],
+    ),
+    ObjectDesc::record(
+        0x1A00,
+        "TxPDO map 1",
+        DataType::PdoMapping,
+        &[
+            EntryDesc::count(1).with_access(Access::RW_PREOP),
+            EntryDesc::new(1, "SubIndex 001", DataType::Unsigned32, Access::RW_PREOP),
+            EntryDesc::new(2, "SubIndex 002", DataType::Unsigned32, Access::RW_PREOP),
+            EntryDesc::new(3, "SubIndex 003", DataType::Unsigned32, Access::RW_PREOP),
+        ],
+    ),
+    ObjectDesc::array(
+        0x1C13,
+        "Sync manager 3 PDO assignment",
+        &[
+            EntryDesc::count(1).with_access(Access::RW_PREOP),
+            EntryDesc::new(1, "SubIndex 001", DataType::Unsigned16, Access::RW_PREOP),
+            EntryDesc::new(2, "SubIndex 002", DataType::Unsigned16, Access::RW_PREOP),
         ],
     ),
     ObjectDesc::var(
@@ -176,7 +197,14 @@ pub struct App {
     pub veto: Option<(u16, u8, SdoAbortCode)>,
     pub ao_mapped: bool,
     pub writes: Vec<(u16, u8, Vec<u8>)>,
+    /// 0x1A00, backed by the PDO module (default: 0x6401:01, 16 bit).
+    pub txpdo: [PdoMapping<3>; 1],
+    /// 0x1C13 (default: 0x1A00).
+    pub sm3: PdoAssignment<2>,
 }
+
+/// Room in the SM3 process image of the test device: 32 bits.
+pub const SM3_BITS: u32 = 32;
 
 impl App {
     pub fn new() -> Self {
@@ -188,13 +216,22 @@ impl App {
             veto: None,
             ao_mapped: false,
             writes: Vec::new(),
+            txpdo: [PdoMapping::with_entries(
+                0x1A00,
+                &[PdoEntry::new(0x6401, 1, 16)],
+            )],
+            sm3: PdoAssignment::with_pdos(0x1C13, &[0x1A00]),
         }
     }
 }
 
 impl ObjectAccess for App {
     fn read(&mut self, index: u16, subindex: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        self.store.read(index, subindex, buf)
+        match index {
+            0x1A00 => self.txpdo[0].read_sub(subindex, buf),
+            0x1C13 => self.sm3.read_sub(subindex, buf),
+            _ => self.store.read(index, subindex, buf),
+        }
     }
 
     fn write(
@@ -210,7 +247,11 @@ impl ObjectAccess for App {
             }
         }
         self.writes.push((index, subindex, data.to_vec()));
-        self.store.write(index, subindex, data, state)
+        match index {
+            0x1A00 => self.txpdo[0].write_sub(subindex, data, &OD, SM3_BITS),
+            0x1C13 => self.sm3.write_sub(subindex, data, &self.txpdo, SM3_BITS),
+            _ => self.store.write(index, subindex, data, state),
+        }
     }
 
     fn is_rx_mapped(&self, index: u16, _subindex: u8) -> bool {
