@@ -1,3 +1,9 @@
 //! The slave application of the analog I/O module, independent of the MCU.
 #![no_std]
 #![forbid(unsafe_code)]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
+
+pub mod app;

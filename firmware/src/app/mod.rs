@@ -1,0 +1,6 @@
+//! The slave application: everything between the ESC registers, the converters and the
+//! CoE core that does not depend on the MCU.
+
+pub mod outputs;
+pub mod sampler;
+pub mod scaling;

@@ -1,0 +1,386 @@
+//! Sample buffering for the 8 analog inputs: the ring buffer between the ADC path and the
+//! process-data path, and the value published per cycle (latest or averaged).
+//!
+//! ```text
+//!  AD7689 scan (DMA / sampler task, lowest priority)
+//!      |  Sample { channel, code }  (tagged by the ad7689 driver's CFG pipeline)
+//!      v
+//!  SampleProducer::push   -- never blocks: a full ring drops the new sample and counts it
+//!  ====== SampleRing<N> (heapless SPSC queue: lock-free between the two priorities) ======
+//!  SampleConsumer::drain_into(&mut Sampler)      (PDI task, once per cycle)
+//!      v
+//!  Sampler::publish(mode) -> one INTEGER16 value per channel for 0x6401 / the TxPDO
+//! ```
+//!
+//! The producer and consumer halves split one ring buffer; in the RTIC application each half
+//! is a task-local resource, so neither side takes a lock. A test or the virtual board can
+//! skip the ring and call [`Sampler::add`] directly.
+//!
+//! Publishing: [`PublishMode::Latest`] takes the newest sample of each channel,
+//! [`PublishMode::Average`] the rounded mean of all samples since the last publish (the
+//! cycle). A channel without a new sample keeps its previous value. Scaling to INTEGER16 and
+//! volts: [`crate::app::scaling`].
+
+use super::scaling::adc_code_to_ai;
+use core::sync::atomic::{AtomicU32, Ordering};
+use heapless::spsc::{Consumer, Producer, Queue};
+
+/// Number of analog inputs.
+pub const CHANNELS: usize = 8;
+
+/// One conversion result, tagged with the input channel it belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sample {
+    /// Input channel 0..=7 (other values, e.g. the temperature sensor, are not published).
+    pub channel: u8,
+    /// Unipolar straight-binary conversion code.
+    pub code: u16,
+}
+
+impl Sample {
+    /// A sample.
+    pub const fn new(channel: u8, code: u16) -> Self {
+        Self { channel, code }
+    }
+}
+
+/// What is published per cycle for each channel (the manufacturer "filter" setting).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PublishMode {
+    /// The newest sample (setting value 0).
+    #[default]
+    Latest,
+    /// The rounded mean of the samples of the cycle (setting value 1).
+    Average,
+}
+
+impl PublishMode {
+    /// Decodes the setting value; `None` for values that name no mode.
+    pub const fn from_setting(value: u8) -> Option<Self> {
+        match value {
+            0 => Some(Self::Latest),
+            1 => Some(Self::Average),
+            _ => None,
+        }
+    }
+
+    /// The setting value.
+    pub const fn setting(self) -> u8 {
+        match self {
+            Self::Latest => 0,
+            Self::Average => 1,
+        }
+    }
+}
+
+/// The fixed-capacity ring between the ADC path and the process-data path; holds `N - 1`
+/// samples (heapless SPSC queue).
+pub struct SampleRing<const N: usize> {
+    queue: Queue<Sample, N>,
+    overruns: AtomicU32,
+}
+
+impl<const N: usize> Default for SampleRing<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> SampleRing<N> {
+    /// An empty ring.
+    pub const fn new() -> Self {
+        Self {
+            queue: Queue::new(),
+            overruns: AtomicU32::new(0),
+        }
+    }
+
+    /// Splits the ring into its producer (ADC side) and consumer (process-data side) halves.
+    pub fn split(&mut self) -> (SampleProducer<'_, N>, SampleConsumer<'_, N>) {
+        let (producer, consumer) = self.queue.split();
+        (
+            SampleProducer {
+                inner: producer,
+                overruns: &self.overruns,
+            },
+            SampleConsumer { inner: consumer },
+        )
+    }
+
+    /// Samples dropped because the ring was full.
+    pub fn overruns(&self) -> u32 {
+        self.overruns.load(Ordering::Relaxed)
+    }
+}
+
+/// The ADC side of a [`SampleRing`].
+pub struct SampleProducer<'a, const N: usize> {
+    inner: Producer<'a, Sample, N>,
+    overruns: &'a AtomicU32,
+}
+
+impl<const N: usize> SampleProducer<'_, N> {
+    /// Queues a sample; never blocks. Returns `false` (and counts an overrun) when the ring is
+    /// full: the new sample is dropped, the consumer's end is never touched.
+    pub fn push(&mut self, sample: Sample) -> bool {
+        match self.inner.enqueue(sample) {
+            Ok(()) => true,
+            Err(_) => {
+                let n = self.overruns.load(Ordering::Relaxed);
+                self.overruns.store(n.saturating_add(1), Ordering::Relaxed);
+                false
+            }
+        }
+    }
+
+    /// Queues several samples; returns how many were dropped.
+    pub fn push_all(&mut self, samples: &[Sample]) -> usize {
+        samples.iter().filter(|s| !self.push(**s)).count()
+    }
+
+    /// Samples dropped because the ring was full.
+    pub fn overruns(&self) -> u32 {
+        self.overruns.load(Ordering::Relaxed)
+    }
+}
+
+/// The process-data side of a [`SampleRing`].
+pub struct SampleConsumer<'a, const N: usize> {
+    inner: Consumer<'a, Sample, N>,
+}
+
+impl<const N: usize> SampleConsumer<'_, N> {
+    /// Moves at most `N` queued samples into `sampler` (bounded: the producer may keep adding
+    /// while this runs); returns how many.
+    pub fn drain_into(&mut self, sampler: &mut Sampler) -> usize {
+        let mut moved = 0;
+        while moved < N {
+            match self.inner.dequeue() {
+                Some(sample) => {
+                    sampler.add(sample);
+                    moved += 1;
+                }
+                None => break,
+            }
+        }
+        moved
+    }
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Channel {
+    latest: u16,
+    sum: u64,
+    count: u32,
+    published: u16,
+}
+
+/// Per-channel accumulation over one cycle and the published values.
+#[derive(Debug, Clone, Default)]
+pub struct Sampler {
+    channels: [Channel; CHANNELS],
+    mode: PublishMode,
+    rejected: u32,
+    received: u32,
+}
+
+impl Sampler {
+    /// A sampler with every value at 0 and the given mode.
+    pub const fn new(mode: PublishMode) -> Self {
+        Self {
+            channels: [Channel {
+                latest: 0,
+                sum: 0,
+                count: 0,
+                published: 0,
+            }; CHANNELS],
+            mode,
+            rejected: 0,
+            received: 0,
+        }
+    }
+
+    /// The publish mode.
+    pub const fn mode(&self) -> PublishMode {
+        self.mode
+    }
+
+    /// Changes the publish mode (takes effect at the next publish).
+    pub fn set_mode(&mut self, mode: PublishMode) {
+        self.mode = mode;
+    }
+
+    /// Adds one sample to its channel's accumulator. A sample for a channel outside 0..=7 is
+    /// counted as rejected and otherwise ignored.
+    pub fn add(&mut self, sample: Sample) {
+        match self.channels.get_mut(usize::from(sample.channel)) {
+            Some(ch) => {
+                ch.latest = sample.code;
+                ch.sum = ch.sum.saturating_add(u64::from(sample.code));
+                ch.count = ch.count.saturating_add(1);
+                self.received = self.received.wrapping_add(1);
+            }
+            None => self.rejected = self.rejected.saturating_add(1),
+        }
+    }
+
+    /// Adds several samples.
+    pub fn add_all(&mut self, samples: &[Sample]) {
+        for sample in samples {
+            self.add(*sample);
+        }
+    }
+
+    /// Ends the cycle: every channel with new samples publishes its latest or averaged code
+    /// and starts a new accumulation; channels without new samples keep their value.
+    pub fn publish(&mut self) {
+        let mode = self.mode;
+        for ch in &mut self.channels {
+            if ch.count == 0 {
+                continue;
+            }
+            ch.published = match mode {
+                PublishMode::Latest => ch.latest,
+                PublishMode::Average => {
+                    let n = u64::from(ch.count);
+                    let mean = (ch.sum + n / 2) / n;
+                    u16::try_from(mean).unwrap_or(u16::MAX)
+                }
+            };
+            ch.sum = 0;
+            ch.count = 0;
+        }
+    }
+
+    /// The published conversion code of `channel` (0..=7; `None` otherwise).
+    pub fn code(&self, channel: usize) -> Option<u16> {
+        self.channels.get(channel).map(|c| c.published)
+    }
+
+    /// The published 0x6401 value of `channel` (0..=7; `None` otherwise).
+    pub fn value(&self, channel: usize) -> Option<i16> {
+        self.code(channel).map(adc_code_to_ai)
+    }
+
+    /// All published 0x6401 values.
+    pub fn values(&self) -> [i16; CHANNELS] {
+        let mut out = [0; CHANNELS];
+        for (o, c) in out.iter_mut().zip(self.channels.iter()) {
+            *o = adc_code_to_ai(c.published);
+        }
+        out
+    }
+
+    /// Samples accepted so far (wrapping).
+    pub const fn received(&self) -> u32 {
+        self.received
+    }
+
+    /// Samples rejected for an unknown channel.
+    pub const fn rejected(&self) -> u32 {
+        self.rejected
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn latest_mode_publishes_newest_sample() {
+        let mut s = Sampler::new(PublishMode::Latest);
+        s.add_all(&[
+            Sample::new(0, 100),
+            Sample::new(0, 200),
+            Sample::new(3, 0xFFFF),
+        ]);
+        assert_eq!(s.value(0), Some(0));
+        s.publish();
+        assert_eq!(s.code(0), Some(200));
+        assert_eq!(s.value(0), Some(100));
+        assert_eq!(s.value(3), Some(0x7FFF));
+        assert_eq!(s.value(8), None);
+    }
+
+    #[test]
+    fn average_mode_rounds_the_mean_of_the_cycle() {
+        let mut s = Sampler::new(PublishMode::Average);
+        s.add_all(&[Sample::new(1, 10), Sample::new(1, 11), Sample::new(1, 11)]);
+        s.add_all(&[Sample::new(2, 0xFFFF), Sample::new(2, 0xFFFF)]);
+        s.publish();
+        assert_eq!(s.code(1), Some(11)); // 32 / 3 = 10.67 -> 11
+        assert_eq!(s.code(2), Some(0xFFFF));
+        // Next cycle starts a fresh mean.
+        s.add_all(&[Sample::new(1, 1000), Sample::new(1, 2000)]);
+        s.publish();
+        assert_eq!(s.code(1), Some(1500));
+    }
+
+    #[test]
+    fn channel_without_samples_keeps_its_value() {
+        let mut s = Sampler::new(PublishMode::Average);
+        s.add(Sample::new(5, 4000));
+        s.publish();
+        s.publish();
+        assert_eq!(s.code(5), Some(4000));
+    }
+
+    #[test]
+    fn mode_switch_takes_effect_at_publish() {
+        let mut s = Sampler::new(PublishMode::Latest);
+        s.add_all(&[Sample::new(0, 0), Sample::new(0, 1000)]);
+        s.set_mode(PublishMode::Average);
+        s.publish();
+        assert_eq!(s.code(0), Some(500));
+        assert_eq!(PublishMode::from_setting(1), Some(PublishMode::Average));
+        assert_eq!(PublishMode::from_setting(2), None);
+        assert_eq!(PublishMode::Average.setting(), 1);
+    }
+
+    #[test]
+    fn unknown_channel_is_rejected_not_stored() {
+        let mut s = Sampler::new(PublishMode::Latest);
+        s.add(Sample::new(8, 123));
+        s.add(Sample::new(255, 123));
+        s.publish();
+        assert_eq!(s.rejected(), 2);
+        assert_eq!(s.received(), 0);
+        assert_eq!(s.values(), [0; CHANNELS]);
+    }
+
+    #[test]
+    fn ring_counts_overruns_and_never_blocks() {
+        let mut ring: SampleRing<4> = SampleRing::new(); // holds 3
+        let (mut tx, mut rx) = ring.split();
+        let dropped = tx.push_all(&[
+            Sample::new(0, 1),
+            Sample::new(0, 2),
+            Sample::new(0, 3),
+            Sample::new(0, 4),
+            Sample::new(0, 5),
+        ]);
+        assert_eq!(dropped, 2);
+        assert_eq!(tx.overruns(), 2);
+        let mut s = Sampler::new(PublishMode::Average);
+        assert_eq!(rx.drain_into(&mut s), 3);
+        s.publish();
+        assert_eq!(s.code(0), Some(2));
+        // Room again after draining.
+        assert!(tx.push(Sample::new(0, 9)));
+        assert_eq!(rx.drain_into(&mut s), 1);
+        let _ = (tx, rx);
+        assert_eq!(ring.overruns(), 2);
+    }
+
+    #[test]
+    fn long_cycles_do_not_overflow_the_mean() {
+        let mut s = Sampler::new(PublishMode::Average);
+        for _ in 0..200_000 {
+            s.add(Sample::new(7, 0xFFFF));
+        }
+        s.publish();
+        assert_eq!(s.code(7), Some(0xFFFF));
+    }
+}
