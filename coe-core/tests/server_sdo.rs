@@ -578,3 +578,36 @@ fn reply_never_exceeds_the_mailbox() {
         assert_eq!(total, 87, "mailbox {mbx}");
     }
 }
+
+#[test]
+fn transfer_buffer_too_small_is_out_of_memory() {
+    use coe_core::sdo_server::{Reply, SdoServer};
+    // A server with a 32-byte transfer buffer cannot hold the 87-byte name or a 100-byte
+    // segmented download: 0x05040005.
+    let mut server: SdoServer<64, 32, 1> = SdoServer::new();
+    let mut app = App::new();
+    let mut reply = [0u8; 64];
+    let mut ask = |server: &mut SdoServer<64, 32, 1>, counter: u8, coe: &[u8]| match server.process(
+        &frame(counter, coe),
+        AlState::PreOp,
+        &OD,
+        &mut app,
+        0,
+        &mut reply,
+    ) {
+        Reply::Frame(n) => check_coe_frame(&reply[..n]),
+        Reply::None => panic!("no reply"),
+    };
+    assert_eq!(
+        ask(&mut server, 1, &sdo(0x40, 0x1008, 0, [0; 4])),
+        abort(0x1008, 0, A::OutOfMemory)
+    );
+    let mut req = sdo(0x21, 0x2006, 0, [100, 0, 0, 0]);
+    req.extend_from_slice(&[0; 20]);
+    assert_eq!(ask(&mut server, 2, &req), abort(0x2006, 0, A::OutOfMemory));
+    // Small values still work.
+    assert_eq!(
+        ask(&mut server, 3, &sdo(0x40, 0x1000, 0, [0; 4])),
+        resp(0x43, 0x1000, 0, [0x91, 0x01, 0x0C, 0x00])
+    );
+}
