@@ -23,6 +23,7 @@ pub mod board;
 pub mod clock;
 pub mod dac;
 pub mod esc;
+pub mod loopback;
 pub mod master;
 pub mod pcap;
 pub mod sii_builder;
