@@ -4,3 +4,4 @@
 pub mod outputs;
 pub mod sampler;
 pub mod scaling;
+pub mod sync;

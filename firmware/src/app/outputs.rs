@@ -35,7 +35,7 @@
 //! to stage anything until fresh process data arrive in OP.
 
 use super::scaling::{ao_in_range, ao_to_dac_code, fault_value_to_dac_code};
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 /// Number of analog outputs.
 pub const CHANNELS: usize = 2;
@@ -171,6 +171,21 @@ pub struct OutputStage {
     control: AtomicU32,
     applied: AtomicU32,
     without_outputs: AtomicU32,
+    sync0_edges: AtomicU32,
+    sync0_time_lo: AtomicU32,
+    dc_mode: AtomicBool,
+}
+
+/// SYNC0 bookkeeping the DAC task leaves for the PDI task (cycle monitoring).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sync0Counts {
+    /// SYNC0 edges seen (wrapping).
+    pub edges: u32,
+    /// Edges in DC mode that found no fresh outputs (wrapping).
+    pub without_outputs: u32,
+    /// Low 32 bits of the captured time of the last edge (ns).
+    pub last_edge_lo: u32,
 }
 
 impl OutputStage {
@@ -181,6 +196,9 @@ impl OutputStage {
             control: AtomicU32::new(0),
             applied: AtomicU32::new(0),
             without_outputs: AtomicU32::new(0),
+            sync0_edges: AtomicU32::new(0),
+            sync0_time_lo: AtomicU32::new(0),
+            dc_mode: AtomicBool::new(false),
         }
     }
 
@@ -220,6 +238,25 @@ impl OutputStage {
     /// SYNC0 edges that found no fresh outputs (the outputs kept their values).
     pub fn sync0_without_outputs(&self) -> u32 {
         self.without_outputs.load(Ordering::Relaxed)
+    }
+
+    /// PDI side: SYNC0 edges latch the outputs only in DC mode (set at PREOP -> SAFEOP).
+    pub fn set_dc_mode(&self, dc: bool) {
+        self.dc_mode.store(dc, Ordering::Release);
+    }
+
+    /// True if SYNC0 edges latch the outputs.
+    pub fn dc_mode(&self) -> bool {
+        self.dc_mode.load(Ordering::Acquire)
+    }
+
+    /// The SYNC0 bookkeeping of the DAC task.
+    pub fn sync0_counts(&self) -> Sync0Counts {
+        Sync0Counts {
+            edges: self.sync0_edges.load(Ordering::Acquire),
+            without_outputs: self.without_outputs.load(Ordering::Acquire),
+            last_edge_lo: self.sync0_time_lo.load(Ordering::Acquire),
+        }
     }
 
     /// What is staged now: kind and pair (for tests and diagnostics).
@@ -292,8 +329,19 @@ impl DacLatch {
         action
     }
 
-    /// A SYNC0 edge: latch a fresh pair, or keep the outputs and count the edge.
-    pub fn on_sync0(&mut self, stage: &OutputStage) -> DacAction {
+    /// A SYNC0 edge captured at `captured_ns`: in DC mode latch a fresh pair, or keep the
+    /// outputs and count the edge; outside DC mode only the edge is recorded.
+    pub fn on_sync0(&mut self, stage: &OutputStage, captured_ns: u64) -> DacAction {
+        stage
+            .sync0_time_lo
+            .store(captured_ns as u32, Ordering::Release);
+        let edges = stage.sync0_edges.load(Ordering::Relaxed);
+        stage
+            .sync0_edges
+            .store(edges.wrapping_add(1), Ordering::Release);
+        if !stage.dc_mode() {
+            return DacAction::Keep;
+        }
         match self.fresh(stage) {
             Some((control, StageKind::Outputs | StageKind::Fault, pair)) => {
                 self.latch(stage, control, pair)
@@ -427,6 +475,32 @@ impl AnalogOutputs {
 mod tests {
     use super::*;
 
+    fn dc_stage() -> OutputStage {
+        let stage = OutputStage::new();
+        stage.set_dc_mode(true);
+        stage
+    }
+
+    #[test]
+    fn sync0_outside_dc_mode_only_records_the_edge() {
+        let stage = OutputStage::new();
+        let mut latch = DacLatch::new();
+        stage.stage(DacPair::new(1, 2));
+        assert_eq!(latch.on_sync0(&stage, 0x1_0000_0010), DacAction::Keep);
+        assert_eq!(
+            stage.sync0_counts(),
+            Sync0Counts {
+                edges: 1,
+                without_outputs: 0,
+                last_edge_lo: 0x10
+            }
+        );
+        assert_eq!(
+            latch.apply_now(&stage),
+            DacAction::WriteAndUpdate(DacPair::new(1, 2))
+        );
+    }
+
     #[test]
     fn pair_packs_into_one_word() {
         let p = DacPair::new(0x1234, 0xABCD);
@@ -439,59 +513,59 @@ mod tests {
 
     #[test]
     fn sync0_latches_a_fresh_pair_once() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         stage.stage(DacPair::new(1, 2));
         assert_eq!(
-            latch.on_sync0(&stage),
+            latch.on_sync0(&stage, 0),
             DacAction::WriteAndUpdate(DacPair::new(1, 2))
         );
         assert_eq!(stage.applied(), DacPair::new(1, 2));
         // No fresh outputs: keep and count.
-        assert_eq!(latch.on_sync0(&stage), DacAction::Keep);
-        assert_eq!(latch.on_sync0(&stage), DacAction::Keep);
+        assert_eq!(latch.on_sync0(&stage, 0), DacAction::Keep);
+        assert_eq!(latch.on_sync0(&stage, 0), DacAction::Keep);
         assert_eq!(stage.sync0_without_outputs(), 2);
         assert_eq!(stage.applied(), DacPair::new(1, 2));
     }
 
     #[test]
     fn only_the_newest_complete_pair_is_latched() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         stage.stage(DacPair::new(1, 1));
         stage.stage(DacPair::new(2, 2));
-        assert_eq!(latch.on_sync0(&stage).pair(), Some(DacPair::new(2, 2)));
+        assert_eq!(latch.on_sync0(&stage, 0).pair(), Some(DacPair::new(2, 2)));
     }
 
     #[test]
     fn preload_then_ldac_pulse() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         stage.stage(DacPair::new(7, 8));
         assert_eq!(latch.preload(&stage), Some(DacPair::new(7, 8)));
         assert_eq!(latch.preload(&stage), None, "preloaded once");
         assert_eq!(
-            latch.on_sync0(&stage),
+            latch.on_sync0(&stage, 0),
             DacAction::PulseLdac(DacPair::new(7, 8))
         );
     }
 
     #[test]
     fn pair_staged_after_preload_is_written_not_pulsed() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         stage.stage(DacPair::new(7, 8));
         assert!(latch.preload(&stage).is_some());
         stage.stage(DacPair::new(9, 10));
         assert_eq!(
-            latch.on_sync0(&stage),
+            latch.on_sync0(&stage, 0),
             DacAction::WriteAndUpdate(DacPair::new(9, 10))
         );
     }
 
     #[test]
     fn fault_cancels_staged_pair_and_applies_fault_values() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         stage.stage(DacPair::new(100, 200));
         assert!(latch.apply_now(&stage).pair().is_some());
@@ -507,17 +581,17 @@ mod tests {
         assert_eq!(fault, DacPair::new(0x2000, 200));
         assert_eq!(latch.apply_now(&stage), DacAction::WriteAndUpdate(fault));
         // The stale pair never comes back.
-        assert_eq!(latch.on_sync0(&stage), DacAction::Keep);
+        assert_eq!(latch.on_sync0(&stage, 0), DacAction::Keep);
         assert_eq!(stage.applied(), fault);
     }
 
     #[test]
     fn cancelled_stage_is_never_latched() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         stage.stage(DacPair::new(5, 5));
         stage.cancel();
-        assert_eq!(latch.on_sync0(&stage), DacAction::Keep);
+        assert_eq!(latch.on_sync0(&stage, 0), DacAction::Keep);
         assert_eq!(latch.apply_now(&stage), DacAction::Keep);
         assert_eq!(stage.applied(), DacPair::default());
         assert_eq!(stage.staged().0, StageKind::Cancelled);
@@ -525,7 +599,7 @@ mod tests {
 
     #[test]
     fn outputs_only_in_op_and_fresh_after_fault() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut latch = DacLatch::new();
         let mut ao = AnalogOutputs::new();
         // SAFEOP: stored, not staged.
@@ -537,7 +611,7 @@ mod tests {
         assert!(ao.set_values([0x100, 0x200], true, &stage).staged);
         assert!(ao.enabled());
         assert_eq!(
-            latch.on_sync0(&stage),
+            latch.on_sync0(&stage, 0),
             DacAction::WriteAndUpdate(DacPair::new(0x200, 0x400))
         );
         // Fault with the defaults: both to 0.
@@ -550,7 +624,7 @@ mod tests {
 
     #[test]
     fn out_of_range_is_reported_once_per_episode() {
-        let stage = OutputStage::new();
+        let stage = dc_stage();
         let mut ao = AnalogOutputs::new();
         assert!(ao.set_values([-1, 0], true, &stage).newly_out_of_range);
         assert!(!ao.set_values([-5, 0], true, &stage).newly_out_of_range);

@@ -1,0 +1,835 @@
+//! Synchronisation: free run, SM-synchronous (SM2 event) and DC SYNC0; the values of the
+//! sync manager parameter objects 0x1C32 (outputs) and 0x1C33 (inputs) (ETG.1020 "Sync
+//! modes", hardware-facts section 4), their check at PREOP -> SAFEOP, and the cycle
+//! monitoring (missed events, sync error after 0x10F1:02).
+//!
+//! # Choosing the mode at PREOP -> SAFEOP ([`check_sync`])
+//!
+//! - The master wrote 0x1C32:01 in this PREOP session (TwinCAT start-up SDOs): the request is
+//!   enforced against the ESC: DC SYNC0 needs 0x0981 with cyclic operation and SYNC0 active,
+//!   any other mode needs SYNC0 inactive, else 0x0030 InvalidDcSyncConfiguration; in DC
+//!   mode the SYNC0 cycle (0x09A0) must be at least the minimum cycle time
+//!   ([`MIN_CYCLE_TIME_NS`]), else 0x0035 DcInvalidSyncCycleTime; free run needs SM2 in
+//!   3-buffer mode, else 0x0029 FreeRunNeeds3BufferMode; SYNC1 is not offered, 0x0028.
+//! - The master did not write it (ethercrab, SOEM): the mode follows the ESC, as SOES does:
+//!   SYNC0 active -> DC SYNC0 (same cycle-time check), else SM-synchronous when SM2 carries
+//!   outputs, else free run.
+//!
+//! # Cycle monitoring ([`SyncMonitor`])
+//!
+//! Armed by the first SM2 event in OP (SAFEOP -> OP is accepted before the first outputs).
+//! DC mode: a SYNC0 edge without fresh outputs since the previous edge is a missed SM event
+//! (0x1C32:0B); two SM2 events between edges count "cycle time too small" (0x0C); an SM2
+//! event later than the next SYNC0 minus the calc+copy time counts "shift too short" (0x0D).
+//! SM-synchronous mode: no SM2 event for more than 1.5 cycle times (0x1C32:02, if set) is a
+//! missed event; SM2 events closer than the minimum cycle time count "cycle time too
+//! small". The sync error counter (ETG.1020) goes up by 3 per missed event and down by 1 per
+//! good cycle; above 0x10F1:02 it raises the sync error (0x1C32:20 = TRUE), which the
+//! application answers with an Emergency, the error register and SAFEOP + 0x001A.
+
+use super::outputs::Sync0Counts;
+use coe_core::SdoAbortCode;
+
+/// Shortest cycle the module handles (0x1C32:05/0x1C33:05): the product target of a 25 us
+/// DC cycle with 2 AO + 8 AI (BRIEF section 6); to be confirmed by the benchmark.
+pub const MIN_CYCLE_TIME_NS: u32 = 25_000;
+/// Outputs: SM2 event to outputs copied and staged (0x1C32:06): SM2 read over SPI (4.5 us)
+/// plus unpack and staging.
+pub const OUTPUT_CALC_COPY_NS: u32 = 8_000;
+/// Outputs: SYNC0 edge to both DAC outputs updated (0x1C32:09): the write path (two 24-bit
+/// frames, about 2.1 us at 25 MHz) bounds the LDAC path (about 0.3 us).
+pub const OUTPUT_DELAY_NS: u32 = 3_000;
+/// Inputs: latch to SM3 written (0x1C33:06): pack plus the 16-byte SM3 write (11.5 us).
+pub const INPUT_CALC_COPY_NS: u32 = 15_000;
+/// Sync modes supported (0x1C32:04/0x1C33:04): b0 free run, b1 SM-synchronous, bits 4:2 =
+/// 001 DC SYNC0.
+pub const SUPPORTED_MODES: u16 = 0x0007;
+/// Default Sync Error Counter Limit (0x10F1:02).
+pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;
+
+/// 0x0981 bit 0: cyclic operation (SYNC unit) active.
+pub const DC_CYCLIC_OP: u8 = 0x01;
+/// 0x0981 bit 1: SYNC0 generation active.
+pub const DC_SYNC0: u8 = 0x02;
+/// 0x0981 bit 2: SYNC1 generation active.
+pub const DC_SYNC1: u8 = 0x04;
+
+/// A sync mode as 0x1C32:01 / 0x1C33:01 give it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SyncMode {
+    /// 0: free run (outputs applied and inputs latched when the application gets to them).
+    FreeRun,
+    /// 1 (0x1C33: 0x22): synchronous with the SM2 event.
+    #[default]
+    SmSync,
+    /// 2: DC SYNC0.
+    DcSync0,
+}
+
+impl SyncMode {
+    /// The 0x1C32:01 value.
+    pub const fn output_value(self) -> u16 {
+        match self {
+            Self::FreeRun => 0,
+            Self::SmSync => 1,
+            Self::DcSync0 => 2,
+        }
+    }
+
+    /// The 0x1C33:01 value (0x22: inputs latched on the SM2 event).
+    pub const fn input_value(self) -> u16 {
+        match self {
+            Self::FreeRun => 0,
+            Self::SmSync => 0x22,
+            Self::DcSync0 => 2,
+        }
+    }
+
+    /// Decodes a 0x1C32:01 value (`Err(SyncModeNotSupported)` for 3 = SYNC1 and others).
+    pub const fn from_output_value(value: u16) -> Result<Self, SyncConfigError> {
+        match value {
+            0 => Ok(Self::FreeRun),
+            1 => Ok(Self::SmSync),
+            2 => Ok(Self::DcSync0),
+            _ => Err(SyncConfigError::SyncModeNotSupported),
+        }
+    }
+
+    /// Decodes a 0x1C33:01 value (1 = SM3 event and 0x22 = SM2 event both mean SM-sync).
+    pub const fn from_input_value(value: u16) -> Result<Self, SyncConfigError> {
+        match value {
+            0 => Ok(Self::FreeRun),
+            1 | 0x22 => Ok(Self::SmSync),
+            2 => Ok(Self::DcSync0),
+            _ => Err(SyncConfigError::SyncModeNotSupported),
+        }
+    }
+}
+
+/// Why the sync configuration is refused at PREOP -> SAFEOP.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SyncConfigError {
+    /// Requested mode and 0x0981 disagree (AL status 0x0030).
+    InvalidDcSyncConfiguration,
+    /// SYNC0 cycle below the minimum cycle time (AL status 0x0035).
+    DcInvalidSyncCycleTime,
+    /// Free run with SM2 not in 3-buffer mode (AL status 0x0029).
+    FreeRunNeeds3BufferMode,
+    /// The requested mode is not offered (AL status 0x0028).
+    SyncModeNotSupported,
+}
+
+impl SyncConfigError {
+    /// The AL status code (0x0134) of the refusal.
+    pub const fn al_status_code(self) -> u16 {
+        match self {
+            Self::InvalidDcSyncConfiguration => 0x0030,
+            Self::DcInvalidSyncCycleTime => 0x0035,
+            Self::FreeRunNeeds3BufferMode => 0x0029,
+            Self::SyncModeNotSupported => 0x0028,
+        }
+    }
+}
+
+/// What [`check_sync`] looks at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SyncInputs {
+    /// 0x1C32:01 if the master wrote it in this PREOP session.
+    pub requested: Option<SyncMode>,
+    /// 0x1C33:01 if the master wrote it in this PREOP session.
+    pub requested_inputs: Option<SyncMode>,
+    /// ESC 0x0981 (DC activation).
+    pub dc_activation: u8,
+    /// ESC 0x09A0 (SYNC0 cycle time, ns).
+    pub sync0_cycle_ns: u32,
+    /// SM2 carries outputs (RxPDO length > 0).
+    pub has_outputs: bool,
+    /// SM2 is in 3-buffer mode (control bits 1:0 = 00).
+    pub sm2_three_buffer: bool,
+}
+
+/// The PREOP -> SAFEOP sync check: the mode to run in, or the refusal.
+pub fn check_sync(inputs: &SyncInputs) -> Result<SyncMode, SyncConfigError> {
+    let sync0_active = inputs.dc_activation & (DC_CYCLIC_OP | DC_SYNC0) == DC_CYCLIC_OP | DC_SYNC0;
+    let sync0_bits = inputs.dc_activation & (DC_SYNC0 | DC_SYNC1) != 0;
+    let mode = match inputs.requested {
+        Some(mode) => {
+            if (mode == SyncMode::DcSync0) != sync0_active
+                || (mode != SyncMode::DcSync0 && sync0_bits)
+            {
+                return Err(SyncConfigError::InvalidDcSyncConfiguration);
+            }
+            mode
+        }
+        None if sync0_active => SyncMode::DcSync0,
+        None if sync0_bits => return Err(SyncConfigError::InvalidDcSyncConfiguration),
+        None if inputs.has_outputs => SyncMode::SmSync,
+        None => SyncMode::FreeRun,
+    };
+    if inputs.dc_activation & DC_SYNC1 != 0 {
+        return Err(SyncConfigError::SyncModeNotSupported);
+    }
+    if let Some(input_mode) = inputs.requested_inputs {
+        if (input_mode == SyncMode::DcSync0) != (mode == SyncMode::DcSync0) {
+            return Err(SyncConfigError::InvalidDcSyncConfiguration);
+        }
+    }
+    match mode {
+        SyncMode::DcSync0 if inputs.sync0_cycle_ns < MIN_CYCLE_TIME_NS => {
+            Err(SyncConfigError::DcInvalidSyncCycleTime)
+        }
+        SyncMode::FreeRun if inputs.has_outputs && !inputs.sm2_three_buffer => {
+            Err(SyncConfigError::FreeRunNeeds3BufferMode)
+        }
+        _ => Ok(mode),
+    }
+}
+
+/// What a monitor update found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SyncVerdict {
+    /// Nothing new.
+    Ok,
+    /// The sync error counter just exceeded the limit.
+    SyncError,
+}
+
+/// The 0x1C32/0x1C33 values and the cycle monitor.
+#[derive(Debug, Clone)]
+pub struct SyncMonitor {
+    mode: SyncMode,
+    requested: Option<SyncMode>,
+    requested_inputs: Option<SyncMode>,
+    cycle_time_ns: u32,
+    sync0_cycle_ns: u32,
+    sm_event_missed: u16,
+    cycle_too_small: u16,
+    shift_too_short: u16,
+    error_counter: u16,
+    error_limit: u16,
+    sync_error: bool,
+    armed: bool,
+    last_sm2_ns: Option<u64>,
+    edges_at_sm2: Option<u32>,
+    baseline: Sync0Counts,
+    arm_edges: u32,
+    timeout_reported_ns: u64,
+}
+
+impl Default for SyncMonitor {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SyncMonitor {
+    /// SM-synchronous by default, nothing requested, counters 0.
+    pub const fn new() -> Self {
+        Self {
+            mode: SyncMode::SmSync,
+            requested: None,
+            requested_inputs: None,
+            cycle_time_ns: 0,
+            sync0_cycle_ns: 0,
+            sm_event_missed: 0,
+            cycle_too_small: 0,
+            shift_too_short: 0,
+            error_counter: 0,
+            error_limit: DEFAULT_SYNC_ERROR_LIMIT,
+            sync_error: false,
+            armed: false,
+            last_sm2_ns: None,
+            edges_at_sm2: None,
+            baseline: Sync0Counts {
+                edges: 0,
+                without_outputs: 0,
+                last_edge_lo: 0,
+            },
+            arm_edges: 0,
+            timeout_reported_ns: 0,
+        }
+    }
+
+    /// The mode in effect (decided at PREOP -> SAFEOP).
+    pub const fn mode(&self) -> SyncMode {
+        self.mode
+    }
+
+    /// The 0x1C32:01 value: the requested mode in PREOP, the mode in effect after.
+    pub fn output_mode_value(&self) -> u16 {
+        self.requested.unwrap_or(self.mode).output_value()
+    }
+
+    /// The 0x1C33:01 value.
+    pub fn input_mode_value(&self) -> u16 {
+        self.requested_inputs
+            .unwrap_or(self.requested.unwrap_or(self.mode))
+            .input_value()
+    }
+
+    /// SDO write of 0x1C32:01 / 0x1C33:01 (`inputs` for 0x1C33); 0x06090030 for an
+    /// unsupported mode.
+    pub fn request_mode(&mut self, inputs: bool, value: u16) -> Result<(), SdoAbortCode> {
+        let parse = if inputs {
+            SyncMode::from_input_value(value)
+        } else {
+            SyncMode::from_output_value(value)
+        };
+        let mode = parse.map_err(|_| SdoAbortCode::ValueRangeExceeded)?;
+        if inputs {
+            self.requested_inputs = Some(mode);
+        } else {
+            self.requested = Some(mode);
+        }
+        Ok(())
+    }
+
+    /// The mode requests of this PREOP session (for [`SyncInputs`]).
+    pub const fn requests(&self) -> (Option<SyncMode>, Option<SyncMode>) {
+        (self.requested, self.requested_inputs)
+    }
+
+    /// Entering PREOP from INIT: forget the requests of the previous session and reset the
+    /// counters.
+    pub fn reset(&mut self) {
+        let limit = self.error_limit;
+        let cycle = self.cycle_time_ns;
+        *self = Self::new();
+        self.error_limit = limit;
+        self.cycle_time_ns = cycle;
+    }
+
+    /// PREOP -> SAFEOP accepted with `mode` and the ESC's SYNC0 cycle: counters reset.
+    pub fn start(&mut self, mode: SyncMode, sync0_cycle_ns: u32) {
+        self.mode = mode;
+        self.sync0_cycle_ns = sync0_cycle_ns;
+        if mode == SyncMode::DcSync0 {
+            self.cycle_time_ns = sync0_cycle_ns;
+        }
+        self.clear_counters();
+        self.armed = false;
+    }
+
+    /// Clears the counters and the sync error (0x1C32:08 = 2, a new session).
+    pub fn clear_counters(&mut self) {
+        self.sm_event_missed = 0;
+        self.cycle_too_small = 0;
+        self.shift_too_short = 0;
+        self.error_counter = 0;
+        self.sync_error = false;
+        self.last_sm2_ns = None;
+        self.edges_at_sm2 = None;
+    }
+
+    /// Leaving OP: the monitor waits for the first SM2 event in OP again.
+    pub fn disarm(&mut self) {
+        self.armed = false;
+    }
+
+    /// True once the first SM2 event in OP arrived.
+    pub const fn armed(&self) -> bool {
+        self.armed
+    }
+
+    /// The cycle time (0x1C32:02, ns).
+    pub const fn cycle_time_ns(&self) -> u32 {
+        self.cycle_time_ns
+    }
+
+    /// SDO write of 0x1C32:02 (0 = unknown; otherwise at least the minimum cycle time,
+    /// 0x06090032 ValueTooLow).
+    pub fn set_cycle_time_ns(&mut self, ns: u32) -> Result<(), SdoAbortCode> {
+        if ns != 0 && ns < MIN_CYCLE_TIME_NS {
+            return Err(SdoAbortCode::ValueTooLow);
+        }
+        self.cycle_time_ns = ns;
+        Ok(())
+    }
+
+    /// The SYNC0 cycle read at PREOP -> SAFEOP (0x1C32:0A).
+    pub const fn sync0_cycle_ns(&self) -> u32 {
+        self.sync0_cycle_ns
+    }
+
+    /// 0x1C32:0B SM event missed counter.
+    pub const fn sm_event_missed(&self) -> u16 {
+        self.sm_event_missed
+    }
+
+    /// 0x1C32:0C cycle time too small counter.
+    pub const fn cycle_too_small(&self) -> u16 {
+        self.cycle_too_small
+    }
+
+    /// 0x1C32:0D shift time too short counter.
+    pub const fn shift_too_short(&self) -> u16 {
+        self.shift_too_short
+    }
+
+    /// 0x1C32:20 sync error.
+    pub const fn sync_error(&self) -> bool {
+        self.sync_error
+    }
+
+    /// The internal sync error counter.
+    pub const fn error_counter(&self) -> u16 {
+        self.error_counter
+    }
+
+    /// 0x10F1:02 Sync Error Counter Limit.
+    pub const fn error_limit(&self) -> u16 {
+        self.error_limit
+    }
+
+    /// Sets 0x10F1:02.
+    pub fn set_error_limit(&mut self, limit: u16) {
+        self.error_limit = limit;
+    }
+
+    fn missed(&mut self, n: u32) -> SyncVerdict {
+        if n == 0 {
+            return SyncVerdict::Ok;
+        }
+        let n16 = u16::try_from(n).unwrap_or(u16::MAX);
+        self.sm_event_missed = self.sm_event_missed.saturating_add(n16);
+        self.error_counter = self.error_counter.saturating_add(n16.saturating_mul(3));
+        if self.error_counter > self.error_limit && !self.sync_error {
+            self.sync_error = true;
+            return SyncVerdict::SyncError;
+        }
+        SyncVerdict::Ok
+    }
+
+    fn good(&mut self, n: u32) {
+        let n16 = u16::try_from(n).unwrap_or(u16::MAX);
+        self.error_counter = self.error_counter.saturating_sub(n16);
+    }
+
+    /// An SM2 event (fresh outputs) at `now_ns`, `in_op` while the ESM is in OP; `sync0`
+    /// is the DAC task's SYNC0 bookkeeping at this moment.
+    pub fn on_sm2_event(&mut self, now_ns: u64, in_op: bool, sync0: Sync0Counts) -> SyncVerdict {
+        let previous = self.last_sm2_ns.replace(now_ns);
+        let edges_before = self.edges_at_sm2.replace(sync0.edges);
+        if !in_op {
+            return SyncVerdict::Ok;
+        }
+        if !self.armed {
+            self.armed = true;
+            self.baseline = sync0;
+            self.arm_edges = sync0.edges;
+            return SyncVerdict::Ok;
+        }
+        match self.mode {
+            SyncMode::DcSync0 => {
+                if edges_before == Some(sync0.edges) {
+                    self.cycle_too_small = self.cycle_too_small.saturating_add(1);
+                }
+                if self.sync0_cycle_ns != 0 && sync0.edges != self.arm_edges {
+                    let next = sync0.last_edge_lo.wrapping_add(self.sync0_cycle_ns);
+                    let remaining = next.wrapping_sub(now_ns as u32);
+                    if remaining < OUTPUT_CALC_COPY_NS {
+                        self.shift_too_short = self.shift_too_short.saturating_add(1);
+                    }
+                }
+            }
+            SyncMode::SmSync => {
+                if let Some(prev) = previous {
+                    if now_ns.saturating_sub(prev) < u64::from(MIN_CYCLE_TIME_NS) {
+                        self.cycle_too_small = self.cycle_too_small.saturating_add(1);
+                    }
+                }
+                self.good(1);
+            }
+            SyncMode::FreeRun => {}
+        }
+        SyncVerdict::Ok
+    }
+
+    /// The DAC task's SYNC0 bookkeeping (read from the output stage): in DC mode, once
+    /// armed, every edge without fresh outputs is a missed SM event, every other edge a good
+    /// cycle.
+    pub fn on_sync0_counts(&mut self, sync0: Sync0Counts) -> SyncVerdict {
+        let edges = sync0.edges.wrapping_sub(self.baseline.edges);
+        let without = sync0
+            .without_outputs
+            .wrapping_sub(self.baseline.without_outputs)
+            .min(edges);
+        self.baseline = sync0;
+        if self.mode != SyncMode::DcSync0 || !self.armed {
+            return SyncVerdict::Ok;
+        }
+        self.good(edges - without);
+        self.missed(without)
+    }
+
+    /// Background check at `now_ns` (SM-synchronous mode: missing SM2 events).
+    pub fn poll(&mut self, now_ns: u64) -> SyncVerdict {
+        if self.mode != SyncMode::SmSync || !self.armed || self.cycle_time_ns == 0 {
+            return SyncVerdict::Ok;
+        }
+        let Some(last) = self.last_sm2_ns else {
+            return SyncVerdict::Ok;
+        };
+        let cycle = u64::from(self.cycle_time_ns);
+        let since = last.max(self.timeout_reported_ns);
+        if now_ns.saturating_sub(since) > cycle + cycle / 2 {
+            self.timeout_reported_ns = since.saturating_add(cycle);
+            return self.missed(1);
+        }
+        SyncVerdict::Ok
+    }
+
+    /// SDO upload of 0x1C32 (`inputs == false`) or 0x1C33 subindex `sub`.
+    pub fn read(&self, inputs: bool, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        let (calc_copy, delay) = if inputs {
+            (INPUT_CALC_COPY_NS, 0)
+        } else {
+            (OUTPUT_CALC_COPY_NS, OUTPUT_DELAY_NS)
+        };
+        let mut tmp = [0u8; 4];
+        let bytes: &[u8] = match sub {
+            0 => {
+                tmp[0] = 0x20;
+                &tmp[..1]
+            }
+            1 => {
+                let v = if inputs {
+                    self.input_mode_value()
+                } else {
+                    self.output_mode_value()
+                };
+                tmp[..2].copy_from_slice(&v.to_le_bytes());
+                &tmp[..2]
+            }
+            2 => put_u32(&mut tmp, self.cycle_time_ns),
+            3 => put_u32(&mut tmp, 0),
+            4 => {
+                tmp[..2].copy_from_slice(&SUPPORTED_MODES.to_le_bytes());
+                &tmp[..2]
+            }
+            5 => put_u32(&mut tmp, MIN_CYCLE_TIME_NS),
+            6 => put_u32(&mut tmp, calc_copy),
+            7 => put_u32(&mut tmp, 0),
+            8 => {
+                tmp[..2].copy_from_slice(&0u16.to_le_bytes());
+                &tmp[..2]
+            }
+            9 => put_u32(&mut tmp, delay),
+            0x0A => put_u32(&mut tmp, self.sync0_cycle_ns),
+            0x0B => put_u16(&mut tmp, self.sm_event_missed),
+            0x0C => put_u16(&mut tmp, self.cycle_too_small),
+            0x0D => put_u16(&mut tmp, self.shift_too_short),
+            0x0E => put_u16(&mut tmp, 0),
+            0x0F..=0x12 => put_u32(&mut tmp, 0),
+            0x20 => {
+                tmp[0] = u8::from(self.sync_error);
+                &tmp[..1]
+            }
+            _ => return Err(SdoAbortCode::SubindexDoesNotExist),
+        };
+        let out = buf
+            .get_mut(..bytes.len())
+            .ok_or(SdoAbortCode::OutOfMemory)?;
+        out.copy_from_slice(bytes);
+        Ok(bytes.len())
+    }
+
+    /// SDO download to 0x1C32/0x1C33: sub 1 (sync mode), sub 2 (cycle time), sub 8 (get
+    /// cycle time: 0 = nothing, 1 = measure, 2 = reset the counters); anything else is
+    /// read-only (0x06010002). State rules come from the entry access bits.
+    pub fn write(&mut self, inputs: bool, sub: u8, data: &[u8]) -> Result<(), SdoAbortCode> {
+        match sub {
+            1 => self.request_mode(inputs, le_u16(data)?),
+            2 => self.set_cycle_time_ns(le_u32(data)?),
+            8 => match le_u16(data)? {
+                0 | 1 => Ok(()),
+                2 => {
+                    self.clear_counters();
+                    Ok(())
+                }
+                _ => Err(SdoAbortCode::ValueRangeExceeded),
+            },
+            _ => Err(SdoAbortCode::WriteOfReadOnly),
+        }
+    }
+}
+
+fn put_u32(tmp: &mut [u8; 4], v: u32) -> &[u8] {
+    *tmp = v.to_le_bytes();
+    &tmp[..]
+}
+
+fn put_u16(tmp: &mut [u8; 4], v: u16) -> &[u8] {
+    tmp[..2].copy_from_slice(&v.to_le_bytes());
+    &tmp[..2]
+}
+
+/// A little-endian u16 of exactly two bytes (0x06070012/13 otherwise).
+pub(crate) fn le_u16(data: &[u8]) -> Result<u16, SdoAbortCode> {
+    match data {
+        [a, b] => Ok(u16::from_le_bytes([*a, *b])),
+        _ if data.len() < 2 => Err(SdoAbortCode::LengthTooLow),
+        _ => Err(SdoAbortCode::LengthTooHigh),
+    }
+}
+
+/// A little-endian u32 of exactly four bytes (0x06070012/13 otherwise).
+pub(crate) fn le_u32(data: &[u8]) -> Result<u32, SdoAbortCode> {
+    match data {
+        [a, b, c, d] => Ok(u32::from_le_bytes([*a, *b, *c, *d])),
+        _ if data.len() < 4 => Err(SdoAbortCode::LengthTooLow),
+        _ => Err(SdoAbortCode::LengthTooHigh),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dc(cycle: u32) -> SyncInputs {
+        SyncInputs {
+            dc_activation: DC_CYCLIC_OP | DC_SYNC0,
+            sync0_cycle_ns: cycle,
+            has_outputs: true,
+            sm2_three_buffer: true,
+            ..SyncInputs::default()
+        }
+    }
+
+    #[test]
+    fn requested_dc_needs_sync0_active() {
+        let mut i = dc(100_000);
+        i.requested = Some(SyncMode::DcSync0);
+        assert_eq!(check_sync(&i), Ok(SyncMode::DcSync0));
+        i.dc_activation = 0;
+        assert_eq!(
+            check_sync(&i),
+            Err(SyncConfigError::InvalidDcSyncConfiguration)
+        );
+        i.dc_activation = DC_SYNC0; // SYNC0 bit without cyclic operation
+        assert_eq!(
+            check_sync(&i),
+            Err(SyncConfigError::InvalidDcSyncConfiguration)
+        );
+        assert_eq!(
+            SyncConfigError::InvalidDcSyncConfiguration.al_status_code(),
+            0x0030
+        );
+    }
+
+    #[test]
+    fn requested_sm_sync_with_sync0_active_is_refused() {
+        let mut i = dc(100_000);
+        i.requested = Some(SyncMode::SmSync);
+        assert_eq!(
+            check_sync(&i),
+            Err(SyncConfigError::InvalidDcSyncConfiguration)
+        );
+        i.dc_activation = 0;
+        assert_eq!(check_sync(&i), Ok(SyncMode::SmSync));
+    }
+
+    #[test]
+    fn sync0_cycle_below_minimum_is_refused() {
+        let mut i = dc(MIN_CYCLE_TIME_NS - 1);
+        assert_eq!(check_sync(&i), Err(SyncConfigError::DcInvalidSyncCycleTime));
+        assert_eq!(
+            SyncConfigError::DcInvalidSyncCycleTime.al_status_code(),
+            0x0035
+        );
+        i.sync0_cycle_ns = 0; // single shot
+        assert_eq!(check_sync(&i), Err(SyncConfigError::DcInvalidSyncCycleTime));
+        i.sync0_cycle_ns = MIN_CYCLE_TIME_NS;
+        assert_eq!(check_sync(&i), Ok(SyncMode::DcSync0));
+    }
+
+    #[test]
+    fn unrequested_mode_follows_the_esc() {
+        assert_eq!(check_sync(&dc(1_000_000)), Ok(SyncMode::DcSync0));
+        let mut i = dc(0);
+        i.dc_activation = 0;
+        assert_eq!(check_sync(&i), Ok(SyncMode::SmSync));
+        i.has_outputs = false;
+        assert_eq!(check_sync(&i), Ok(SyncMode::FreeRun));
+        i.dc_activation = DC_SYNC0;
+        assert_eq!(
+            check_sync(&i),
+            Err(SyncConfigError::InvalidDcSyncConfiguration)
+        );
+    }
+
+    #[test]
+    fn free_run_needs_three_buffers_and_sync1_is_not_offered() {
+        let mut i = dc(0);
+        i.dc_activation = 0;
+        i.requested = Some(SyncMode::FreeRun);
+        i.sm2_three_buffer = false;
+        assert_eq!(
+            check_sync(&i),
+            Err(SyncConfigError::FreeRunNeeds3BufferMode)
+        );
+        assert_eq!(
+            SyncConfigError::FreeRunNeeds3BufferMode.al_status_code(),
+            0x0029
+        );
+        i.sm2_three_buffer = true;
+        assert_eq!(check_sync(&i), Ok(SyncMode::FreeRun));
+        let mut j = dc(100_000);
+        j.dc_activation |= DC_SYNC1;
+        assert_eq!(check_sync(&j), Err(SyncConfigError::SyncModeNotSupported));
+        assert_eq!(
+            SyncMode::from_output_value(3),
+            Err(SyncConfigError::SyncModeNotSupported)
+        );
+    }
+
+    #[test]
+    fn input_mode_must_agree_on_dc() {
+        let mut i = dc(100_000);
+        i.requested_inputs = Some(SyncMode::SmSync);
+        assert_eq!(
+            check_sync(&i),
+            Err(SyncConfigError::InvalidDcSyncConfiguration)
+        );
+        i.requested_inputs = Some(SyncMode::DcSync0);
+        assert_eq!(check_sync(&i), Ok(SyncMode::DcSync0));
+    }
+
+    /// A fake DAC task: SYNC0 edges with or without fresh outputs.
+    #[derive(Default)]
+    struct Edges(Sync0Counts);
+
+    impl Edges {
+        fn edge(&mut self, t: u64, fresh: bool) -> Sync0Counts {
+            self.0.edges += 1;
+            self.0.without_outputs += u32::from(!fresh);
+            self.0.last_edge_lo = t as u32;
+            self.0
+        }
+    }
+
+    #[test]
+    fn dc_missed_events_raise_sync_error_after_the_limit() {
+        let mut m = SyncMonitor::new();
+        let mut e = Edges::default();
+        m.start(SyncMode::DcSync0, 100_000);
+        // Before the first SM2 event in OP nothing counts.
+        assert_eq!(m.on_sync0_counts(e.edge(0, false)), SyncVerdict::Ok);
+        assert_eq!(m.sm_event_missed(), 0);
+        m.on_sm2_event(10_000, true, e.0);
+        assert_eq!(m.on_sync0_counts(e.edge(100_000, true)), SyncVerdict::Ok);
+        // Limit 4: first miss -> 3, second -> 6 > 4.
+        assert_eq!(m.on_sync0_counts(e.edge(200_000, false)), SyncVerdict::Ok);
+        assert_eq!(m.error_counter(), 3);
+        assert_eq!(
+            m.on_sync0_counts(e.edge(300_000, false)),
+            SyncVerdict::SyncError
+        );
+        assert!(m.sync_error());
+        assert_eq!(m.sm_event_missed(), 2);
+        // Reported once; several edges at once count each.
+        e.edge(400_000, false);
+        assert_eq!(m.on_sync0_counts(e.edge(500_000, false)), SyncVerdict::Ok);
+        assert_eq!(m.sm_event_missed(), 4);
+        let mut b = [0u8; 4];
+        assert_eq!(m.read(false, 0x20, &mut b), Ok(1));
+        assert_eq!(b[0], 1);
+        assert_eq!(m.read(false, 0x0B, &mut b), Ok(2));
+        assert_eq!(u16::from_le_bytes([b[0], b[1]]), 4);
+    }
+
+    #[test]
+    fn good_cycles_decrement_the_error_counter() {
+        let mut m = SyncMonitor::new();
+        let mut e = Edges::default();
+        m.start(SyncMode::DcSync0, 100_000);
+        m.on_sm2_event(0, true, e.0);
+        m.on_sync0_counts(e.edge(100_000, false)); // 3
+        for t in 2..5u64 {
+            m.on_sm2_event(t * 100_000 - 50_000, true, e.0);
+            m.on_sync0_counts(e.edge(t * 100_000, true));
+        }
+        assert_eq!(m.error_counter(), 0);
+        assert!(!m.sync_error());
+    }
+
+    #[test]
+    fn dc_cycle_too_small_and_shift_too_short() {
+        let mut m = SyncMonitor::new();
+        let mut e = Edges::default();
+        m.start(SyncMode::DcSync0, 100_000);
+        m.on_sm2_event(0, true, e.0);
+        m.on_sync0_counts(e.edge(50_000, true));
+        m.on_sm2_event(60_000, true, e.0);
+        m.on_sm2_event(70_000, true, e.0); // second SM2 event in one cycle
+        assert_eq!(m.cycle_too_small(), 1);
+        m.on_sync0_counts(e.edge(150_000, true));
+        m.on_sm2_event(249_000, true, e.0); // 1 us before the next edge < calc+copy
+        assert_eq!(m.shift_too_short(), 1);
+        assert_eq!(m.cycle_too_small(), 1);
+    }
+
+    #[test]
+    fn sm_sync_timeout_counts_missed_events() {
+        let mut m = SyncMonitor::new();
+        m.set_cycle_time_ns(1_000_000).unwrap();
+        m.start(SyncMode::SmSync, 0);
+        let c = Sync0Counts::default();
+        m.on_sm2_event(0, true, c);
+        m.on_sm2_event(1_000_000, true, c);
+        assert_eq!(m.poll(2_000_000), SyncVerdict::Ok);
+        assert_eq!(m.poll(2_600_000), SyncVerdict::Ok);
+        assert_eq!(m.sm_event_missed(), 1);
+        assert_eq!(m.poll(2_700_000), SyncVerdict::Ok, "one miss per cycle");
+        assert_eq!(m.sm_event_missed(), 1);
+        assert_eq!(m.poll(3_600_000), SyncVerdict::SyncError);
+        // Events too close together.
+        m.on_sm2_event(3_610_000, true, c);
+        m.on_sm2_event(3_620_000, true, c);
+        assert_eq!(m.cycle_too_small(), 1);
+    }
+
+    #[test]
+    fn object_values_and_writes() {
+        let mut m = SyncMonitor::new();
+        let mut b = [0u8; 8];
+        assert_eq!(m.read(false, 4, &mut b), Ok(2));
+        assert_eq!(b[..2], [0x07, 0x00]);
+        assert_eq!(m.read(false, 5, &mut b), Ok(4));
+        assert_eq!(
+            u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            MIN_CYCLE_TIME_NS
+        );
+        assert_eq!(m.read(true, 1, &mut b), Ok(2));
+        assert_eq!(b[..2], [0x22, 0x00]);
+        assert_eq!(m.write(false, 1, &[2, 0]), Ok(()));
+        assert_eq!(m.output_mode_value(), 2);
+        assert_eq!(m.input_mode_value(), 2);
+        assert_eq!(
+            m.write(false, 1, &[3, 0]),
+            Err(SdoAbortCode::ValueRangeExceeded)
+        );
+        assert_eq!(m.write(false, 1, &[2]), Err(SdoAbortCode::LengthTooLow));
+        assert_eq!(
+            m.write(false, 2, &1000u32.to_le_bytes()),
+            Err(SdoAbortCode::ValueTooLow)
+        );
+        assert_eq!(
+            m.write(false, 5, &[0; 4]),
+            Err(SdoAbortCode::WriteOfReadOnly)
+        );
+        assert_eq!(
+            m.read(false, 0x13, &mut b),
+            Err(SdoAbortCode::SubindexDoesNotExist)
+        );
+        assert_eq!(
+            m.read(false, 2, &mut b[..3]),
+            Err(SdoAbortCode::OutOfMemory)
+        );
+        m.reset();
+        assert_eq!(m.requests(), (None, None));
+    }
+}
