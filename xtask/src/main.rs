@@ -3,6 +3,7 @@
 //! Each command lives in its own module; `main` only parses arguments and dispatches.
 
 mod setup;
+mod sim;
 mod test;
 mod util;
 
@@ -25,6 +26,9 @@ enum Command {
     Test(test::Args),
     /// Install what the project needs on this machine (idempotent).
     Setup,
+    /// Run the virtual board with a real EtherCAT master (in process, or on a network
+    /// interface with --iface): ESM walk, SDO identity, AI -> AO loop-back figures.
+    Sim(sim::Args),
 }
 
 fn main() -> ExitCode {
@@ -32,6 +36,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Test(args) => test::run(&args),
         Command::Setup => setup::all(),
+        Command::Sim(args) => sim::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
