@@ -1,9 +1,513 @@
 //! The slave application: everything between the ESC registers, the converters and the
 //! CoE core that does not depend on the MCU.
+//!
+//! # Entry points and priorities
+//!
+//! | Caller (priority)          | Call                                   | State touched                   |
+//! |----------------------------|----------------------------------------|---------------------------------|
+//! | SYNC0 / DAC task (highest) | [`DacLatch::on_sync0`], [`DacLatch::apply_now`], [`DacLatch::preload`] | its `DacLatch` (local), `&OutputStage` (atomics) |
+//! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`]               | `SlaveApp` (local), the ESC, `&OutputStage` |
+//! | background / idle          | [`SlaveApp::poll`]                     | same as the PDI task (call it from that task, or lock) |
+//! | sampler task (lowest)      | [`sampler::SampleProducer::push`]      | its producer half (local)       |
+//!
+//! The three tasks share only `&OutputStage` (lock-free atomics) and the two halves of a
+//! [`sampler::SampleRing`] (heapless SPSC); nothing needs a lock. The PDI task drains the
+//! sample consumer into [`SlaveApp::sampler_mut`] before calling in (or the harness calls
+//! [`SlaveApp::on_samples`]). When [`PdiOutcome::apply_outputs`] is set, the PDI task pends
+//! the DAC task, which calls [`DacLatch::apply_now`] (free run, SM-synchronous, faults). In
+//! DC mode the DAC task may [`DacLatch::preload`] the input registers when pended and only
+//! pulses LDAC at SYNC0. After each SYNC0 edge the PDI task's [`SlaveApp::poll`] should run
+//! (pend it) so the inputs of the cycle reach SM3 and the cycle monitor sees the edge.
+//!
+//! # A host harness (the virtual board) in a few lines
+//!
+//! ```ignore
+//! let stage = OutputStage::new();
+//! let mut latch = DacLatch::new();
+//! let mut app = SlaveApp::new(&OD, config, process_data);
+//! app.start(&mut esc)?;
+//! // IRQ line asserted:
+//! if app.on_pdi_irq(&mut esc, &stage, now_ns)?.apply_outputs {
+//!     dac.execute(latch.apply_now(&stage));
+//! }
+//! // SYNC0 edge:
+//! dac.execute(latch.on_sync0(&stage, edge_ns));
+//! app.poll(&mut esc, &stage, now_ns)?;
+//! ```
 
+pub mod diagnostics;
 pub mod esc;
 pub mod esm;
+pub mod mailbox;
+pub mod objects;
 pub mod outputs;
+pub mod process_data;
 pub mod sampler;
 pub mod scaling;
 pub mod sync;
+
+#[cfg(test)]
+mod tests;
+
+use coe_core::od::ObjectDictionary;
+use coe_core::AlState;
+use diagnostics::{
+    EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
+};
+use esc::{event, reg, EscExt, EscPort, SmConfig, SmExpect};
+use esm::{code, Decision, Esm};
+use mailbox::MailboxLink;
+use objects::{AppData, RxSink, TxSource};
+use outputs::OutputStage;
+pub use outputs::{DacAction, DacLatch, DacPair};
+use process_data::ProcessData;
+use sampler::{Sample, Sampler};
+use sync::{check_sync, SyncInputs, SyncMode, SyncVerdict};
+
+/// What the device description fixes for the application.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AppConfig {
+    /// SM0..SM3 as the device description (SII/ESI) gives them.
+    pub sm: [SmExpect; 4],
+    /// Explicit device ID for the ID request (`None`: not supported).
+    pub device_id: Option<u16>,
+}
+
+/// What the PDI task must do after a call.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PdiOutcome {
+    /// Pend the DAC task: fresh outputs (free run, SM-synchronous) or fault values to apply
+    /// now ([`DacLatch::apply_now`]).
+    pub apply_outputs: bool,
+}
+
+/// AL event bits always enabled.
+const BASE_EVENTS: u32 = event::AL_CONTROL | event::SM_ACTIVATION | event::WATCHDOG;
+
+/// The slave application (PDI side).
+pub struct SlaveApp {
+    esm: Esm,
+    mailbox: MailboxLink,
+    data: AppData,
+    config: AppConfig,
+    mask: Option<u32>,
+    sync0_seen: u32,
+}
+
+impl SlaveApp {
+    /// An application in INIT over the dictionary `od` with the default PDO configuration
+    /// `pd`.
+    pub fn new(od: &'static ObjectDictionary, config: AppConfig, pd: ProcessData) -> Self {
+        Self {
+            esm: Esm::new(config.device_id),
+            mailbox: MailboxLink::new(),
+            data: AppData::new(od, pd),
+            config,
+            mask: None,
+            sync0_seen: 0,
+        }
+    }
+
+    /// The ESM state.
+    pub fn state(&self) -> AlState {
+        self.esm.state()
+    }
+
+    /// The ESM (status word, error, code).
+    pub fn esm(&self) -> &Esm {
+        &self.esm
+    }
+
+    /// The application data (object values, outputs, sync monitor, PDO configuration).
+    pub fn data(&self) -> &AppData {
+        &self.data
+    }
+
+    /// The mailbox link.
+    pub fn mailbox(&self) -> &MailboxLink {
+        &self.mailbox
+    }
+
+    /// The sampler (the PDI task drains the sample ring into it).
+    pub fn sampler_mut(&mut self) -> &mut Sampler {
+        &mut self.data.sampler
+    }
+
+    /// Adds samples directly (harnesses without a ring).
+    pub fn on_samples(&mut self, samples: &[Sample]) {
+        self.data.sampler.add_all(samples);
+    }
+
+    /// Power-up: AL status INIT without error, event mask.
+    pub fn start<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+        self.write_status(esc)?;
+        self.update_mask(esc)
+    }
+
+    /// The ESC IRQ: reads the AL event bits once and serves AL control, watchdog, outputs
+    /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1).
+    pub fn on_pdi_irq<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> Result<PdiOutcome, E::Error> {
+        let events = esc.events()?;
+        let mut out = PdiOutcome::default();
+        if events & event::AL_CONTROL != 0 {
+            self.al_control(esc, stage, &mut out)?;
+        }
+        if events & event::WATCHDOG != 0 {
+            self.watchdog(esc, stage, &mut out)?;
+        }
+        if events & event::sm(2) != 0 {
+            self.outputs(esc, stage, now_ns, &mut out)?;
+        }
+        let activation = events & event::SM_ACTIVATION != 0;
+        if activation {
+            // Reading the activate registers clears the event.
+            let mut all = [0u8; 32];
+            esc.read(reg::SM_BASE, &mut all)?;
+        }
+        if activation || events & (event::sm(0) | event::sm(1)) != 0 {
+            self.serve_mailbox(esc, stage, now_ns, activation, &mut out)?;
+        }
+        self.update_mask(esc)?;
+        Ok(out)
+    }
+
+    /// Background work: the cycle monitor (SYNC0 edges, SM-synchronous timeouts), the
+    /// inputs outside SM-synchronous cycles, and the mailbox (waiting reply, SDO
+    /// Information fragments, Emergencies, segmented-transfer timeouts).
+    pub fn poll<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> Result<PdiOutcome, E::Error> {
+        let mut out = PdiOutcome::default();
+        let state = self.esm.state();
+        let counts = stage.sync0_counts();
+        let new_edge = counts.edges != self.sync0_seen;
+        self.sync0_seen = counts.edges;
+        let mut verdict = self.data.sync.on_sync0_counts(counts);
+        if verdict == SyncVerdict::Ok {
+            verdict = self.data.sync.poll(now_ns);
+        }
+        if verdict == SyncVerdict::SyncError {
+            self.sync_error(esc, stage, &mut out)?;
+        }
+        if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
+            let mode = self.data.sync.mode();
+            let free = mode == SyncMode::FreeRun || !self.data.sync.armed();
+            if free || (mode == SyncMode::DcSync0 && new_edge) {
+                self.write_inputs(esc)?;
+            }
+        }
+        if state != AlState::Init {
+            self.serve_mailbox(esc, stage, now_ns, false, &mut out)?;
+        }
+        self.update_mask(esc)?;
+        Ok(out)
+    }
+
+    // ------------------------------------------------------------------ ESM
+
+    fn write_status<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+        esc.write_al_status(self.esm.status_word(), self.esm.status_code_word())
+    }
+
+    fn update_mask<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+        let mut mask = BASE_EVENTS;
+        let state = self.esm.state();
+        if state != AlState::Init {
+            mask |= self.mailbox.event_mask();
+        }
+        if matches!(state, AlState::SafeOp | AlState::Op) && self.data.pd.rx_layout().byte_len() > 0
+        {
+            mask |= event::sm(2);
+        }
+        if self.mask != Some(mask) {
+            esc.write(reg::AL_EVENT_MASK, &mask.to_le_bytes())?;
+            self.mask = Some(mask);
+        }
+        Ok(())
+    }
+
+    fn al_control<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        out: &mut PdiOutcome,
+    ) -> Result<(), E::Error> {
+        let control = esc.read_u16(reg::AL_CONTROL)?;
+        let had_error = self.esm.error();
+        let decision = self.esm.on_control(control);
+        if had_error && !self.esm.error() {
+            if let Some(e) = self.data.diag.clear(ERR_COMMUNICATION) {
+                self.mailbox.queue_emergency(e);
+            }
+        }
+        if let Decision::Change { from, to } = decision {
+            match self.transition(esc, stage, from, to, out)? {
+                Ok(()) => self.esm.complete(to),
+                Err((state, code)) => self.esm.fail(state, code),
+            }
+            self.mailbox.on_state_change(from, self.esm.state());
+        }
+        self.write_status(esc)
+    }
+
+    /// Checks and actions of `from -> to`; `Err((state, code))` refuses it.
+    fn transition<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        from: AlState,
+        to: AlState,
+        out: &mut PdiOutcome,
+    ) -> Result<Result<(), (AlState, u16)>, E::Error> {
+        if from == AlState::Op {
+            // Leaving OP: safe outputs at once, stale outputs never come back.
+            self.data.outputs.enter_fault(stage);
+            self.data.sync.disarm();
+            out.apply_outputs = true;
+        }
+        match (from, to) {
+            (AlState::Init, AlState::PreOp) => {
+                for n in 0..2u8 {
+                    let sm = esc.sm(n)?;
+                    let expect = self.config.sm.get(usize::from(n)).copied();
+                    if !expect.is_some_and(|e| mailbox_sm_ok(&sm, &e)) {
+                        return Ok(Err((AlState::Init, code::INVALID_MAILBOX_CONFIGURATION)));
+                    }
+                }
+                self.data.sync.reset();
+            }
+            (AlState::PreOp, AlState::SafeOp) => {
+                if let Err(code) = self.prepare_safeop(esc, stage)? {
+                    return Ok(Err((AlState::PreOp, code)));
+                }
+            }
+            (AlState::SafeOp, AlState::Op) => {
+                // Accepted before the first outputs arrive; the outputs stay safe until
+                // fresh process data come in OP.
+                self.data.sync.disarm();
+            }
+            _ => {}
+        }
+        if matches!(to, AlState::Init | AlState::PreOp) {
+            stage.set_dc_mode(false);
+        }
+        Ok(Ok(()))
+    }
+
+    fn prepare_safeop<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+    ) -> Result<Result<(), u16>, E::Error> {
+        let sm2 = esc.sm(2)?;
+        let sm3 = esc.sm(3)?;
+        let dc_activation = esc.read_u8(reg::DC_ACTIVATION)?;
+        let sync0_cycle_ns = esc.read_u32(reg::DC_SYNC0_CYCLE)?;
+        let (requested, requested_inputs) = self.data.sync.requests();
+        let inputs = SyncInputs {
+            requested,
+            requested_inputs,
+            dc_activation,
+            sync0_cycle_ns,
+            has_outputs: self.data.pd.output_len() > 0,
+            sm2_three_buffer: sm2.three_buffer(),
+        };
+        let mode = match check_sync(&inputs) {
+            Ok(mode) => mode,
+            Err(e) => return Ok(Err(e.al_status_code())),
+        };
+        let [_, _, expect2, expect3] = self.config.sm;
+        let od = self.data.od();
+        if let Err(code) = self.data.pd.prepare(od, &sm2, &sm3, &expect2, &expect3) {
+            return Ok(Err(code));
+        }
+        self.data.sync.start(mode, sync0_cycle_ns);
+        stage.set_dc_mode(mode == SyncMode::DcSync0);
+        // Inputs are valid in SAFEOP.
+        self.write_inputs(esc)?;
+        Ok(Ok(()))
+    }
+
+    // ------------------------------------------------------------ faults
+
+    fn watchdog<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        out: &mut PdiOutcome,
+    ) -> Result<(), E::Error> {
+        let status = esc.read_u16(reg::WD_STATUS_PD)?;
+        if status & 1 == 0 && self.esm.state() == AlState::Op {
+            self.local_error(esc, stage, code::SM_WATCHDOG, out)?;
+            let e = self
+                .data
+                .diag
+                .raise(ERR_COMMUNICATION, EMCY_WATCHDOG, [0; 5]);
+            self.mailbox.queue_emergency(e);
+        }
+        Ok(())
+    }
+
+    fn sync_error<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        out: &mut PdiOutcome,
+    ) -> Result<(), E::Error> {
+        let counter = self.data.sync.error_counter().to_le_bytes();
+        let e = self.data.diag.raise(
+            ERR_COMMUNICATION,
+            EMCY_SYNC_ERROR,
+            [counter[0], counter[1], 0, 0, 0],
+        );
+        self.mailbox.queue_emergency(e);
+        if self.esm.state() == AlState::Op {
+            self.local_error(esc, stage, code::SYNC_ERROR, out)?;
+        }
+        Ok(())
+    }
+
+    /// OP -> SAFEOP with `code`, fault outputs.
+    fn local_error<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        code: u16,
+        out: &mut PdiOutcome,
+    ) -> Result<(), E::Error> {
+        let from = self.esm.state();
+        self.data.outputs.enter_fault(stage);
+        self.data.sync.disarm();
+        out.apply_outputs = true;
+        self.esm.local_error(AlState::SafeOp, code);
+        self.mailbox.on_state_change(from, self.esm.state());
+        self.write_status(esc)
+    }
+
+    // ------------------------------------------------------------ process data
+
+    fn outputs<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        now_ns: u64,
+        out: &mut PdiOutcome,
+    ) -> Result<(), E::Error> {
+        let state = self.esm.state();
+        if !matches!(state, AlState::SafeOp | AlState::Op) {
+            return Ok(());
+        }
+        let start = self.config.sm[2].start;
+        let image = self.data.pd.output_image_mut();
+        if image.is_empty() {
+            return Ok(());
+        }
+        esc.read(start, image)?;
+        let in_op = state == AlState::Op;
+        let verdict = self
+            .data
+            .sync
+            .on_sm2_event(now_ns, in_op, stage.sync0_counts());
+        if in_op {
+            let mut sink = RxSink {
+                ao: self.data.outputs.values(),
+            };
+            if self.data.pd.unpack(&mut sink, state).is_ok() {
+                let set = self.data.outputs.set_values(sink.ao, true, stage);
+                if set.newly_out_of_range {
+                    let mask =
+                        sink.ao.iter().enumerate().fold(
+                            0u8,
+                            |m, (i, v)| {
+                                if *v < 0 {
+                                    m | 1 << i
+                                } else {
+                                    m
+                                }
+                            },
+                        );
+                    let e = self.data.diag.raise(
+                        ERR_MANUFACTURER,
+                        EMCY_AO_OUT_OF_RANGE,
+                        [mask, 0, 0, 0, 0],
+                    );
+                    self.mailbox.queue_emergency(e);
+                } else if sink.ao.iter().all(|v| *v >= 0) {
+                    if let Some(e) = self.data.diag.clear(ERR_MANUFACTURER) {
+                        self.mailbox.queue_emergency(e);
+                    }
+                }
+                if self.data.sync.mode() != SyncMode::DcSync0 {
+                    out.apply_outputs = true;
+                }
+            }
+        }
+        if verdict == SyncVerdict::SyncError {
+            self.sync_error(esc, stage, out)?;
+        }
+        if self.data.sync.mode() != SyncMode::DcSync0 {
+            self.write_inputs(esc)?;
+        }
+        Ok(())
+    }
+
+    /// Publishes the samples of the cycle and writes them to SM3.
+    fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+        self.data.sampler.publish();
+        let mut source = TxSource {
+            ai: self.data.sampler.values(),
+            ao: self.data.outputs.values(),
+            error_register: self.data.diag.register(),
+        };
+        let start = self.config.sm[3].start;
+        if let Ok(image) = self.data.pd.pack(&mut source) {
+            if !image.is_empty() {
+                esc.write(start, image)?;
+            }
+        }
+        Ok(())
+    }
+
+    // ------------------------------------------------------------ mailbox
+
+    fn serve_mailbox<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        now_ns: u64,
+        check_repeat: bool,
+        out: &mut PdiOutcome,
+    ) -> Result<(), E::Error> {
+        let state = self.esm.state();
+        let od = self.data.od();
+        let now_ms = (now_ns / 1_000_000) as u32;
+        self.mailbox
+            .service(esc, state, od, &mut self.data, now_ms, check_repeat)?;
+        if let Some(values) = self.data.take_ao_written() {
+            let set = self
+                .data
+                .outputs
+                .set_values(values, state == AlState::Op, stage);
+            out.apply_outputs |= set.staged;
+        }
+        Ok(())
+    }
+}
+
+/// A mailbox SyncManager against the device description: enabled, same start and length,
+/// same control byte apart from the ECAT IRQ bit (b4), which masters set as they like.
+fn mailbox_sm_ok(sm: &SmConfig, expect: &SmExpect) -> bool {
+    sm.enabled()
+        && sm.start == expect.start
+        && sm.len == expect.len
+        && (sm.control & !0x10) == (expect.control & !0x10)
+}

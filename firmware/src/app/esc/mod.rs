@@ -196,10 +196,6 @@ pub(crate) trait EscExt: EscPort {
         Ok(SmConfig::from_bytes(b))
     }
 
-    fn sm_status(&mut self, n: u8) -> Result<u8, Self::Error> {
-        self.read_u8(reg::SM_BASE + 8 * u16::from(n) + 5)
-    }
-
     fn set_sm_pdi_control(&mut self, n: u8, value: u8) -> Result<(), Self::Error> {
         self.write(reg::SM_BASE + 8 * u16::from(n) + 7, &[value])?;
         Ok(())

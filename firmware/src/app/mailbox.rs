@@ -1,0 +1,206 @@
+//! The mailbox link: SM0 (master -> slave) -> coe-core's SDO server -> SM1 (slave ->
+//! master), with the ESC's mailbox handshakes (ESC datasheet section I 8.5/8.6).
+//!
+//! - A request is read when SM0 is full (AL event bit 8, or SM0 status b3 when polled) and
+//!   no reply is waiting: the whole buffer in one access from its start, so reading the last
+//!   byte frees it. While a reply waits, SM0 stays full (the master cannot send another
+//!   request) and its event is masked ([`MailboxLink::event_mask`]).
+//! - A reply is written as the whole SM1 buffer (zero-padded) in one access, so writing the
+//!   last byte marks it full. If SM1 is still full (the master has not read the last one),
+//!   the reply waits and goes out on the SM1 event (bit 9: the master read SM1) or the next
+//!   poll.
+//! - With nothing waiting, the server's pending work goes out: SDO Information fragments,
+//!   then queued Emergencies.
+//! - Repeat request: when SM1 activate b1 differs from PDI control b1, the last frame (the
+//!   server's backup) is written again (SM1 emptied first through PDI control b0 if it is
+//!   full) and PDI control b1 is set to the request's value.
+//! - INIT -> PREOP resets the counters (the server), any state change to INIT drops a waiting
+//!   reply.
+
+use super::esc::{event, EscExt, EscPort, SmConfig};
+use coe_core::od::{ObjectAccess, ObjectDictionary};
+use coe_core::sdo_server::{Emergency, Reply, SdoServer};
+use coe_core::AlState;
+
+/// Mailbox size (SM0 and SM1 length) the firmware is built for.
+pub const MAILBOX_SIZE: usize = 128;
+/// Largest object transferred in several frames.
+pub const TRANSFER_BUFFER: usize = 512;
+/// Emergencies that can wait.
+pub const EMERGENCY_QUEUE: usize = 4;
+
+/// The SDO server of the module.
+pub type Server = SdoServer<MAILBOX_SIZE, TRANSFER_BUFFER, EMERGENCY_QUEUE>;
+
+/// Mailbox service state.
+pub struct MailboxLink {
+    server: Server,
+    buf: [u8; MAILBOX_SIZE],
+    pending: usize,
+    blocked: bool,
+    replies: u32,
+    repeats: u32,
+}
+
+impl Default for MailboxLink {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl MailboxLink {
+    /// Nothing pending.
+    pub const fn new() -> Self {
+        Self {
+            server: SdoServer::new(),
+            buf: [0; MAILBOX_SIZE],
+            pending: 0,
+            blocked: false,
+            replies: 0,
+            repeats: 0,
+        }
+    }
+
+    /// The SDO server.
+    pub fn server(&self) -> &Server {
+        &self.server
+    }
+
+    /// True while a reply waits for SM1.
+    pub const fn reply_pending(&self) -> bool {
+        self.pending != 0
+    }
+
+    /// Frames written to SM1 (replies, fragments, Emergencies, repeats).
+    pub const fn frames_sent(&self) -> u32 {
+        self.replies
+    }
+
+    /// Repeat requests served.
+    pub const fn repeats(&self) -> u32 {
+        self.repeats
+    }
+
+    /// Queues an Emergency (sent when SM1 is free).
+    pub fn queue_emergency(&mut self, emergency: Emergency) {
+        self.server.queue_emergency(emergency);
+    }
+
+    /// The mailbox AL event bits to enable: SM0 while no reply waits, SM1 while one does
+    /// or while a request waits in SM0 for SM1 to be read.
+    pub const fn event_mask(&self) -> u32 {
+        if self.pending != 0 || self.blocked {
+            event::sm(1)
+        } else {
+            event::sm(0)
+        }
+    }
+
+    /// ESM transition.
+    pub fn on_state_change(&mut self, from: AlState, to: AlState) {
+        self.server.on_state_change(from, to);
+        if to == AlState::Init {
+            self.pending = 0;
+            self.blocked = false;
+        }
+    }
+
+    /// Serves the mailbox: repeat request (if `check_repeat`), waiting reply, a new request
+    /// if SM0 is full, then the server's pending work. At most one request per call.
+    #[allow(clippy::too_many_arguments)]
+    pub fn service<E: EscPort + ?Sized, A: ObjectAccess + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        state: AlState,
+        od: &ObjectDictionary,
+        app: &mut A,
+        now_ms: u32,
+        check_repeat: bool,
+    ) -> Result<(), E::Error> {
+        if state == AlState::Init {
+            return Ok(());
+        }
+        let sm1 = esc.sm(1)?;
+        if check_repeat && sm1.repeat_request() != sm1.repeat_ack() {
+            self.repeat(esc, &sm1)?;
+            return Ok(());
+        }
+        let mut sm1_full = sm1.mailbox_full();
+        self.blocked = false;
+        if self.pending != 0 {
+            if sm1_full {
+                return Ok(());
+            }
+            self.flush(esc, &sm1)?;
+            sm1_full = true;
+        }
+        if !sm1_full {
+            let sm0 = esc.sm(0)?;
+            if sm0.mailbox_full() && sm0.enabled() {
+                let len = usize::from(sm0.len).min(MAILBOX_SIZE);
+                let mut request = [0u8; MAILBOX_SIZE];
+                let req = request.get_mut(..len).unwrap_or(&mut []);
+                esc.read(sm0.start, req)?;
+                let reply_len = usize::from(sm1.len).min(MAILBOX_SIZE);
+                self.buf = [0; MAILBOX_SIZE];
+                let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
+                if let Reply::Frame(n) = self.server.process(req, state, od, app, now_ms, out) {
+                    self.pending = n.max(1);
+                    self.flush(esc, &sm1)?;
+                    return Ok(());
+                }
+            }
+            self.send_background(esc, od, &sm1)?;
+        } else if self.pending == 0 {
+            // A request may wait in SM0 until the master has read SM1.
+            self.blocked = esc.sm(0)?.mailbox_full();
+        }
+        Ok(())
+    }
+
+    fn send_background<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        od: &ObjectDictionary,
+        sm1: &SmConfig,
+    ) -> Result<(), E::Error> {
+        let reply_len = usize::from(sm1.len).min(MAILBOX_SIZE);
+        self.buf = [0; MAILBOX_SIZE];
+        let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
+        if let Reply::Frame(n) = self.server.poll(od, out) {
+            self.pending = n.max(1);
+            self.flush(esc, sm1)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the waiting reply as the whole SM1 buffer.
+    fn flush<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
+        let len = usize::from(sm1.len).min(MAILBOX_SIZE);
+        let frame = self.buf.get(..len).unwrap_or(&[]);
+        esc.write(sm1.start, frame)?;
+        self.pending = 0;
+        self.replies = self.replies.wrapping_add(1);
+        Ok(())
+    }
+
+    fn repeat<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
+        let ack = sm1.pdi_control & 0x02;
+        if sm1.mailbox_full() {
+            // Empty SM1 by deactivating it from the PDI side, then activate it again.
+            esc.set_sm_pdi_control(1, ack | 0x01)?;
+            esc.set_sm_pdi_control(1, ack)?;
+        }
+        let len = usize::from(sm1.len).min(MAILBOX_SIZE);
+        let mut frame = [0u8; MAILBOX_SIZE];
+        let out = frame.get_mut(..len).unwrap_or(&mut []);
+        if self.server.repeat(out).frame_len().is_some() {
+            esc.write(sm1.start, out)?;
+            self.replies = self.replies.wrapping_add(1);
+        }
+        let requested = sm1.activate & 0x02;
+        esc.set_sm_pdi_control(1, requested)?;
+        self.repeats = self.repeats.wrapping_add(1);
+        Ok(())
+    }
+}

@@ -1,0 +1,639 @@
+//! Application-level tests: the whole `SlaveApp` against a register-file ESC, driven like a
+//! master drives a slave.
+
+use super::esc::fake::FakeEsc;
+use super::esc::{event, SmExpect};
+use super::process_data::{Mapping, ProcessData};
+use super::*;
+use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, Value};
+use coe_core::pdo::PdoEntry;
+use std::vec;
+use std::vec::Vec;
+
+const I16: DataType = DataType::Integer16;
+const RWP: Access = Access::RW_PREOP;
+
+static OD: ObjectDictionary = ObjectDictionary::new(&[
+    ObjectDesc::var(
+        0x1000,
+        "Device type",
+        &[
+            EntryDesc::new(0, "Device type", DataType::Unsigned32, Access::RO)
+                .with_default(Value::Uint(0x000C_0191)),
+        ],
+    ),
+    ObjectDesc::var(
+        0x1001,
+        "Error register",
+        &[EntryDesc::new(
+            0,
+            "Error register",
+            DataType::Unsigned8,
+            Access::RO,
+        )],
+    ),
+    ObjectDesc::record(
+        0x1600,
+        "RxPDO 1",
+        DataType::PdoMapping,
+        &[
+            EntryDesc::new(0, "SubIndex 000", DataType::Unsigned8, RWP),
+            EntryDesc::new(1, "Entry 1", DataType::Unsigned32, RWP),
+            EntryDesc::new(2, "Entry 2", DataType::Unsigned32, RWP),
+        ],
+    ),
+    ObjectDesc::record(
+        0x1A00,
+        "TxPDO 1",
+        DataType::PdoMapping,
+        &[
+            EntryDesc::new(0, "SubIndex 000", DataType::Unsigned8, RWP),
+            EntryDesc::new(1, "Entry 1", DataType::Unsigned32, RWP),
+            EntryDesc::new(2, "Entry 2", DataType::Unsigned32, RWP),
+        ],
+    ),
+    ObjectDesc::array(
+        0x1C12,
+        "RxPDO assign",
+        &[
+            EntryDesc::new(0, "SubIndex 000", DataType::Unsigned8, RWP),
+            EntryDesc::new(1, "Assign 1", DataType::Unsigned16, RWP),
+        ],
+    ),
+    ObjectDesc::record(
+        0x1C32,
+        "SM output parameter",
+        DataType::Unknown(0x0042),
+        &[
+            EntryDesc::new(0, "SubIndex 000", DataType::Unsigned8, Access::RO),
+            EntryDesc::new(1, "Sync mode", DataType::Unsigned16, RWP),
+            EntryDesc::new(2, "Cycle time", DataType::Unsigned32, RWP),
+            EntryDesc::new(0x0B, "SM event missed", DataType::Unsigned16, Access::RO),
+        ],
+    ),
+    ObjectDesc::array(
+        0x6401,
+        "AI",
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "AI 1", I16, Access::RO.tx_mappable()),
+            EntryDesc::new(2, "AI 2", I16, Access::RO.tx_mappable()),
+        ],
+    ),
+    ObjectDesc::array(
+        0x6411,
+        "AO",
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "AO 1", I16, Access::RW.rx_mappable()),
+            EntryDesc::new(2, "AO 2", I16, Access::RW.rx_mappable()),
+        ],
+    ),
+    ObjectDesc::array(
+        0x6443,
+        "AO error mode",
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "Mode 1", DataType::Unsigned8, Access::RW),
+            EntryDesc::new(2, "Mode 2", DataType::Unsigned8, Access::RW),
+        ],
+    ),
+    ObjectDesc::array(
+        0x6444,
+        "AO error value",
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "Value 1", DataType::Integer32, Access::RW),
+            EntryDesc::new(2, "Value 2", DataType::Integer32, Access::RW),
+        ],
+    ),
+]);
+
+const MBX_OUT: u16 = 0x1000;
+const MBX_IN: u16 = 0x1080;
+const PD_OUT: u16 = 0x1100;
+const PD_IN: u16 = 0x1180;
+
+fn config() -> AppConfig {
+    AppConfig {
+        sm: [
+            SmExpect {
+                start: MBX_OUT,
+                len: 128,
+                control: 0x26,
+            },
+            SmExpect {
+                start: MBX_IN,
+                len: 128,
+                control: 0x22,
+            },
+            SmExpect {
+                start: PD_OUT,
+                len: 0,
+                control: 0x64,
+            },
+            SmExpect {
+                start: PD_IN,
+                len: 0,
+                control: 0x20,
+            },
+        ],
+        device_id: Some(0x0042),
+    }
+}
+
+fn process_data() -> ProcessData {
+    ProcessData::new(
+        [
+            Mapping::with_entries(
+                0x1600,
+                &[PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)],
+            ),
+            Mapping::new(0x1601),
+        ],
+        [
+            Mapping::with_entries(
+                0x1A00,
+                &[PdoEntry::new(0x6401, 1, 16), PdoEntry::new(0x6401, 2, 16)],
+            ),
+            Mapping::new(0x1A01),
+        ],
+        &[0x1600],
+        &[0x1A00],
+    )
+}
+
+struct Rig {
+    esc: FakeEsc,
+    app: SlaveApp,
+    stage: OutputStage,
+    latch: DacLatch,
+    now: u64,
+    dac: Vec<DacAction>,
+    counter: u8,
+}
+
+impl Rig {
+    fn new() -> Self {
+        let mut esc = FakeEsc::new();
+        let mut app = SlaveApp::new(&OD, config(), process_data());
+        app.start(&mut esc).unwrap();
+        Self {
+            esc,
+            app,
+            stage: OutputStage::new(),
+            latch: DacLatch::new(),
+            now: 0,
+            dac: Vec::new(),
+            counter: 0,
+        }
+    }
+
+    /// Runs the IRQ handler while the (masked) event bits are set, bounded.
+    fn irq(&mut self) {
+        for _ in 0..8 {
+            let mask = u32::from_le_bytes(self.esc.mem[0x204..0x208].try_into().unwrap());
+            let ev = u32::from_le_bytes(self.esc.mem[0x220..0x224].try_into().unwrap());
+            if ev & mask == 0 {
+                return;
+            }
+            self.now += 10_000;
+            let out = self
+                .app
+                .on_pdi_irq(&mut self.esc, &self.stage, self.now)
+                .unwrap();
+            if out.apply_outputs {
+                let a = self.latch.apply_now(&self.stage);
+                self.dac.push(a);
+            }
+        }
+        panic!("IRQ never cleared");
+    }
+
+    fn poll(&mut self) {
+        self.now += 10_000;
+        let out = self.app.poll(&mut self.esc, &self.stage, self.now).unwrap();
+        if out.apply_outputs {
+            let a = self.latch.apply_now(&self.stage);
+            self.dac.push(a);
+        }
+    }
+
+    fn sync0(&mut self) -> DacAction {
+        self.now += 10_000;
+        let a = self.latch.on_sync0(&self.stage, self.now);
+        self.dac.push(a);
+        self.poll();
+        a
+    }
+
+    fn request(&mut self, state: u16) -> (u16, u16) {
+        self.esc.master_al_control(state);
+        self.irq();
+        self.esc.al_status()
+    }
+
+    fn mailbox_sms(&mut self) {
+        self.esc.master_sm(0, MBX_OUT, 128, 0x26, true);
+        self.esc.master_sm(1, MBX_IN, 128, 0x22, true);
+    }
+
+    fn pd_sms(&mut self, out_len: u16, in_len: u16) {
+        self.esc.master_sm(2, PD_OUT, out_len, 0x64, true);
+        self.esc.master_sm(3, PD_IN, in_len, 0x20, true);
+    }
+
+    fn goto_preop(&mut self) {
+        self.mailbox_sms();
+        assert_eq!(self.request(0x02), (0x02, 0));
+    }
+
+    fn goto_op(&mut self) {
+        self.goto_preop();
+        self.pd_sms(4, 4);
+        assert_eq!(self.request(0x04), (0x04, 0));
+        assert_eq!(self.request(0x08), (0x08, 0));
+    }
+
+    fn sdo(&mut self, cmd: u8, index: u16, sub: u8, data: [u8; 4]) -> Vec<u8> {
+        self.counter = self.counter % 7 + 1;
+        let mut f = vec![10, 0, 0, 0, 0x00, 0x03 | self.counter << 4, 0x00, 0x20, cmd];
+        f.extend_from_slice(&index.to_le_bytes());
+        f.push(sub);
+        f.extend_from_slice(&data);
+        assert!(self.esc.master_write_mailbox(&f));
+        self.irq();
+        self.esc.master_read_mailbox().expect("reply")
+    }
+
+    fn download(&mut self, index: u16, sub: u8, value: &[u8]) -> Result<(), u32> {
+        let cmd = match value.len() {
+            1 => 0x2F,
+            2 => 0x2B,
+            _ => 0x23,
+        };
+        let mut d = [0u8; 4];
+        d[..value.len()].copy_from_slice(value);
+        let r = self.sdo(cmd, index, sub, d);
+        match r[8] {
+            0x60 => Ok(()),
+            0x80 => Err(u32::from_le_bytes(r[12..16].try_into().unwrap())),
+            other => panic!("unexpected reply {other:#x}"),
+        }
+    }
+
+    fn upload(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, u32> {
+        let r = self.sdo(0x40, index, sub, [0; 4]);
+        match r[8] {
+            0x80 => Err(u32::from_le_bytes(r[12..16].try_into().unwrap())),
+            cmd if cmd & 0x02 != 0 => {
+                let n = 4 - usize::from((cmd >> 2) & 3);
+                Ok(r[12..12 + n].to_vec())
+            }
+            other => panic!("unexpected reply {other:#x}"),
+        }
+    }
+
+    fn outputs(&mut self, a: i16, b: i16) {
+        let mut d = a.to_le_bytes().to_vec();
+        d.extend_from_slice(&b.to_le_bytes());
+        self.esc.master_write_outputs(&d);
+        self.irq();
+    }
+}
+
+#[test]
+fn init_to_op_in_sm_synchronous_mode() {
+    let mut r = Rig::new();
+    assert_eq!(r.esc.al_status(), (0x01, 0));
+    r.goto_op();
+    assert_eq!(r.app.data().sync.mode(), SyncMode::SmSync);
+    // OP before any outputs: DAC untouched.
+    assert!(r.dac.is_empty());
+    r.app
+        .on_samples(&[Sample::new(0, 0x8000), Sample::new(1, 0xFFFF)]);
+    r.outputs(0x4000, 0x1000);
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0x8000, 0x2000)))
+    );
+    // Inputs written on the SM2 event.
+    assert_eq!(r.esc.master_read_inputs(), vec![0x00, 0x40, 0xFF, 0x7F]);
+}
+
+#[test]
+fn invalid_mailbox_configuration_is_0x0016() {
+    for (n, start, len, control, enable) in [
+        (0u8, 0x1008u16, 128u16, 0x26u8, true),
+        (0, MBX_OUT, 64, 0x26, true),
+        (1, MBX_IN, 128, 0x26, true),
+        (1, MBX_IN, 128, 0x22, false),
+    ] {
+        let mut r = Rig::new();
+        r.mailbox_sms();
+        r.esc.master_sm(n, start, len, control, enable);
+        assert_eq!(r.request(0x02), (0x11, 0x0016));
+        assert_eq!(r.app.state(), AlState::Init);
+        // Acknowledge and retry with the right configuration.
+        r.mailbox_sms();
+        assert_eq!(r.request(0x12), (0x02, 0));
+    }
+    // ECAT IRQ bit in the control byte is the master's choice.
+    let mut r = Rig::new();
+    r.mailbox_sms();
+    r.esc.master_sm(0, MBX_OUT, 128, 0x36, true);
+    assert_eq!(r.request(0x02), (0x02, 0));
+}
+
+#[test]
+fn invalid_process_data_configuration_is_0x001d_0x001e() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(2, 4);
+    assert_eq!(r.request(0x04), (0x12, 0x001D));
+    r.pd_sms(4, 6);
+    assert_eq!(r.request(0x14), (0x12, 0x001E));
+    r.pd_sms(4, 4);
+    r.esc.master_sm(2, 0x1200, 4, 0x64, true);
+    assert_eq!(r.request(0x14), (0x12, 0x001D));
+    r.pd_sms(4, 4);
+    r.esc.master_sm(3, PD_IN, 4, 0x24, true); // wrong direction
+    assert_eq!(r.request(0x14), (0x12, 0x001E));
+    assert!(r.dac.is_empty());
+    r.pd_sms(4, 4);
+    assert_eq!(r.request(0x14), (0x04, 0));
+}
+
+#[test]
+fn refused_transitions_and_unknown_states() {
+    let mut r = Rig::new();
+    assert_eq!(r.request(0x04), (0x11, 0x0011));
+    assert_eq!(r.request(0x18), (0x11, 0x0011)); // ack + I->O
+    assert_eq!(r.request(0x13), (0x11, 0x0013)); // ack + BOOT
+    assert_eq!(r.request(0x15), (0x11, 0x0012)); // ack + unknown 5
+    r.mailbox_sms();
+    assert_eq!(r.request(0x12), (0x02, 0));
+    assert_eq!(r.request(0x08), (0x12, 0x0011)); // P->O
+                                                 // ID request.
+    assert_eq!(r.request(0x32), (0x22, 0x0042));
+    assert_eq!(r.request(0x02), (0x02, 0));
+}
+
+#[test]
+fn mailbox_upload_busy_sm1_and_repeat() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    assert_eq!(r.upload(0x1000, 0), Ok(vec![0x91, 0x01, 0x0C, 0x00]));
+    // SM1 still full: the next reply waits.
+    let f = [
+        10u8,
+        0,
+        0,
+        0,
+        0,
+        0x03 | 0x50,
+        0x00,
+        0x20,
+        0x40,
+        0x01,
+        0x10,
+        0,
+        0,
+        0,
+        0,
+        0,
+    ];
+    assert!(r.esc.master_write_mailbox(&f));
+    r.irq();
+    let first = r.esc.master_read_mailbox().unwrap();
+    assert_eq!(first[8], 0x4F); // 0x1001 u8
+                                // Repeat request: the same frame again, ack mirrored.
+    r.esc.master_repeat_request();
+    r.irq();
+    let again = r.esc.master_read_mailbox().unwrap();
+    assert_eq!(again, first);
+    assert_eq!(r.esc.sm(1).pdi_control & 0x02, r.esc.sm(1).activate & 0x02);
+    assert_eq!(r.app.mailbox().repeats(), 1);
+    // Pending reply when SM1 is full.
+    let f2 = [
+        10u8,
+        0,
+        0,
+        0,
+        0,
+        0x03 | 0x60,
+        0x00,
+        0x20,
+        0x40,
+        0x00,
+        0x10,
+        0,
+        0,
+        0,
+        0,
+        0,
+    ];
+    assert!(r.esc.master_write_mailbox(&f2));
+    r.irq();
+    assert!(!r.app.mailbox().reply_pending());
+    let f3 = [
+        10u8,
+        0,
+        0,
+        0,
+        0,
+        0x03 | 0x70,
+        0x00,
+        0x20,
+        0x40,
+        0x01,
+        0x10,
+        0,
+        0,
+        0,
+        0,
+        0,
+    ];
+    assert!(r.esc.master_write_mailbox(&f3));
+    r.irq(); // SM1 full: request stays in SM0
+    assert!(!r.esc.master_write_mailbox(&f3), "SM0 still full");
+    assert_eq!(r.esc.master_read_mailbox().unwrap()[8], 0x43);
+    r.irq();
+    assert_eq!(r.esc.master_read_mailbox().unwrap()[8], 0x4F);
+}
+
+#[test]
+fn pdo_configuration_rules() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    // Mapping a non-mappable object: 0x06040041.
+    assert_eq!(r.download(0x1600, 0, &[0]), Ok(()));
+    assert_eq!(
+        r.download(0x1600, 1, &0x1000_0020u32.to_le_bytes()),
+        Err(0x0604_0041)
+    );
+    // One AO only: SM2 is then 2 bytes.
+    assert_eq!(r.download(0x1600, 1, &0x6411_0110u32.to_le_bytes()), Ok(()));
+    assert_eq!(r.download(0x1600, 0, &[1]), Ok(()));
+    r.pd_sms(4, 4);
+    assert_eq!(r.request(0x04), (0x12, 0x001D));
+    r.pd_sms(2, 4);
+    assert_eq!(r.request(0x14), (0x04, 0));
+    // Not in SAFEOP.
+    assert_eq!(r.download(0x1600, 0, &[0]), Err(0x0800_0022));
+    assert_eq!(
+        r.upload(0x1600, 1),
+        Ok(0x6411_0110u32.to_le_bytes().to_vec())
+    );
+}
+
+#[test]
+fn watchdog_faults_outputs_and_goes_to_safeop() {
+    let mut r = Rig::new();
+    r.goto_op();
+    assert_eq!(r.download(0x6444, 1, &0x1000i32.to_le_bytes()), Ok(()));
+    assert_eq!(r.download(0x6443, 2, &[0]), Ok(())); // channel B keeps
+    assert_eq!(
+        r.download(0x6444, 2, &(-1i32).to_le_bytes()),
+        Err(0x0609_0030)
+    );
+    r.outputs(0x100, 0x200);
+    r.esc.expire_watchdog();
+    r.irq();
+    assert_eq!(r.esc.al_status(), (0x14, 0x001B));
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0x2000, 0x400)))
+    );
+    assert_eq!(r.app.data().diag.register(), 0x11);
+    // The Emergency goes out through SM1.
+    r.poll();
+    let emcy = r.esc.master_read_mailbox().unwrap();
+    assert_eq!(emcy[5] & 0x0F, 3);
+    assert_eq!(u16::from_le_bytes([emcy[6], emcy[7]]) >> 12, 1);
+    assert_eq!(u16::from_le_bytes([emcy[8], emcy[9]]), 0x8250);
+    // Outputs in SAFEOP are not applied; back to OP only fresh data drive the DAC.
+    let n = r.dac.len();
+    r.outputs(0x300, 0x300);
+    assert_eq!(r.dac.len(), n);
+    assert_eq!(r.request(0x18), (0x08, 0));
+    assert_eq!(r.app.data().diag.register(), 0);
+    assert_eq!(r.dac.len(), n);
+    r.outputs(0x10, 0x20);
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0x20, 0x40)))
+    );
+}
+
+#[test]
+fn op_to_safeop_applies_fault_values() {
+    let mut r = Rig::new();
+    r.goto_op();
+    r.outputs(0x100, 0x200);
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0, 0)))
+    );
+    // OP -> PREOP from OP as well.
+    assert_eq!(r.request(0x08), (0x08, 0));
+    r.outputs(0x100, 0x200);
+    assert_eq!(r.request(0x02), (0x02, 0));
+    assert_eq!(
+        r.dac.last().and_then(DacAction::pair),
+        Some(DacPair::new(0, 0))
+    );
+}
+
+#[test]
+fn dc_mode_enforced_at_safeop_and_latched_at_sync0() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(4, 4);
+    assert_eq!(r.download(0x1C32, 1, &2u16.to_le_bytes()), Ok(()));
+    assert_eq!(r.request(0x04), (0x12, 0x0030));
+    r.esc.master_dc(0x03, 10_000);
+    assert_eq!(r.request(0x14), (0x12, 0x0035));
+    r.esc.master_dc(0x03, 1_000_000);
+    assert_eq!(r.request(0x14), (0x04, 0));
+    assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
+    assert_eq!(r.request(0x08), (0x08, 0));
+    // Outputs wait for SYNC0.
+    r.outputs(0x100, 0x100);
+    assert!(r.dac.is_empty());
+    assert_eq!(
+        r.sync0(),
+        DacAction::WriteAndUpdate(DacPair::new(0x200, 0x200))
+    );
+    // SYNC0 with no fresh outputs keeps and counts.
+    assert_eq!(r.sync0(), DacAction::Keep);
+    assert_eq!(r.stage.sync0_without_outputs(), 1);
+    assert_eq!(r.upload(0x1C32, 0x0B), Ok(vec![1, 0]));
+    // Second miss: sync error counter 6 > 4 -> SAFEOP + 0x001A, fault values.
+    assert_eq!(r.sync0(), DacAction::Keep);
+    assert_eq!(r.esc.al_status(), (0x14, 0x001A));
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0, 0)))
+    );
+}
+
+#[test]
+fn dc_without_explicit_mode_follows_the_esc() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(4, 4);
+    r.esc.master_dc(0x03, 1_000_000);
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
+    // And an explicit SM-sync request with SYNC0 active is refused.
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(4, 4);
+    r.esc.master_dc(0x03, 1_000_000);
+    assert_eq!(r.download(0x1C32, 1, &1u16.to_le_bytes()), Ok(()));
+    assert_eq!(r.request(0x04), (0x12, 0x0030));
+}
+
+#[test]
+fn free_run_needs_three_buffer_sm2() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    assert_eq!(r.download(0x1C32, 1, &0u16.to_le_bytes()), Ok(()));
+    r.pd_sms(4, 4);
+    r.esc.master_sm(2, PD_OUT, 4, 0x66, true); // mailbox (1-buffer) mode
+    assert_eq!(r.request(0x04), (0x12, 0x0029));
+    assert_eq!(r.download(0x1C32, 1, &3u16.to_le_bytes()), Err(0x0609_0030));
+}
+
+#[test]
+fn sdo_ao_write_in_op_drives_outputs() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    // Unmap AO so SDO may write it in OP.
+    assert_eq!(r.download(0x1C12, 0, &[0]), Ok(()));
+    r.pd_sms(0, 4);
+    r.esc.master_sm(2, PD_OUT, 0, 0x64, false);
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(r.request(0x08), (0x08, 0));
+    assert_eq!(r.download(0x6411, 1, &0x10i16.to_le_bytes()), Ok(()));
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0x20, 0)))
+    );
+    assert_eq!(r.upload(0x6411, 1), Ok(vec![0x10, 0]));
+}
+
+#[test]
+fn bus_errors_are_reported_not_panics() {
+    let mut r = Rig::new();
+    r.esc.master_al_control(0x02);
+    r.esc.fail_next = true;
+    assert!(r.app.on_pdi_irq(&mut r.esc, &r.stage, 0).is_err());
+    // The event is still pending and handled next time.
+    r.mailbox_sms();
+    r.irq();
+    assert_eq!(r.esc.al_status(), (0x02, 0));
+    let _ = event::AL_CONTROL;
+}
