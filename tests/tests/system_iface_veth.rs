@@ -185,33 +185,5 @@ fn ethercrab_drives_the_board_over_a_veth_pair() {
     assert!(u16::from_le_bytes([o.echoed[0], o.echoed[1]]) >= 0x4000);
     let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("system-iface-veth.pcap");
     std::fs::write(&path, &o.pcap).unwrap();
-    check_with_tshark(&path);
-}
-
-fn check_with_tshark(path: &std::path::Path) {
-    let run = |filter: &str| {
-        Command::new("tshark")
-            .args([
-                "-r",
-                path.to_str().unwrap(),
-                "-Y",
-                filter,
-                "-T",
-                "fields",
-                "-e",
-                "frame.number",
-            ])
-            .output()
-    };
-    let Ok(ecat) = run("ecat") else {
-        eprintln!("tshark not installed: skipping the pcap decode check");
-        return;
-    };
-    assert!(ecat.status.success());
-    let decoded = String::from_utf8_lossy(&ecat.stdout).lines().count();
-    let malformed = run("_ws.malformed").unwrap();
-    let malformed = String::from_utf8_lossy(&malformed.stdout).lines().count();
-    eprintln!("tshark: {decoded} EtherCAT frames, {malformed} malformed");
-    assert!(decoded > 100);
-    assert_eq!(malformed, 0, "malformed frames in {}", path.display());
+    virtual_board::sim::tshark::assert_clean(&path);
 }

@@ -49,48 +49,5 @@ fn runner_walks_the_esm_with_the_echo_responder() {
     let (path, frames) = report.pcap.clone().unwrap();
     assert_eq!(path, pcap);
     assert!(frames > 200);
-    common::check_with_tshark(&pcap);
-}
-
-mod common {
-    /// Independent check: tshark decodes every frame as EtherCAT, none malformed.
-    pub fn check_with_tshark(path: &std::path::Path) {
-        let run = |filter: &str| {
-            std::process::Command::new("tshark")
-                .args([
-                    "-r",
-                    path.to_str().unwrap(),
-                    "-Y",
-                    filter,
-                    "-T",
-                    "fields",
-                    "-e",
-                    "frame.number",
-                ])
-                .output()
-        };
-        let Ok(ecat) = run("ecat") else {
-            eprintln!("tshark not installed: skipping the pcap decode check");
-            return;
-        };
-        assert!(
-            ecat.status.success(),
-            "tshark: {}",
-            String::from_utf8_lossy(&ecat.stderr)
-        );
-        let decoded = String::from_utf8_lossy(&ecat.stdout).lines().count();
-        let malformed = run("_ws.malformed").unwrap();
-        let malformed = String::from_utf8_lossy(&malformed.stdout).lines().count();
-        eprintln!("tshark: {decoded} EtherCAT frames, {malformed} malformed");
-        assert!(
-            decoded > 100,
-            "tshark decoded only {decoded} EtherCAT frames"
-        );
-        assert_eq!(
-            malformed,
-            0,
-            "tshark found malformed frames in {}",
-            path.display()
-        );
-    }
+    virtual_board::sim::tshark::assert_clean(&pcap);
 }

@@ -110,9 +110,15 @@ pub fn run(args: &Args) -> Result {
     if cfg.iface.is_some() {
         let stop = virtual_board::iface::ctrl_c_flag();
         sim::run_on_interface(&cfg, target, stop, &mut print).map_err(|e| e.to_string())?;
+        if let Some(path) = &cfg.pcap {
+            check_pcap(path)?;
+        }
         return Ok(());
     }
     let report = sim::run_in_process(&cfg, target, &mut print).map_err(|e| e.to_string())?;
+    if let Some((path, _)) = &report.pcap {
+        check_pcap(path)?;
+    }
     println!(
         "done: {} cycles, {} frames, {:.3} s virtual in {:.2} s wall",
         report.cycles,
@@ -127,6 +133,24 @@ pub fn run(args: &Args) -> Result {
         .collect();
     if !failed.is_empty() {
         return Err(format!("loop-back failed: {}", failed.join("; ")));
+    }
+    Ok(())
+}
+
+/// The independent check of a capture: tshark must decode every frame, none malformed.
+fn check_pcap(path: &std::path::Path) -> Result {
+    match sim::tshark::summarize(path) {
+        None => println!("tshark not installed: the capture was not cross-checked"),
+        Some(Err(e)) => return Err(e),
+        Some(Ok(s)) => {
+            println!(
+                "tshark: {} frames, {} decoded as EtherCAT, {} malformed",
+                s.frames, s.ecat, s.malformed
+            );
+            if s.malformed != 0 || s.ecat != s.frames {
+                return Err(format!("tshark does not accept {}", path.display()));
+            }
+        }
     }
     Ok(())
 }

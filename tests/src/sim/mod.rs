@@ -13,6 +13,7 @@
 //! ([`firmware_target`]) or the transport test responder ([`responder::EchoResponder`]).
 
 pub mod responder;
+pub mod tshark;
 
 use crate::adc::Signal;
 use crate::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
