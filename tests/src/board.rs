@@ -56,6 +56,15 @@ pub trait PdiCpu {
     fn on_irq(&mut self, _io: &mut BoardIo) {}
     /// Background work after every event (lowest priority).
     fn poll(&mut self, _io: &mut BoardIo) {}
+    /// The CPU's next timer deadline (virtual ns), e.g. the ADC's conversion timer: the
+    /// board stops its clock there and calls [`PdiCpu::on_timer`]. A timer models
+    /// hardware (timer + DMA): `poll` is not called after it.
+    fn next_timer_ns(&self) -> Option<u64> {
+        None
+    }
+    /// The timer deadline of [`PdiCpu::next_timer_ns`] is reached; the CPU must move the
+    /// deadline forward (or return `None`).
+    fn on_timer(&mut self, _io: &mut BoardIo) {}
 }
 
 /// A CPU that does nothing (an unprogrammed board).
@@ -102,6 +111,8 @@ pub struct BoardStats {
     pub irq_calls: u64,
     /// Events after which the IRQ line was still asserted after `max_irq_calls`.
     pub irq_stuck: u64,
+    /// `on_timer` calls.
+    pub timer_calls: u64,
 }
 
 /// The virtual board.
@@ -220,18 +231,39 @@ impl VirtualBoard {
     fn advance(&mut self, ns: u64) {
         let target = self.now_ns() + ns;
         loop {
-            let next = self.esc.borrow().next_sync_edge_ns();
-            match next {
-                Some(t) if t <= target => {
-                    let now = self.now_ns();
-                    let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
-                    self.clock.set_ns(self.esc.borrow().now_ns());
-                    for e in edges {
-                        self.deliver(e);
-                    }
-                    self.service();
+            let sync = self
+                .esc
+                .borrow()
+                .next_sync_edge_ns()
+                .filter(|&t| t <= target);
+            let timer = self.cpu.next_timer_ns().filter(|&t| t <= target);
+            let t = match (sync, timer) {
+                (None, None) => break,
+                (Some(a), Some(b)) => a.min(b),
+                (Some(a), None) | (None, Some(a)) => a,
+            };
+            if sync == Some(t) {
+                let now = self.now_ns();
+                let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
+                self.clock.set_ns(self.esc.borrow().now_ns());
+                for e in edges {
+                    self.deliver(e);
                 }
-                _ => break,
+                self.service();
+            } else if let Some(t) = timer {
+                let now = self.esc.borrow().now_ns();
+                let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
+                self.clock.set_ns(t);
+                for e in edges {
+                    self.deliver(e);
+                }
+                self.stats.timer_calls += 1;
+                self.cpu.on_timer(&mut self.io);
+                if self.cpu.next_timer_ns().is_some_and(|n| n <= t) {
+                    // A timer that does not move forward would stop time: ignore it
+                    // until the next advance.
+                    break;
+                }
             }
         }
         let now = self.esc.borrow().now_ns();

@@ -23,6 +23,7 @@ pub mod board;
 pub mod clock;
 pub mod dac;
 pub mod esc;
+pub mod firmware_cpu;
 pub mod iface;
 pub mod loopback;
 pub mod master;

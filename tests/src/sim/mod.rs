@@ -12,6 +12,7 @@
 //! What runs on the board's PDI side is a [`Target`]: the firmware's slave application
 //! ([`firmware_target`]) or the transport test responder ([`responder::EchoResponder`]).
 
+pub mod interim_device;
 pub mod responder;
 pub mod tshark;
 
@@ -216,7 +217,18 @@ pub const FIRMWARE_UNAVAILABLE: &str = "firmware application not yet available: 
 
 /// The firmware's own slave application on the board, with the generated SII image.
 pub fn firmware_target() -> Result<Target, String> {
-    Err(FIRMWARE_UNAVAILABLE.to_string())
+    let device = interim_device::device();
+    Ok(Target {
+        description: device.description.clone(),
+        sii: device.sii.clone(),
+        make_cpu: Box::new(move |io| {
+            Box::new(crate::firmware_cpu::FirmwareCpu::new(
+                io,
+                &device,
+                crate::adc::T_CYC_NS,
+            ))
+        }),
+    })
 }
 
 /// A line of output: results go to stdout, progress to stderr.
@@ -584,7 +596,14 @@ pub fn run_in_process(
             path.display()
         )));
     }
-    result.map(|()| report)
+    result.map(|()| report).map_err(|e| {
+        let esc = b.esc().borrow();
+        SimError(format!(
+            "{e} (the board shows AL status {:#06x}, AL status code {:#06x})",
+            esc.peek_u16(crate::esc::regs::AL_STATUS),
+            esc.peek_u16(crate::esc::regs::AL_STATUS_CODE)
+        ))
+    })
 }
 
 async fn master(
@@ -669,6 +688,12 @@ async fn master(
         sd.set_dc_sync(DcSync::Sync0);
     }
     let cycle = Duration::from_nanos(cfg.cycle_ns());
+    // ethercrab 0.7.1: `configure_dc_sync` accepts a PRE-OP group and returns it as
+    // "PRE-OP with PDI" WITHOUT configuring SM2/SM3 and the FMMUs; configure them first.
+    let group = group
+        .into_pre_op_pdi(md)
+        .await
+        .map_err(|e| fail("PDI configuration", e))?;
     let group = group
         .configure_dc_sync(
             md,
