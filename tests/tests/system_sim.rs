@@ -51,3 +51,36 @@ fn runner_walks_the_esm_with_the_echo_responder() {
     assert!(frames > 200);
     virtual_board::sim::tshark::assert_clean(&pcap);
 }
+
+/// `cargo xtask sim` with the firmware: the ESM walk, SDO values and the loop-back
+/// figures (a short run: 10 periods of 500 Hz at a 100 us cycle).
+#[test]
+fn runner_loops_back_through_the_firmware() {
+    let cfg = SimConfig {
+        seconds: Some(0.02),
+        freqs_hz: vec![500.0],
+        ..Default::default()
+    };
+    let mut lines = Vec::new();
+    let target = sim::firmware_target().unwrap();
+    let report = sim::run_in_process(&cfg, target, &mut collect(&mut lines)).unwrap();
+    assert_eq!(
+        report.states,
+        ["INIT", "PRE-OP", "SAFE-OP", "OP", "INIT"],
+        "{report:?}"
+    );
+    let device_type = report.sdo.iter().find(|v| v.index == 0x1000).unwrap();
+    assert_eq!(device_type.value.as_deref(), Ok("0x000c0191"));
+    assert!(matches!(&report.od, Some(Ok(od)) if od.all.contains(&0x6401)));
+    let (f, a) = &report.loopback[0];
+    assert_eq!(*f, 500.0);
+    let a = a.as_ref().unwrap();
+    // The DAC holds each value for a cycle: sinc(pi f T) = -0.41 % at 500 Hz, 100 us.
+    assert!(a.amplitude_error.abs() < 0.02, "{a}");
+    assert!((a.output_offset - 5.0).abs() < 0.01, "{a}");
+    // AI sampled -> SM3 -> master -> SM2 -> LDAC at SYNC0: a few cycles.
+    assert!(
+        (100_000.0..500_000.0).contains(&a.latency_ns),
+        "latency {a}"
+    );
+}
