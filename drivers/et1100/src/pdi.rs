@@ -1,0 +1,52 @@
+//! The process data interface: raw byte access to the ESC address space.
+
+use crate::{AlEvents, Error};
+
+/// Raw access to the ESC from the PDI side.
+///
+/// Every access returns the AL event bits (0x0220..) that belong to it; an implementation
+/// keeps no hidden state between accesses.
+pub trait Pdi {
+    /// The error of the underlying bus.
+    type BusError;
+
+    /// Reads `buf.len()` bytes starting at `addr` in one access.
+    ///
+    /// Errors with [`Error::OutOfRange`] for an empty buffer or an access beyond 0xFFFF,
+    /// without touching the bus.
+    fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<AlEvents, Error<Self::BusError>>;
+
+    /// Writes `data` starting at `addr` in one access.
+    ///
+    /// Errors with [`Error::OutOfRange`] for empty data or an access beyond 0xFFFF,
+    /// without touching the bus.
+    fn write(&mut self, addr: u16, data: &[u8]) -> Result<AlEvents, Error<Self::BusError>>;
+
+    /// Reads the AL event bits alone.
+    fn events(&mut self) -> Result<AlEvents, Error<Self::BusError>>;
+}
+
+impl<P: Pdi + ?Sized> Pdi for &mut P {
+    type BusError = P::BusError;
+
+    fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<AlEvents, Error<Self::BusError>> {
+        P::read(self, addr, buf)
+    }
+
+    fn write(&mut self, addr: u16, data: &[u8]) -> Result<AlEvents, Error<Self::BusError>> {
+        P::write(self, addr, data)
+    }
+
+    fn events(&mut self) -> Result<AlEvents, Error<Self::BusError>> {
+        P::events(self)
+    }
+}
+
+/// Checks that `len` bytes at `addr` are a non-empty access inside 0x0000..=0xFFFF.
+pub(crate) fn check_range<E>(addr: u16, len: usize) -> Result<(), Error<E>> {
+    if len == 0 || usize::from(addr) + len > 0x1_0000 {
+        Err(Error::OutOfRange)
+    } else {
+        Ok(())
+    }
+}
