@@ -1,5 +1,6 @@
 //! The ET1100 on any [`Pdi`]: raw access and typed register helpers.
 
+use crate::pdi::check_range;
 use crate::{
     AlControl, AlEvents, AlStatus, Error, Pdi, Register, SyncActivation, SyncManager,
     WatchdogCounters, WatchdogStatus,
@@ -270,9 +271,7 @@ impl<P: Pdi> Et1100<P> {
         if data.len() > len {
             return Err(Error::DataTooLong);
         }
-        if len == 0 || usize::from(sm.start) + len > 0x1_0000 {
-            return Err(Error::OutOfRange);
-        }
+        check_range(sm.start, len)?;
         if !data.is_empty() {
             self.write(sm.start, data)?;
         }

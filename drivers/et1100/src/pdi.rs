@@ -44,9 +44,11 @@ impl<P: Pdi + ?Sized> Pdi for &mut P {
 
 /// Checks that `len` bytes at `addr` are a non-empty access inside 0x0000..=0xFFFF.
 pub(crate) fn check_range<E>(addr: u16, len: usize) -> Result<(), Error<E>> {
-    if len == 0 || usize::from(addr) + len > 0x1_0000 {
-        Err(Error::OutOfRange)
-    } else {
-        Ok(())
+    let end = u32::try_from(len)
+        .ok()
+        .and_then(|len| len.checked_add(u32::from(addr)));
+    match end {
+        Some(end) if len != 0 && end <= 0x1_0000 => Ok(()),
+        _ => Err(Error::OutOfRange),
     }
 }
