@@ -56,7 +56,7 @@ impl AlEvents {
         self.0 == 0
     }
 
-    /// All bits of `mask` set.
+    /// All bits of a non-empty `mask` set (false for an empty mask).
     pub const fn contains(self, mask: u32) -> bool {
         self.0 & mask == mask && mask != 0
     }
