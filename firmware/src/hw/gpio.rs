@@ -1,0 +1,100 @@
+//! GPIO pins through the fast GPIO block (FIO, 0x2009_C000, stride 0x20 per port:
+//! DIR +0, MASK +0x10, PIN +0x14, SET +0x18, CLR +0x1C; hardware-facts section 7).
+//!
+//! A pin is a value made once by [`crate::hw::board`] from the pin map; SET/CLR are
+//! write-1-to-act registers, so pins of one port owned by different tasks never race
+//! (no read-modify-write).
+
+use super::board::Pin;
+use core::convert::Infallible;
+use core::ptr;
+
+const FIO_BASE: usize = 0x2009_C000;
+const FIODIR: usize = 0x00;
+const FIOPIN: usize = 0x14;
+const FIOSET: usize = 0x18;
+const FIOCLR: usize = 0x1C;
+
+fn reg(port: u8, offset: usize) -> *mut u32 {
+    (FIO_BASE + usize::from(port) * 0x20 + offset) as *mut u32
+}
+
+/// A push-pull output (chip selects, LDAC, CLR).
+#[derive(Debug)]
+pub struct OutPin {
+    port: u8,
+    mask: u32,
+}
+
+impl OutPin {
+    /// Makes `pin` an output at `high` (level written before the direction, no glitch).
+    /// Only [`crate::hw::board`] calls this, once per pin of the pin map.
+    pub(super) fn new(pin: Pin, high: bool) -> Self {
+        let p = Self {
+            port: pin.port,
+            mask: 1 << pin.pin,
+        };
+        p.set(high);
+        // SAFETY: FIODIR of an existing port; the read-modify-write runs in a critical
+        // section during board init, before any task can touch GPIO.
+        cortex_m::interrupt::free(|_| unsafe {
+            let dir = reg(p.port, FIODIR);
+            ptr::write_volatile(dir, ptr::read_volatile(dir) | p.mask);
+        });
+        p
+    }
+
+    /// Drives the pin high (`true`) or low.
+    #[inline(always)]
+    pub fn set(&self, high: bool) {
+        let offset = if high { FIOSET } else { FIOCLR };
+        // SAFETY: FIOSET/FIOCLR are write-1-to-act: only this pin's bit changes.
+        unsafe { ptr::write_volatile(reg(self.port, offset), self.mask) }
+    }
+
+    /// The level the pin reads back.
+    pub fn is_high(&self) -> bool {
+        // SAFETY: a read of FIOPIN has no side effect.
+        unsafe { ptr::read_volatile(reg(self.port, FIOPIN)) & self.mask != 0 }
+    }
+}
+
+impl embedded_hal::digital::ErrorType for OutPin {
+    type Error = Infallible;
+}
+
+impl embedded_hal::digital::OutputPin for OutPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.set(false);
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.set(true);
+        Ok(())
+    }
+}
+
+/// A GPIO input (ESC IRQ line, EEPROM_LOADED).
+#[derive(Debug)]
+pub struct InPin {
+    port: u8,
+    mask: u32,
+}
+
+impl InPin {
+    /// `pin` as an input (the reset direction); only [`crate::hw::board`] calls this.
+    pub(super) fn new(pin: Pin) -> Self {
+        Self {
+            port: pin.port,
+            mask: 1 << pin.pin,
+        }
+    }
+
+    /// The pin level.
+    #[inline(always)]
+    pub fn is_high(&self) -> bool {
+        // SAFETY: a read of FIOPIN has no side effect.
+        unsafe { ptr::read_volatile(reg(self.port, FIOPIN)) & self.mask != 0 }
+    }
+}

@@ -1,0 +1,38 @@
+//! The hardware layer of the LPC1754 board: the only place (besides the flash algorithm) with
+//! `unsafe`. Every module owns one peripheral (or one pin set) and offers a safe API to the
+//! RTIC tasks in `main.rs`; every wait on hardware is bounded and returns an error.
+//!
+//! | module       | what                                                                  |
+//! |--------------|-----------------------------------------------------------------------|
+//! | [`board`]    | THE pin map (hardware-facts 10.A) with its LQFP80 check, PINSEL setup |
+//! | [`clocks`]   | 12 MHz crystal -> PLL0 -> 100 MHz CCLK, flash wait states, PCLKs      |
+//! | [`gpio`]     | GPIO output/input pins (chip selects, LDAC)                           |
+//! | [`spi`]      | legacy SPI (ET1100 PDI) as `SpiBus`, the ESC's `SpiDevice`            |
+//! | [`ssp`]      | SSP0 (AD5663) and SSP1 (AD7689) as `SpiBus` with FIFO use             |
+//! | [`timers`]   | Timer1 SYNC0 capture (timestamp), Timer2 CNV generation + ADC frames  |
+//! | [`gpio_irq`] | ESC IRQ on P0.22 (falling edge, EINT3 vector)                         |
+//! | [`wdt`]      | the MCU watchdog                                                      |
+//! | [`esc`]      | the application's `EscPort` over the `et1100` driver                  |
+//! | [`dac`]      | AD5663 frames for the DAC task's actions                              |
+//! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
+//! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
+
+pub mod board;
+pub mod clocks;
+pub mod crp;
+pub mod dac;
+pub mod delay;
+pub mod esc;
+pub mod gpio;
+pub mod gpio_irq;
+pub mod mem;
+pub mod spi;
+pub mod ssp;
+pub mod timers;
+pub mod wdt;
+
+/// The CPU clock after [`clocks::init`] (Hz); PCLK of every peripheral used is CCLK/1.
+pub const CCLK_HZ: u32 = clocks::CCLK_HZ;
+
+/// Peripheral clock of SPI, SSP0/1, Timer1/2 (PCLKSEL = 01: CCLK/1).
+pub const PCLK_HZ: u32 = clocks::CCLK_HZ;

@@ -1,0 +1,227 @@
+//! Timers (UM10360 chapter 21; hardware-facts 7 and 10.A/B).
+//!
+//! * **Timer1 = time base + SYNC0 capture.** TC counts PCLK (100 MHz, 10 ns) freely; CAP1.0
+//!   (P1.18, the ET1100 SYNC0 output, push-pull active high) captures TC on the rising edge
+//!   into CR0 and raises the TIMER1 interrupt: SYNC0 gets its own vector and a hardware
+//!   timestamp. MR0 = 0xFFFF_FFFF interrupts once per wrap (42.9 s) to extend TC to 64 bits.
+//!   The DAC task is the TIMER1 handler; it can also be pended by software (no capture flag
+//!   set) for "apply outputs now".
+//! * **Timer2 = AD7689 conversion clock.** MR3 resets TC every sample period; MAT2.0 (P0.6 =
+//!   CNV) is set high by MR0 (conversion start) and the MR1 interrupt drives it low after
+//!   tCONV, then starts the 16-bit SSP1 frame that reads the result (no busy indicator, read
+//!   after conversion, CPOL = CPHA = 0). The frame runs in hardware while the CPU returns; the
+//!   next MR1 interrupt collects it from the RX FIFO, so no interrupt waits on the bus.
+//!
+//! What GPDMA would add (hardware-facts 10.B, not done here): DMA channels on T2MR0/T2MR1
+//! (DMAREQSEL lines 12/13) writing MR0 (toggle CNV) and the SSP1 DR, and one on SSP1 RX into a
+//! ring in AHB SRAM. That removes the per-sample interrupt (about 60-80 cycles per 4 us at
+//! 250 kSPS, i.e. ~20 % CPU here); the CPU would only drain the ring. The pure logic (the scan
+//! pipeline below) stays the same.
+
+use super::ssp::Ssp;
+use core::sync::atomic::{AtomicU32, Ordering};
+use lpc17xx_pac as pac;
+
+/// Timer tick in ns (PCLK 100 MHz, PR = 0).
+pub const TICK_NS: u64 = 1_000_000_000 / super::PCLK_HZ as u64;
+
+const IR_MR0: u32 = 1 << 0;
+const IR_MR1: u32 = 1 << 1;
+const IR_CR0: u32 = 1 << 4;
+const TCR_ENABLE: u32 = 1;
+const TCR_RESET: u32 = 2;
+
+/// High word of the 64-bit time base (Timer1 wraps); written only by the TIMER1 handler.
+static TIME_HI: AtomicU32 = AtomicU32::new(0);
+
+/// The time base in ns since boot (Timer1 extended to 64 bits). Callable from any priority.
+pub fn now_ns() -> u64 {
+    // SAFETY: reads of TC and IR have no side effect.
+    let t1 = unsafe { &*pac::TIMER1::ptr() };
+    for _ in 0..4 {
+        let hi = TIME_HI.load(Ordering::Acquire);
+        let lo = t1.tc.read().bits();
+        let wrapped_pending = t1.ir.read().bits() & IR_MR0 != 0;
+        if TIME_HI.load(Ordering::Acquire) == hi {
+            // A wrap the handler has not counted yet (we run above it or it is masked).
+            let hi = if wrapped_pending && lo < 0x8000_0000 {
+                hi.wrapping_add(1)
+            } else {
+                hi
+            };
+            return ((u64::from(hi) << 32) | u64::from(lo)) * TICK_NS;
+        }
+    }
+    u64::from(t1.tc.read().bits()) * TICK_NS
+}
+
+/// What a TIMER1 interrupt was for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum Timer1Event {
+    /// A SYNC0 rising edge captured at this time (ns, the [`now_ns`] time base).
+    Sync0(u64),
+    /// No capture: the handler was pended by software (or only the wrap ticked).
+    Pended,
+}
+
+/// Timer1: time base and SYNC0 capture on CAP1.0 (owner: the SYNC0/DAC task).
+pub struct Sync0Capture {
+    t: pac::TIMER1,
+}
+
+impl Sync0Capture {
+    /// Starts the time base; capture on the rising edge with interrupt (CCR = CAP0RE | CAP0I).
+    pub fn new(t: pac::TIMER1) -> Self {
+        // SAFETY: documented register values (UM10360 21.6).
+        t.tcr.write(|w| unsafe { w.bits(TCR_RESET) });
+        t.pr.write(|w| unsafe { w.bits(0) });
+        t.ctcr.write(|w| unsafe { w.bits(0) });
+        t.mr[0].write(|w| unsafe { w.bits(u32::MAX) });
+        t.mcr.write(|w| unsafe { w.bits(1) }); // MR0I
+        t.ccr.write(|w| unsafe { w.bits(0b101) });
+        t.ir.write(|w| unsafe { w.bits(0x3F) });
+        t.tcr.write(|w| unsafe { w.bits(TCR_ENABLE) });
+        Self { t }
+    }
+
+    /// Serves the TIMER1 interrupt: counts a wrap, returns the SYNC0 capture if there is one.
+    pub fn on_interrupt(&mut self) -> Timer1Event {
+        let ir = self.t.ir.read().bits();
+        let mut hi = TIME_HI.load(Ordering::Relaxed);
+        let captured = self.t.cr[0].read().bits();
+        if ir & IR_MR0 != 0 {
+            // SAFETY: IR is write-1-to-clear.
+            self.t.ir.write(|w| unsafe { w.bits(IR_MR0) });
+            hi = hi.wrapping_add(1);
+            TIME_HI.store(hi, Ordering::Release);
+        }
+        if ir & IR_CR0 != 0 {
+            self.t.ir.write(|w| unsafe { w.bits(IR_CR0) });
+            // A capture just before the wrap belongs to the old high word.
+            let hi = if ir & IR_MR0 != 0 && captured >= 0x8000_0000 {
+                hi.wrapping_sub(1)
+            } else {
+                hi
+            };
+            return Timer1Event::Sync0(((u64::from(hi) << 32) | u64::from(captured)) * TICK_NS);
+        }
+        Timer1Event::Pended
+    }
+}
+
+/// AD7689 CFG (hardware-facts 6): CFG overwrite, unipolar to GND (INCC 111), scan IN0..INx
+/// with INx = 7, full bandwidth, external reference with buffer (REF 111), SEQ 11 (scan
+/// without temperature), no readback; shifted into the top 14 bits of the 16-bit frame.
+/// Same word as the virtual board's `ADC_SCAN_CFG`.
+pub const ADC_SCAN_CFG: u16 = 0x3FFF;
+
+/// Number of analog inputs scanned.
+pub const ADC_CHANNELS: u8 = 8;
+
+/// The sample period (MR3 + 1 ticks): 4 us = 250 kSPS aggregate, 31.25 kSPS per channel.
+pub const ADC_PERIOD_TICKS: u32 = 400;
+/// CNV high from MR0 (tick 1) to MR1: 2.3 us > tCONV max 2.2 us; the 16-bit frame (0.96 us
+/// at 16.7 MHz) then ends ~3.3 us into the 4 us period, before the next CNV edge.
+pub const ADC_CNV_HIGH_TICKS: u32 = 230;
+
+/// The AD7689 frame pipeline (hardware-facts 6): the CFG sent in frame N governs conversion
+/// N + 1, whose data arrives in frame N + 2; the first two conversions after power-up are
+/// dummies. Frames 0 and 1 carry the CFG, from frame 3 on frame k holds channel (k - 3) % 8.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ScanPipeline {
+    frames: u32,
+}
+
+impl ScanPipeline {
+    /// The 16-bit word to send in the next frame (CFG during start-up, then 0: DIN low
+    /// keeps the CFG, bit 13 = 0).
+    pub fn next_tx(&self) -> u16 {
+        if self.frames < 2 {
+            ADC_SCAN_CFG << 2
+        } else {
+            0
+        }
+    }
+
+    /// Accounts one received frame; `Some(channel)` when it holds a scan result.
+    pub fn on_rx(&mut self) -> Option<u8> {
+        let k = self.frames;
+        // Once the scan runs, `frames` cycles through 3..=10, so it never overflows.
+        self.frames = if k >= 3 {
+            3 + (k - 2) % u32::from(ADC_CHANNELS)
+        } else {
+            k + 1
+        };
+        (k >= 3).then(|| (k - 3) as u8)
+    }
+}
+
+/// Timer2 CNV generation + SSP1 frames (owner: the sampler task, TIMER2 handler).
+pub struct AdcSampler {
+    t: pac::TIMER2,
+    ssp: Ssp<pac::SSP1>,
+    pipeline: ScanPipeline,
+    in_flight: bool,
+    missed: u32,
+}
+
+impl AdcSampler {
+    /// Configures Timer2 (stopped): MR0 sets MAT2.0 (EMC0 = 10), MR1 interrupts, MR3 resets.
+    pub fn new(t: pac::TIMER2, ssp: Ssp<pac::SSP1>) -> Self {
+        // SAFETY: documented register values (UM10360 21.6).
+        t.tcr.write(|w| unsafe { w.bits(TCR_RESET) });
+        t.pr.write(|w| unsafe { w.bits(0) });
+        t.ctcr.write(|w| unsafe { w.bits(0) });
+        t.mr[0].write(|w| unsafe { w.bits(1) });
+        t.mr[1].write(|w| unsafe { w.bits(1 + ADC_CNV_HIGH_TICKS) });
+        t.mr[3].write(|w| unsafe { w.bits(ADC_PERIOD_TICKS - 1) });
+        // MR1I (b3), MR3R (b10).
+        t.mcr.write(|w| unsafe { w.bits((1 << 3) | (1 << 10)) });
+        // EM0 = 0 (CNV low), EMC0 [5:4] = 10: set MAT2.0 high on MR0.
+        t.emr.write(|w| unsafe { w.bits(0b10 << 4) });
+        t.ir.write(|w| unsafe { w.bits(0x3F) });
+        Self {
+            t,
+            ssp,
+            pipeline: ScanPipeline::default(),
+            in_flight: false,
+            missed: 0,
+        }
+    }
+
+    /// Starts the conversions.
+    pub fn start(&mut self) {
+        // SAFETY: TCR enable.
+        self.t.tcr.write(|w| unsafe { w.bits(TCR_ENABLE) });
+    }
+
+    /// Frames whose result was not in the FIFO when the next one was due.
+    pub fn missed(&self) -> u32 {
+        self.missed
+    }
+
+    /// Serves the TIMER2 (MR1) interrupt: CNV low, collect the previous frame's result,
+    /// start this conversion's frame. Returns `(channel, code)` of a scan result.
+    pub fn on_interrupt(&mut self) -> Option<(u8, u16)> {
+        // SAFETY: IR write-1-to-clear; EMR: EM0 = 0 drives CNV low, EMC0 unchanged.
+        self.t.ir.write(|w| unsafe { w.bits(IR_MR1) });
+        self.t.emr.write(|w| unsafe { w.bits(0b10 << 4) });
+        let mut result = None;
+        if self.in_flight {
+            match self.ssp.try_pop() {
+                Some(code) => {
+                    if let Some(ch) = self.pipeline.on_rx() {
+                        result = Some((ch, code));
+                    }
+                }
+                None => {
+                    self.missed = self.missed.wrapping_add(1);
+                    self.pipeline.on_rx(); // keep the channel phase
+                }
+            }
+        }
+        self.ssp.drain_rx();
+        self.in_flight = self.ssp.try_push(self.pipeline.next_tx());
+        result
+    }
+}
