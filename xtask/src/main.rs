@@ -2,8 +2,11 @@
 //!
 //! Each command lives in its own module; `main` only parses arguments and dispatches.
 
+mod build;
+mod image;
 mod setup;
 mod sim;
+mod size;
 mod test;
 mod util;
 
@@ -29,6 +32,10 @@ enum Command {
     /// Run the virtual board with a real EtherCAT master (in process, or on a network
     /// interface with --iface): ESM walk, SDO identity, AI -> AO loop-back figures.
     Sim(sim::Args),
+    /// Release image for the LPC1754: ELF + BIN with the vector checksum, CRP check, budget.
+    Build(build::Args),
+    /// Flash/RAM figures of the release image, per crate and per symbol.
+    Size(size::Args),
 }
 
 fn main() -> ExitCode {
@@ -37,6 +44,8 @@ fn main() -> ExitCode {
         Command::Test(args) => test::run(&args),
         Command::Setup => setup::all(),
         Command::Sim(args) => sim::run(&args),
+        Command::Build(args) => build::run(&args),
+        Command::Size(args) => size::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,7 +1,7 @@
 //! `cargo xtask test`: everything CI checks.
 
-use crate::setup;
 use crate::util::{cargo, exec, Result};
+use crate::{build, setup};
 
 /// The `no_std` crates that must build for every embedded target.
 const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
@@ -36,5 +36,7 @@ pub fn run(args: &Args) -> Result {
         cmd.env("RUSTFLAGS", "-D warnings");
         exec(&mut cmd)?;
     }
+    // The LPC1754 image: release build, checksum, CRP word and budget verified on the BIN.
+    build::run(&build::Args::default())?;
     Ok(())
 }

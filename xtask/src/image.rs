@@ -1,0 +1,570 @@
+//! The pure logic of the firmware image: ELF -> BIN, the LPC17xx vector checksum, the Code
+//! Read Protection word, and the flash/RAM accounting against the budget. No I/O here; the
+//! `build` and `size` commands feed it bytes.
+//!
+//! Facts (UM10360 32.3.1.1 and 32.6; hardware-facts section 7):
+//! * The boot ROM starts the user code only if the 32-bit sum of the first eight vector
+//!   table words (0x00..0x1F) is 0: word 7 (offset 0x1C, a reserved vector) holds the two's
+//!   complement of the sum of words 0..6. Otherwise it stays in the ISP loader.
+//! * The word at 0x2FC is the CRP: 0x12345678 CRP1, 0x87654321 CRP2, 0x43218765 CRP3
+//!   (permanent: no SWD, no ISP), 0x4E697370 NO_ISP; any other value = no protection.
+
+use object::elf;
+use object::read::elf::{FileHeader, ProgramHeader, SectionHeader};
+use object::LittleEndian as LE;
+use std::fmt;
+
+/// Offset of the checksum word in the vector table.
+pub const CHECKSUM_OFFSET: usize = 0x1C;
+/// Offset of the CRP word.
+pub const CRP_OFFSET: usize = 0x2FC;
+
+/// LPC1754 memory map (UM10360 2.1).
+pub const FLASH: Region = Region {
+    start: 0x0000_0000,
+    len: 128 * 1024,
+};
+/// Local SRAM (16 KB; the top 32 bytes belong to the IAP ROM).
+pub const RAM: Region = Region {
+    start: 0x1000_0000,
+    len: 16 * 1024,
+};
+/// AHB SRAM bank 0.
+pub const AHBSRAM: Region = Region {
+    start: 0x2007_C000,
+    len: 16 * 1024,
+};
+
+/// The budget of the whole firmware (brief section 6).
+pub const BUDGET: Budget = Budget {
+    flash: 32 * 1024,
+    ram: 6 * 1024,
+};
+
+/// An address range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    /// First address.
+    pub start: u64,
+    /// Length in bytes.
+    pub len: u64,
+}
+
+impl Region {
+    /// Whether `addr` lies inside.
+    pub fn contains(&self, addr: u64) -> bool {
+        addr >= self.start && addr < self.start + self.len
+    }
+}
+
+/// Flash and static RAM limits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Budget {
+    /// Bytes of flash.
+    pub flash: u64,
+    /// Bytes of static RAM (.data + .bss + .uninit).
+    pub ram: u64,
+}
+
+/// An error of the image logic.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ImageError {
+    /// The ELF could not be parsed.
+    Elf(String),
+    /// The image is shorter than the vector table / CRP word.
+    TooShort { len: usize, need: usize },
+    /// Sum of words 0..7 is not 0.
+    BadChecksum { sum: u32 },
+    /// The CRP word enables protection and `--allow-crp` was not given.
+    CrpRefused(Crp),
+    /// Initial stack pointer or reset vector outside the memory map.
+    BadVectors(String),
+    /// Loadable data outside the flash.
+    OutsideFlash { section: String, addr: u64 },
+    /// Over budget.
+    OverBudget(String),
+}
+
+impl fmt::Display for ImageError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Elf(e) => write!(f, "cannot read the ELF: {e}"),
+            Self::TooShort { len, need } => {
+                write!(f, "image is {len} bytes, needs at least {need}")
+            }
+            Self::BadChecksum { sum } => write!(
+                f,
+                "vector checksum wrong: words 0..7 sum to {sum:#010x}, the boot ROM would stay in ISP"
+            ),
+            Self::CrpRefused(c) => write!(
+                f,
+                "the CRP word at 0x2FC is {c}: refusing (pass --allow-crp if you really mean it)"
+            ),
+            Self::BadVectors(s) => write!(f, "vector table: {s}"),
+            Self::OutsideFlash { section, addr } => {
+                write!(f, "section {section} loads at {addr:#x}, outside the flash")
+            }
+            Self::OverBudget(s) => write!(f, "over budget: {s}"),
+        }
+    }
+}
+
+/// The Code Read Protection level a word selects.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Crp {
+    /// No protection (any other value); the word is kept.
+    None(u32),
+    /// 0x12345678: SWD off, limited ISP.
+    Crp1,
+    /// 0x87654321: SWD off, ISP only full erase.
+    Crp2,
+    /// 0x43218765: SWD and ISP off for ever.
+    Crp3,
+    /// 0x4E697370: P2.10 not sampled, no ISP entry.
+    NoIsp,
+}
+
+impl Crp {
+    /// The level of `word`.
+    pub fn of(word: u32) -> Self {
+        match word {
+            0x1234_5678 => Self::Crp1,
+            0x8765_4321 => Self::Crp2,
+            0x4321_8765 => Self::Crp3,
+            0x4E69_7370 => Self::NoIsp,
+            w => Self::None(w),
+        }
+    }
+
+    /// Whether the level restricts access.
+    pub fn protects(&self) -> bool {
+        !matches!(self, Self::None(_))
+    }
+}
+
+impl fmt::Display for Crp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::None(w) => write!(f, "{w:#010x} (no protection)"),
+            Self::Crp1 => f.write_str("0x12345678 CRP1 (SWD disabled, partial ISP)"),
+            Self::Crp2 => f.write_str("0x87654321 CRP2 (SWD disabled, ISP full erase only)"),
+            Self::Crp3 => {
+                f.write_str("0x43218765 CRP3 (SWD and ISP disabled PERMANENTLY: no way back)")
+            }
+            Self::NoIsp => f.write_str("0x4E697370 NO_ISP (ISP entry via P2.10 disabled)"),
+        }
+    }
+}
+
+fn word(bin: &[u8], offset: usize) -> Result<u32, ImageError> {
+    bin.get(offset..offset + 4)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .ok_or(ImageError::TooShort {
+            len: bin.len(),
+            need: offset + 4,
+        })
+}
+
+/// The checksum word for vector words 0..6: `-(w0 + ... + w6)` (wrapping).
+pub fn vector_checksum(words: &[u32; 7]) -> u32 {
+    words
+        .iter()
+        .fold(0u32, |a, w| a.wrapping_add(*w))
+        .wrapping_neg()
+}
+
+/// Writes the checksum into word 7 of `vectors` (the first 32 bytes of the image, or of the
+/// vector table section); returns it.
+pub fn patch_checksum(vectors: &mut [u8]) -> Result<u32, ImageError> {
+    let mut w = [0u32; 7];
+    for (i, slot) in w.iter_mut().enumerate() {
+        *slot = word(vectors, 4 * i)?;
+    }
+    let sum = vector_checksum(&w);
+    word(vectors, CHECKSUM_OFFSET)?;
+    vectors[CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4].copy_from_slice(&sum.to_le_bytes());
+    Ok(sum)
+}
+
+/// Checks the boot ROM's rule: words 0..7 sum to 0.
+pub fn verify_checksum(bin: &[u8]) -> Result<(), ImageError> {
+    let mut sum = 0u32;
+    for i in 0..8 {
+        sum = sum.wrapping_add(word(bin, 4 * i)?);
+    }
+    if sum == 0 {
+        Ok(())
+    } else {
+        Err(ImageError::BadChecksum { sum })
+    }
+}
+
+/// The CRP word of the image; an error for a protecting value unless `allow`.
+pub fn check_crp(bin: &[u8], allow: bool) -> Result<Crp, ImageError> {
+    let crp = Crp::of(word(bin, CRP_OFFSET)?);
+    if crp.protects() && !allow {
+        return Err(ImageError::CrpRefused(crp));
+    }
+    Ok(crp)
+}
+
+/// Plausibility of the first two vectors: initial SP inside the local SRAM (8-byte aligned,
+/// at most its end), reset handler a Thumb address in the flash.
+pub fn check_vectors(bin: &[u8]) -> Result<(), ImageError> {
+    let sp = u64::from(word(bin, 0)?);
+    let reset = u64::from(word(bin, 4)?);
+    if !(sp > RAM.start && sp <= RAM.start + RAM.len) || sp % 8 != 0 {
+        return Err(ImageError::BadVectors(format!(
+            "initial SP {sp:#x} is not an 8-byte aligned address in the local SRAM"
+        )));
+    }
+    if reset & 1 == 0 || !FLASH.contains(reset & !1) || (reset & !1) >= bin.len() as u64 {
+        return Err(ImageError::BadVectors(format!(
+            "reset vector {reset:#x} is not a Thumb address inside the image"
+        )));
+    }
+    Ok(())
+}
+
+/// Every check a written BIN must pass before it goes near a chip.
+pub fn verify_bin(bin: &[u8], allow_crp: bool) -> Result<Crp, ImageError> {
+    if bin.len() < CRP_OFFSET + 4 {
+        return Err(ImageError::TooShort {
+            len: bin.len(),
+            need: CRP_OFFSET + 4,
+        });
+    }
+    verify_checksum(bin)?;
+    check_vectors(bin)?;
+    check_crp(bin, allow_crp)
+}
+
+/// Where a section lives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Place {
+    /// Occupies flash only (code, constants, vector table, CRP).
+    Flash,
+    /// Initialised RAM: occupies flash (load image) and RAM.
+    FlashAndRam,
+    /// Zeroed or uninitialised RAM (.bss, .uninit).
+    Ram,
+    /// AHB SRAM (NOLOAD buffers).
+    AhbSram,
+    /// Not loaded (debug info, defmt strings).
+    None,
+}
+
+/// One section of the ELF.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SectionInfo {
+    /// Name.
+    pub name: String,
+    /// Run address (VMA).
+    pub addr: u64,
+    /// Load address (LMA): where its bytes sit in flash, if it has any.
+    pub load_addr: Option<u64>,
+    /// Size in bytes.
+    pub size: u64,
+    /// Classification.
+    pub place: Place,
+    /// File offset of the contents (for patching), if the section has contents.
+    pub file_offset: Option<u64>,
+}
+
+/// The image's use of memory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Usage {
+    /// Flash: every loadable section (.vector_table, .crp, .text, .rodata, .data load image).
+    pub flash: u64,
+    /// Static RAM in the local SRAM: .data + .bss + .uninit (stack excluded).
+    pub ram: u64,
+    /// AHB SRAM buffers (.ahbsram).
+    pub ahbsram: u64,
+    /// End of the flash image (the BIN size, including the gap before the CRP word).
+    pub image_end: u64,
+}
+
+/// Sums the sections.
+pub fn usage(sections: &[SectionInfo]) -> Usage {
+    let mut u = Usage::default();
+    for s in sections {
+        match s.place {
+            Place::Flash => u.flash += s.size,
+            Place::FlashAndRam => {
+                u.flash += s.size;
+                u.ram += s.size;
+            }
+            Place::Ram => u.ram += s.size,
+            Place::AhbSram => u.ahbsram += s.size,
+            Place::None => {}
+        }
+        if let Some(lma) = s.load_addr {
+            u.image_end = u.image_end.max(lma + s.size);
+        }
+    }
+    u
+}
+
+/// The budget verdict: `Err` naming every limit that is exceeded.
+pub fn check_budget(u: &Usage, b: &Budget) -> Result<(), ImageError> {
+    let mut over = Vec::new();
+    if u.flash > b.flash {
+        over.push(format!("flash {} B > {} B", u.flash, b.flash));
+    }
+    if u.ram > b.ram {
+        over.push(format!("static RAM {} B > {} B", u.ram, b.ram));
+    }
+    if over.is_empty() {
+        Ok(())
+    } else {
+        Err(ImageError::OverBudget(over.join(", ")))
+    }
+}
+
+/// The sections of an ELF32 little-endian image, with load addresses from the program
+/// headers and a place in the memory map.
+pub fn sections(data: &[u8]) -> Result<Vec<SectionInfo>, ImageError> {
+    let e = |err: object::read::Error| ImageError::Elf(err.to_string());
+    let header = elf::FileHeader32::<LE>::parse(data).map_err(e)?;
+    let endian = header.endian().map_err(e)?;
+    let phdrs = header.program_headers(endian, data).map_err(e)?;
+    let table = header.sections(endian, data).map_err(e)?;
+    let mut out = Vec::new();
+    for s in table.iter() {
+        let flags = u64::from(s.sh_flags(endian));
+        let size = u64::from(s.sh_size(endian));
+        if flags & u64::from(elf::SHF_ALLOC) == 0 || size == 0 {
+            continue;
+        }
+        let name = String::from_utf8_lossy(table.section_name(endian, s).map_err(e)?).into_owned();
+        let addr = u64::from(s.sh_addr(endian));
+        let nobits = s.sh_type(endian) == elf::SHT_NOBITS;
+        let offset = u64::from(s.sh_offset(endian));
+        let load_addr = if nobits {
+            None
+        } else {
+            // The PT_LOAD segment holding the section's bytes gives the LMA.
+            phdrs
+                .iter()
+                .filter(|p| p.p_type(endian) == elf::PT_LOAD)
+                .find(|p| {
+                    let o = u64::from(p.p_offset(endian));
+                    offset >= o && offset + size <= o + u64::from(p.p_filesz(endian))
+                })
+                .map(|p| u64::from(p.p_paddr(endian)) + offset - u64::from(p.p_offset(endian)))
+                .or(Some(addr))
+        };
+        let place = if AHBSRAM.contains(addr) {
+            Place::AhbSram
+        } else if RAM.contains(addr) {
+            if nobits {
+                Place::Ram
+            } else {
+                Place::FlashAndRam
+            }
+        } else if FLASH.contains(addr) && !nobits {
+            Place::Flash
+        } else {
+            Place::None
+        };
+        out.push(SectionInfo {
+            name,
+            addr,
+            load_addr: if place == Place::Flash || place == Place::FlashAndRam {
+                load_addr
+            } else {
+                None
+            },
+            size,
+            place,
+            file_offset: (!nobits).then_some(offset),
+        });
+    }
+    Ok(out)
+}
+
+/// The flash image (what `objcopy -O binary` gives): every section with a load address,
+/// at its load address, gaps filled with 0xFF (the erased flash value).
+pub fn elf_to_bin(data: &[u8], sections: &[SectionInfo]) -> Result<Vec<u8>, ImageError> {
+    let mut bin: Vec<u8> = Vec::new();
+    for s in sections {
+        let (Some(lma), Some(off)) = (s.load_addr, s.file_offset) else {
+            continue;
+        };
+        if !FLASH.contains(lma) || lma + s.size > FLASH.start + FLASH.len {
+            return Err(ImageError::OutsideFlash {
+                section: s.name.clone(),
+                addr: lma,
+            });
+        }
+        let start = (lma - FLASH.start) as usize;
+        let end = start + s.size as usize;
+        if bin.len() < end {
+            bin.resize(end, 0xFF);
+        }
+        let src = data
+            .get(off as usize..off as usize + s.size as usize)
+            .ok_or_else(|| ImageError::Elf(format!("section {} beyond the file", s.name)))?;
+        bin[start..end].copy_from_slice(src);
+    }
+    Ok(bin)
+}
+
+/// Patches the vector checksum into the ELF's section that loads at address 0; returns the
+/// checksum, `None` if no such section exists.
+pub fn patch_elf_checksum(
+    data: &mut [u8],
+    sections: &[SectionInfo],
+) -> Result<Option<u32>, ImageError> {
+    let Some(s) = sections
+        .iter()
+        .find(|s| s.load_addr == Some(FLASH.start) && s.size >= 32)
+    else {
+        return Ok(None);
+    };
+    let off = s.file_offset.unwrap_or(0) as usize;
+    let vectors = data
+        .get_mut(off..off + 32)
+        .ok_or_else(|| ImageError::Elf("vector table beyond the file".into()))?;
+    patch_checksum(vectors).map(Some)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A synthetic image: SP, reset and exception vectors, CRP word.
+    fn image(crp: u32) -> Vec<u8> {
+        let mut bin = vec![0xFF; 0x400];
+        let words = [
+            0x1000_3FE0u32,
+            0x0000_0301,
+            0x0000_0305,
+            0x0000_0307,
+            0x0000_0309,
+            0x0000_030B,
+            0x0000_030D,
+            0,
+        ];
+        for (i, w) in words.iter().enumerate() {
+            bin[4 * i..4 * i + 4].copy_from_slice(&w.to_le_bytes());
+        }
+        bin[CRP_OFFSET..CRP_OFFSET + 4].copy_from_slice(&crp.to_le_bytes());
+        bin
+    }
+
+    #[test]
+    fn checksum_is_twos_complement_of_words_0_to_6() {
+        let w = [0x1000_3FE0, 0x301, 0x305, 0x307, 0x309, 0x30B, 0x30D];
+        let sum: u64 = w.iter().map(|&x| u64::from(x)).sum();
+        assert_eq!(vector_checksum(&w), (0u32).wrapping_sub(sum as u32));
+        // By hand: 0x1000_3FE0 + 0x122E = 0x1000_520E, negated 0xEFFF_ADF2.
+        assert_eq!(vector_checksum(&w), 0xEFFF_ADF2);
+        // Wrapping case.
+        assert_eq!(vector_checksum(&[0xFFFF_FFFF, 1, 0, 0, 0, 0, 0]), 0);
+        assert_eq!(
+            vector_checksum(&[0x8000_0000, 0x8000_0000, 2, 0, 0, 0, 0]),
+            0xFFFF_FFFE
+        );
+    }
+
+    #[test]
+    fn patch_then_verify() {
+        let mut bin = image(0xFFFF_FFFF);
+        assert!(matches!(
+            verify_checksum(&bin),
+            Err(ImageError::BadChecksum { .. })
+        ));
+        let c = patch_checksum(&mut bin).unwrap();
+        assert_eq!(&bin[0x1C..0x20], &c.to_le_bytes());
+        verify_checksum(&bin).unwrap();
+        assert_eq!(verify_bin(&bin, false).unwrap(), Crp::None(0xFFFF_FFFF));
+        // Idempotent.
+        assert_eq!(patch_checksum(&mut bin).unwrap(), c);
+        // Any change of words 0..6 breaks it.
+        bin[4] ^= 0x10;
+        assert!(verify_checksum(&bin).is_err());
+    }
+
+    #[test]
+    fn crp_values() {
+        for (w, c) in [
+            (0x1234_5678, Crp::Crp1),
+            (0x8765_4321, Crp::Crp2),
+            (0x4321_8765, Crp::Crp3),
+            (0x4E69_7370, Crp::NoIsp),
+        ] {
+            let mut bin = image(w);
+            patch_checksum(&mut bin).unwrap();
+            assert_eq!(verify_bin(&bin, false), Err(ImageError::CrpRefused(c)));
+            assert_eq!(verify_bin(&bin, true), Ok(c));
+            assert!(c
+                .to_string()
+                .to_lowercase()
+                .starts_with(&format!("{w:#010x}")));
+        }
+        for w in [0xFFFF_FFFF, 0, 0x1234_5679] {
+            assert_eq!(check_crp(&image(w), false), Ok(Crp::None(w)));
+        }
+    }
+
+    #[test]
+    fn short_and_implausible_images() {
+        assert!(matches!(
+            verify_bin(&[0; 16], false),
+            Err(ImageError::TooShort { .. })
+        ));
+        let mut bin = image(0xFFFF_FFFF);
+        bin[0..4].copy_from_slice(&0x2000_0000u32.to_le_bytes()); // SP not in local SRAM
+        patch_checksum(&mut bin).unwrap();
+        assert!(matches!(
+            verify_bin(&bin, false),
+            Err(ImageError::BadVectors(_))
+        ));
+        let mut bin = image(0xFFFF_FFFF);
+        bin[4..8].copy_from_slice(&0x300u32.to_le_bytes()); // even: not Thumb
+        patch_checksum(&mut bin).unwrap();
+        assert!(matches!(
+            verify_bin(&bin, false),
+            Err(ImageError::BadVectors(_))
+        ));
+    }
+
+    fn sec(name: &str, addr: u64, lma: Option<u64>, size: u64, place: Place) -> SectionInfo {
+        SectionInfo {
+            name: name.into(),
+            addr,
+            load_addr: lma,
+            size,
+            place,
+            file_offset: lma.map(|_| 0),
+        }
+    }
+
+    #[test]
+    fn accounting_and_budget() {
+        let s = [
+            sec(".vector_table", 0, Some(0), 0xCC, Place::Flash),
+            sec(".crp", 0x2FC, Some(0x2FC), 4, Place::Flash),
+            sec(".text", 0x300, Some(0x300), 10_000, Place::Flash),
+            sec(".rodata", 0x2A10, Some(0x2A10), 1_000, Place::Flash),
+            sec(".data", 0x1000_3000, Some(0x2DF8), 56, Place::FlashAndRam),
+            sec(".bss", 0x1000_3038, None, 100, Place::Ram),
+            sec(".uninit", 0x1000_309C, None, 1_200, Place::Ram),
+            sec(".ahbsram", 0x2007_C000, None, 4_096, Place::AhbSram),
+            sec(".defmt", 0, None, 12, Place::None),
+        ];
+        let u = usage(&s);
+        assert_eq!(u.flash, 0xCC + 4 + 10_000 + 1_000 + 56);
+        assert_eq!(u.ram, 56 + 100 + 1_200);
+        assert_eq!(u.ahbsram, 4_096);
+        assert_eq!(u.image_end, 0x2DF8 + 56);
+        check_budget(&u, &BUDGET).unwrap();
+        let small = Budget {
+            flash: 1_000,
+            ram: 100,
+        };
+        let err = check_budget(&u, &small).unwrap_err().to_string();
+        assert!(err.contains("flash") && err.contains("static RAM"), "{err}");
+    }
+}
