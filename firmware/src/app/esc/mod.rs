@@ -7,6 +7,7 @@
 //! shifts out during the address phase (0x0220..0x0222), as the SPI PDI does; there is no
 //! hidden state.
 
+mod driver;
 #[cfg(test)]
 pub(crate) mod fake;
 
