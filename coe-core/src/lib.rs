@@ -20,6 +20,7 @@ pub mod mailbox;
 pub mod od;
 pub mod pdo;
 pub mod sdo_server;
+pub mod wire;
 
 pub use abort::SdoAbortCode;
 pub use esm::AlState;
