@@ -15,6 +15,7 @@ extern crate std;
 mod open_enum;
 
 pub mod abort;
+pub mod al_status;
 pub mod esm;
 pub mod mailbox;
 pub mod od;
@@ -23,4 +24,5 @@ pub mod sdo_server;
 pub mod wire;
 
 pub use abort::SdoAbortCode;
+pub use al_status::AlStatusCode;
 pub use esm::AlState;
