@@ -1,4 +1,4 @@
-//! AL status codes (register 0x0134), ETG.1000.6 table 11 "AL Status Codes" (also ETG.1020
+//! AL status codes (register 0x0134): the AL status code list of ETG.1000.6 (also ETG.1020
 //! and the ESC datasheet section II, 0x0134; values cross-checked with SOES `esc.h` and SOEM
 //! `ec_print.c`).
 
@@ -141,7 +141,7 @@ impl AlStatusCode {
 mod tests {
     use super::*;
 
-    /// Every code of ETG.1000.6 table 11 as listed in hardware-facts 1.6 (written out, not
+    /// Every code of the ETG.1000.6 list as given in hardware-facts 1.6 (written out, not
     /// derived from the enum).
     static TABLE: [(u16, AlStatusCode); 62] = [
         (0x0000, AlStatusCode::NoError),

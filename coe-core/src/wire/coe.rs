@@ -1,4 +1,4 @@
-//! CoE header (ETG.1000.6 5.6.1, table 28 "CoE header", table 29 "CoE services").
+//! CoE header (ETG.1000.6 5.6.1 "CoE header" and its list of CoE services).
 //!
 //! ```text
 //!  byte 0..2  u16 LE: number [8:0] | reserved [11:9] | service [15:12]
@@ -18,7 +18,7 @@ mod field {
 pub const HEADER_LEN: usize = field::PAYLOAD;
 
 crate::open_enum! {
-    /// CoE service (header bits 15:12), ETG.1000.6 table 29.
+    /// CoE service (header bits 15:12), ETG.1000.6 5.6.1.
     pub enum CoeService(u8) {
         /// Emergency.
         Emergency = 1,

@@ -1,9 +1,9 @@
-//! CoE Emergency (ETG.1000.6 5.6.4, table 50 "Emergency request"; CiA 301 7.2.7 EMCY).
+//! CoE Emergency (ETG.1000.6 5.6.4 "Emergency"; CiA 301 7.2.7 EMCY).
 //!
 //! The view starts after the CoE header (service 1, number 0); the mailbox length is 10.
 //!
 //! ```text
-//!  byte 0..2  error code u16 (CiA 301 table 21, e.g. 0x8700 sync controller)
+//!  byte 0..2  error code u16 (CiA 301 EMCY error codes; 0x0000 = error reset)
 //!  byte 2     error register u8 (object 0x1001)
 //!  byte 3..8  manufacturer / diagnostic data, 5 bytes
 //! ```
@@ -135,7 +135,7 @@ mod tests {
     use crate::wire::{Coe, CoeRepr, CoeService, Error, Mailbox, MailboxRepr, MailboxType};
 
     /// Whole mailbox frame of an emergency: length 10, CoE type, counter 3; CoE header
-    /// service 1; error code 0x8700 (CiA 301 "sync controller"), error register 0x11
+    /// service 1; error code 0x8700, error register 0x11
     /// (generic + communication), data 01 02 03 04 05.
     static FRAME: [u8; 16] = [
         0x0A, 0x00, 0x00, 0x00, 0x00, 0x33, // mailbox header

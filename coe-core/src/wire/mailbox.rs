@@ -1,5 +1,5 @@
-//! Mailbox header and mailbox error reply (ETG.1000.4 5.6, table 29 "mailbox header" and
-//! table 30 "mailbox error reply"; ESC datasheet section I, 8 "SyncManager, mailbox").
+//! Mailbox header and mailbox error reply (ETG.1000.4 5.6: mailbox header, mailbox error
+//! reply and its error codes; ESC datasheet section I, 8 "SyncManager, mailbox").
 //!
 //! ```text
 //!  byte 0..2  length   u16  bytes after the header
@@ -37,7 +37,7 @@ pub const ERROR_SERVICE_TYPE: u16 = 0x0001;
 pub const ERROR_REPLY_LEN: usize = 4;
 
 /// The mailbox counter that follows `counter`: 1..7, 7 wrapping to 1 (0 means "not used", and
-/// is followed by 1), ETG.1000.4 5.6 / table 29.
+/// is followed by 1), ETG.1000.4 5.6.
 pub const fn next_counter(counter: u8) -> u8 {
     match counter {
         1..=6 => counter + 1,
@@ -46,7 +46,7 @@ pub const fn next_counter(counter: u8) -> u8 {
 }
 
 crate::open_enum! {
-    /// Mailbox type (header byte 5 bits 3:0), ETG.1000.4 table 29.
+    /// Mailbox type (header byte 5 bits 3:0), ETG.1000.4 5.6.
     pub enum MailboxType(u8) {
         /// Mailbox error reply (ERR).
         Error = 0,
@@ -66,7 +66,7 @@ crate::open_enum! {
 }
 
 crate::open_enum! {
-    /// Detail of a mailbox error reply, ETG.1000.4 table 30.
+    /// Detail of a mailbox error reply, ETG.1000.4 5.6.
     pub enum MailboxErrorCode(u16) {
         /// Syntax of the 6-byte mailbox header is wrong.
         Syntax = 0x0001,

@@ -5,11 +5,13 @@
 //!
 //! | File | Format | Specification |
 //! |---|---|---|
-//! | [`mailbox`] | mailbox header, mailbox error reply | ETG.1000.4 5.6 (tables 29, 30); ESC datasheet section I 8 |
-//! | [`coe`] | CoE header | ETG.1000.6 5.6.1 (table 28/29) |
-//! | [`sdo`] | SDO initiate/segment/abort frames | ETG.1000.6 5.6.2 (tables 30..40) |
-//! | [`sdo_info`] | SDO Information service | ETG.1000.6 5.6.3 (tables 42..49) |
-//! | [`emergency`] | CoE Emergency | ETG.1000.6 5.6.4 (table 50) |
+//! | [`mailbox`] | mailbox header, mailbox error reply | ETG.1000.4 5.6 (mailbox header and error reply tables); ESC datasheet section I 8 |
+//! | [`coe`] | CoE header | ETG.1000.6 5.6.1 |
+//! | [`sdo`] | SDO initiate/segment/abort frames | ETG.1000.6 5.6.2 |
+//! | [`sdo_info`] | SDO Information service | ETG.1000.6 5.6.3 |
+//! | [`emergency`] | CoE Emergency | ETG.1000.6 5.6.4 |
+//!
+//! (Section numbers are cited rather than table numbers, which differ between editions.)
 //!
 //! Every format has two layers:
 //!
@@ -60,8 +62,11 @@ pub enum Error {
 }
 
 impl Error {
-    /// The mailbox error reply detail a slave answers this error with when it occurs in the
-    /// mailbox or protocol header (ETG.1000.4 table 30).
+    /// The mailbox error reply detail a slave answers this error with when it occurs in a
+    /// protocol header after the mailbox header (ETG.1000.4 mailbox error reply codes).
+    /// A mailbox header whose length field exceeds the buffer is also `Truncated`
+    /// ([`Mailbox::check_len`]); a slave answers that one with
+    /// [`MailboxErrorCode::InvalidSize`].
     pub const fn mailbox_error_code(self) -> MailboxErrorCode {
         match self {
             Error::Truncated => MailboxErrorCode::SizeTooShort,

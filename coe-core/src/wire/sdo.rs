@@ -1,6 +1,6 @@
-//! SDO frames (ETG.1000.6 5.6.2: tables 30..40 "SDO download expedited/normal request and
-//! response", "download segment", "SDO upload expedited/normal", "upload segment", "abort SDO
-//! transfer"; the command byte is the CiA 301 7.2.4.3 SDO command byte).
+//! SDO frames (ETG.1000.6 5.6.2: SDO download expedited/normal request and response,
+//! download segment, SDO upload expedited/normal, upload segment, abort SDO transfer; the
+//! command byte is the CiA 301 7.2.4.3 SDO command byte).
 //!
 //! The view starts after the CoE header. Initiate and abort frames:
 //!

@@ -1,6 +1,6 @@
-//! SDO Information service (ETG.1000.6 5.6.3: table 42 "SDO Information header", tables 43/44
-//! "Get OD List request/response", 45/46 "Get Object Description", 47/48 "Get Entry
-//! Description", 49 "SDO Info Error request").
+//! SDO Information service (ETG.1000.6 5.6.3: SDO Information header, Get OD List
+//! request/response, Get Object Description request/response, Get Entry Description
+//! request/response, SDO Info Error request).
 //!
 //! The view starts after the CoE header (service 8):
 //!
@@ -18,7 +18,7 @@
 //! | 3 object description request | index u16 |
 //! | 4 object description response | index u16, data type u16, max subindex u8, object code u8, name |
 //! | 5 entry description request | index u16, subindex u8, value info u8 |
-//! | 6 entry description response | index u16, subindex u8, value info u8, data type u16, bit length u16, object access u16, [unit type u16], [default], [minimum], [maximum], name |
+//! | 6 entry description response | index u16, subindex u8, value info u8, data type u16, bit length u16, object access u16, (unit type u16), (default), (minimum), (maximum), name; parenthesised fields only with their value info bit |
 //! | 7 SDO Info error | abort code u32 |
 //!
 //! Names carry no NUL; their length follows from the mailbox length. A long response is
@@ -60,7 +60,7 @@ mod field {
 pub const HEADER_LEN: usize = field::PAYLOAD;
 
 crate::open_enum! {
-    /// SDO Information opcode (header byte 0 bits 6:0), ETG.1000.6 table 42.
+    /// SDO Information opcode (header byte 0 bits 6:0), ETG.1000.6 5.6.3.
     pub enum SdoInfoOpCode(u8) {
         /// Get OD List request.
         GetOdListRequest = 1,
@@ -80,7 +80,7 @@ crate::open_enum! {
 }
 
 crate::open_enum! {
-    /// List type of Get OD List, ETG.1000.6 table 43.
+    /// List type of Get OD List, ETG.1000.6 5.6.3.
     pub enum OdListType(u16) {
         /// The number of objects in each of the five lists below.
         NumberOfObjects = 0,
@@ -98,7 +98,7 @@ crate::open_enum! {
 }
 
 /// The value info byte of an entry description: which optional fields the request asks
-/// for and the response carries (ETG.1000.6 table 47).
+/// for and the response carries (ETG.1000.6 5.6.3, Get Entry Description).
 ///
 /// Bits 0..2 carry no data in the response (SOES names them access rights, object
 /// category and PDO mapping); they are kept as they are.
