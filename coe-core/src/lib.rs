@@ -16,6 +16,7 @@ mod open_enum;
 
 pub mod abort;
 pub mod al_status;
+pub mod device;
 pub mod esm;
 pub mod mailbox;
 pub mod od;
