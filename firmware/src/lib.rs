@@ -10,3 +10,5 @@
 extern crate std;
 
 pub mod app;
+pub mod device;
+pub mod od;

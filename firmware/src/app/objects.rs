@@ -21,9 +21,9 @@ use super::sync::{le_u16, le_u32, SyncMonitor};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::{AlState, SdoAbortCode};
 
-/// Manufacturer settings object (RECORD): sub 1 "AI filter" UNSIGNED8, 0 = latest sample,
-/// 1 = average over the cycle.
-// NOTE: must match the index od.rs gives the manufacturer settings object.
+/// Manufacturer settings object (RECORD, `crate::od`): sub 1 "AI filter" UNSIGNED8, 0 = latest
+/// sample, 1 = average over the cycle; sub 2 the full scale in uV (a constant read from the
+/// dictionary).
 pub const SETTINGS_INDEX: u16 = 0x2000;
 
 /// The application data behind the dictionary.
@@ -134,7 +134,6 @@ impl ObjectAccess for AppData {
                 let v = self.outputs.fault_config().value.get(i).copied();
                 put(buf, &v.unwrap_or(0).to_le_bytes())
             }
-            (SETTINGS_INDEX, 0) => put(buf, &[1]),
             (SETTINGS_INDEX, 1) => put(buf, &[self.sampler.mode().setting()]),
             _ => self.read_default(index, sub, buf),
         }

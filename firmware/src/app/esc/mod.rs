@@ -51,20 +51,7 @@ pub mod event {
 }
 
 /// SyncManager control byte (+4) fields.
-pub mod sm_control {
-    /// Bits 1:0: operation mode, 00 = 3-buffer, 10 = mailbox.
-    pub const MODE_MASK: u8 = 0x03;
-    /// 3-buffer mode.
-    pub const MODE_BUFFERED: u8 = 0x00;
-    /// Mailbox (1-buffer) mode.
-    pub const MODE_MAILBOX: u8 = 0x02;
-    /// Bits 3:2: direction, 00 = ECAT reads, 01 = ECAT writes.
-    pub const DIR_MASK: u8 = 0x0C;
-    /// ECAT writes, PDI reads (SM0, SM2).
-    pub const DIR_ECAT_WRITE: u8 = 0x04;
-    /// Watchdog trigger.
-    pub const WATCHDOG: u8 = 0x40;
-}
+pub use coe_core::device::sm_control;
 
 /// One SyncManager's 8 register bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -1,0 +1,140 @@
+use super::*;
+use crate::app::sync::SUPPORTED_MODES;
+use crate::od::{DEVICE_TYPE, MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use coe_core::od::{ObjectDictionary, Value};
+use std::vec::Vec;
+
+fn default_of(od: &ObjectDictionary, index: u16, sub: u8) -> Value {
+    od.entry(index, sub).expect("entry exists").1.default
+}
+
+#[test]
+fn description_validates() {
+    assert_eq!(DEVICE.validate(), Ok(()));
+}
+
+#[test]
+fn identity_objects_match_the_description() {
+    assert_eq!(
+        default_of(&OD, 0x1000, 0),
+        Value::Uint(u64::from(DEVICE_TYPE))
+    );
+    let identity = [
+        IDENTITY.vendor_id,
+        IDENTITY.product_code,
+        IDENTITY.revision,
+        IDENTITY.serial_number,
+    ];
+    for (sub, expected) in (1..=4).zip(identity) {
+        assert_eq!(
+            default_of(&OD, 0x1018, sub),
+            Value::Uint(u64::from(expected))
+        );
+    }
+    assert_eq!(DEVICE.identity.vendor_id, 0, "placeholder vendor");
+    assert_eq!(default_of(&OD, 0x1008, 0), Value::Str(NAMES.device_name));
+    assert_eq!(
+        default_of(&OD, 0x1009, 0),
+        Value::Str(NAMES.hardware_version)
+    );
+    assert_eq!(
+        default_of(&OD, 0x100A, 0),
+        Value::Str(env!("CARGO_PKG_VERSION"))
+    );
+    assert_eq!(
+        default_of(&OD, MODULE_DESCRIPTION_INDEX, 0),
+        Value::Str(MODULE_DESCRIPTION)
+    );
+}
+
+#[test]
+fn default_pdo_mapping_is_ao_out_and_ai_in() {
+    let rx: Vec<u32> = DEVICE.assigned_pdos(PdoDirection::Rx).collect();
+    let tx: Vec<u32> = DEVICE.assigned_pdos(PdoDirection::Tx).collect();
+    assert_eq!(
+        (rx.as_slice(), tx.as_slice()),
+        (&[0x1600][..], &[0x1A00][..])
+    );
+    let ao: Vec<PdoEntry> = DEVICE.pdo_entries(0x1600).collect();
+    assert_eq!(
+        ao,
+        [PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)]
+    );
+    let ai: Vec<PdoEntry> = DEVICE.pdo_entries(0x1A00).collect();
+    let expected: Vec<PdoEntry> = (1..=8).map(|s| PdoEntry::new(0x6401, s, 16)).collect();
+    assert_eq!(ai, expected);
+    assert_eq!(DEVICE.pdo_entries(0x1601).count(), 0);
+    assert_eq!(DEVICE.default_pdo_bits(PdoDirection::Rx), 32);
+    assert_eq!(DEVICE.default_pdo_bits(PdoDirection::Tx), 128);
+    assert_eq!(DEVICE.default_sm_len(&SYNC_MANAGERS[2]), 4);
+    assert_eq!(DEVICE.default_sm_len(&SYNC_MANAGERS[3]), 16);
+}
+
+#[test]
+fn process_data_is_built_from_the_dictionary() {
+    // Every mapping object of the dictionary has a slot in the application, and only those.
+    assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
+    assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
+    let pd = process_data();
+    assert_eq!(pd.output_len(), 4);
+    assert_eq!(pd.input_len(), 16);
+    for object in DEVICE
+        .pdo_objects(PdoDirection::Rx)
+        .chain(DEVICE.pdo_objects(PdoDirection::Tx))
+    {
+        assert!(pd.owns(object.index), "{:#06x}", object.index);
+        let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();
+        let mut buf = [0u8; 4];
+        assert_eq!(pd.read(object.index, 0, &mut buf), Ok(1));
+        assert_eq!(usize::from(buf[0]), entries.len());
+        for (sub, entry) in (1..).zip(&entries) {
+            assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
+            assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
+        }
+    }
+    let mut buf = [0u8; 2];
+    assert_eq!(pd.read(0x1C12, 1, &mut buf), Ok(2));
+    assert_eq!(u16::from_le_bytes(buf), 0x1600);
+    assert_eq!(pd.read(0x1C13, 1, &mut buf), Ok(2));
+    assert_eq!(u16::from_le_bytes(buf), 0x1A00);
+    assert!(pd.is_rx_mapped(0x6411, 2));
+}
+
+#[test]
+fn app_config_follows_the_sync_manager_layout() {
+    let config = app_config();
+    let expected = [
+        (0x1000, 128, 0x26),
+        (0x1080, 128, 0x22),
+        (0x1100, 0, 0x64),
+        (0x1180, 0, 0x20),
+    ];
+    for (sm, (start, len, control)) in config.sm.iter().zip(expected) {
+        assert_eq!((sm.start, sm.len, sm.control), (start, len, control));
+    }
+    assert_eq!(config.device_id, None);
+}
+
+#[test]
+fn pdi_and_dc_match_the_board() {
+    assert_eq!(DEVICE.pdi.word0(), 0x0E05);
+    assert_eq!(DEVICE.pdi.word1(), 0x0603);
+    assert_eq!(DEVICE.pdi.sync_pulse_10ns, 100, "1 us SYNC pulses");
+    assert_eq!(DEVICE.dc.min_cycle_ns, MIN_CYCLE_TIME_NS);
+    for mode in DEVICE.dc.op_modes {
+        let bit = match mode.sync_mode {
+            0 => 0x01,
+            1 => 0x02,
+            2 => 0x04,
+            other => panic!("unexpected sync mode {other}"),
+        };
+        assert_ne!(SUPPORTED_MODES & bit, 0, "{}", mode.name);
+        assert_eq!(
+            mode.assign_activate != 0,
+            mode.sync_mode == 2,
+            "{}",
+            mode.name
+        );
+    }
+    assert_eq!(DEVICE.eeprom.size_word(), 15, "16 Kbit");
+}

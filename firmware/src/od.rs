@@ -1,0 +1,394 @@
+//! The module's object dictionary (CiA 301 communication area, ETG.1020 sync objects,
+//! CiA 401 analog I/O, manufacturer objects).
+//!
+//! The default PDO assignment and mappings live here as the defaults of 0x1C12/0x1C13 and
+//! 0x16xx/0x1Axx, and nowhere else: the firmware's [`ProcessData`](crate::app::process_data::ProcessData),
+//! the SII image and the ESI file all read them from this table through
+//! [`crate::device::DEVICE`]. Identity, names and SyncManager types come from
+//! [`crate::device`], so each value is written once.
+//!
+//! Which entries the application serves live (and which read as their default) is
+//! documented in [`crate::app::objects`].
+
+use crate::app::objects::SETTINGS_INDEX;
+use crate::app::process_data::{ENTRIES, RX_PDOS, TX_PDOS};
+use crate::app::sampler::{PublishMode, CHANNELS as AI_CHANNELS};
+use crate::app::scaling::FULL_SCALE_UV;
+use crate::app::sync::{
+    SyncMode, DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
+    OUTPUT_DELAY_NS, SUPPORTED_MODES,
+};
+use crate::device::{IDENTITY, NAMES, SYNC_MANAGERS};
+use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value};
+use coe_core::pdo::PdoEntry;
+
+const BOOL: DataType = DataType::Boolean;
+const I16: DataType = DataType::Integer16;
+const I32: DataType = DataType::Integer32;
+const U8: DataType = DataType::Unsigned8;
+const U16: DataType = DataType::Unsigned16;
+const U32: DataType = DataType::Unsigned32;
+const RO: Access = Access::RO;
+const RW: Access = Access::RW;
+const RWP: Access = Access::RW_PREOP;
+
+/// Analog outputs (0x6411 entries).
+pub const AO_CHANNELS: usize = 2;
+
+/// Index of the module description string (manufacturer area).
+pub const MODULE_DESCRIPTION_INDEX: u16 = 0x2001;
+
+/// The module description (0x2001): longer than the mailbox data area, so a master reads it
+/// with a segmented SDO upload.
+pub const MODULE_DESCRIPTION: &str = concat!(
+    "EtherCAT analog I/O module: 8 analog inputs 0..10 V (AD7689, 16 bit, 1/4 divider, ",
+    "2.5 V reference; 0x6401 = code >> 1, 0x7FFF = 10 V) and 2 analog outputs 0..10 V ",
+    "(AD5663, x4 amplifier; 0x6411, 0x7FFF = 10 V, negative values clamp to 0 V). ",
+    "LPC1754 + ET1100 on SPI. CoE with SDO, SDO Information, complete access and ",
+    "configurable PDOs; free run, SM2-synchronous or DC SYNC0 (outputs latched at SYNC0). ",
+    "Fault values per output in 0x6443/0x6444. Firmware ",
+    env!("CARGO_PKG_VERSION"),
+    "."
+);
+
+/// The AI default TxPDO: 0x1A00 -> 0x6401:01..08.
+const TXPDO_DEFAULT: [u32; AI_CHANNELS] = {
+    let mut out = [0u32; AI_CHANNELS];
+    let mut i = 0;
+    while i < AI_CHANNELS {
+        out[i] = PdoEntry::new(0x6401, i as u8 + 1, 16).to_u32();
+        i += 1;
+    }
+    out
+};
+
+/// The AO default RxPDO: 0x1600 -> 0x6411:01..02.
+const RXPDO_DEFAULT: [u32; AO_CHANNELS] = [
+    PdoEntry::new(0x6411, 1, 16).to_u32(),
+    PdoEntry::new(0x6411, 2, 16).to_u32(),
+];
+
+const SUB_NAMES: [&str; 8] = [
+    "SubIndex 001",
+    "SubIndex 002",
+    "SubIndex 003",
+    "SubIndex 004",
+    "SubIndex 005",
+    "SubIndex 006",
+    "SubIndex 007",
+    "SubIndex 008",
+];
+
+/// Sub 0 plus `N - 1` entries of `data_type`, named from `names`, with `defaults` as the
+/// defaults of the first entries and sub 0 = `count`.
+const fn entries<const N: usize>(
+    count: u8,
+    names: &[&'static str],
+    data_type: DataType,
+    access: Access,
+    defaults: &[u32],
+) -> [EntryDesc; N] {
+    let mut out = [EntryDesc::count(count); N];
+    let mut i = 1;
+    while i < N {
+        let mut e = EntryDesc::new(i as u8, names[i - 1], data_type, access);
+        if i - 1 < defaults.len() {
+            e = e.with_default(Value::Uint(defaults[i - 1] as u64));
+        }
+        out[i] = e;
+        i += 1;
+    }
+    out
+}
+
+/// A PDO mapping object's entries: sub 0 and `ENTRIES` u32 slots, writable in PREOP.
+const fn mapping(defaults: &[u32]) -> [EntryDesc; ENTRIES + 1] {
+    let mut out = entries(defaults.len() as u8, &SUB_NAMES, U32, RWP, defaults);
+    out[0] = out[0].with_access(RWP);
+    out
+}
+
+/// A PDO assignment object's entries: sub 0 and `N` u16 slots, writable in PREOP.
+const fn assignment<const N: usize>(defaults: &[u32]) -> [EntryDesc; N] {
+    let mut out = entries(defaults.len() as u8, &SUB_NAMES, U16, RWP, defaults);
+    out[0] = out[0].with_access(RWP);
+    out
+}
+
+static RXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(&RXPDO_DEFAULT);
+static RXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(&[]);
+static TXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(&TXPDO_DEFAULT);
+static TXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(&[]);
+static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&[0x1600]);
+static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&[0x1A00]);
+
+/// 0x1C00: the communication type of each SyncManager, from the SyncManager layout.
+static SM_TYPES: [EntryDesc; 5] = {
+    let types = [
+        SYNC_MANAGERS[0].role.sii_type() as u32,
+        SYNC_MANAGERS[1].role.sii_type() as u32,
+        SYNC_MANAGERS[2].role.sii_type() as u32,
+        SYNC_MANAGERS[3].role.sii_type() as u32,
+    ];
+    let mut out = entries(4, &SUB_NAMES, U8, RO, &types);
+    out[0] = out[0].with_default(Value::Uint(4));
+    out
+};
+
+/// 0x1C32 (outputs) / 0x1C33 (inputs), ETG.1020 "SM synchronisation": the subindices the
+/// [`SyncMonitor`](crate::app::sync::SyncMonitor) serves, with its constants as defaults.
+const fn sync_parameters(inputs: bool) -> [EntryDesc; 20] {
+    let (mode, calc_copy, delay) = if inputs {
+        (SyncMode::SmSync.input_value(), INPUT_CALC_COPY_NS, 0)
+    } else {
+        (
+            SyncMode::SmSync.output_value(),
+            OUTPUT_CALC_COPY_NS,
+            OUTPUT_DELAY_NS,
+        )
+    };
+    [
+        EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
+        EntryDesc::new(1, "Sync mode", U16, RWP).with_default(Value::Uint(mode as u64)),
+        EntryDesc::new(2, "Cycle time", U32, RWP).with_default(Value::Uint(0)),
+        EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
+        EntryDesc::new(4, "Sync modes supported", U16, RO)
+            .with_default(Value::Uint(SUPPORTED_MODES as u64)),
+        EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(MIN_CYCLE_TIME_NS)),
+        EntryDesc::new(6, "Calc and copy time", U32, RO).with_default(ns(calc_copy)),
+        EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
+        EntryDesc::new(8, "Get cycle time", U16, RW).with_range(Value::Uint(0), Value::Uint(2)),
+        EntryDesc::new(9, "Delay time", U32, RO).with_default(ns(delay)),
+        EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
+        EntryDesc::new(0x0B, "SM event missed", U16, RO),
+        EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
+        EntryDesc::new(0x0D, "Shift time too short", U16, RO),
+        EntryDesc::new(0x0E, "RxPDO toggle failed", U16, RO),
+        EntryDesc::new(0x0F, "Minimum cycle distance", U32, RO),
+        EntryDesc::new(0x10, "Maximum cycle distance", U32, RO),
+        EntryDesc::new(0x11, "Minimum SM sync distance", U32, RO),
+        EntryDesc::new(0x12, "Maximum SM sync distance", U32, RO),
+        EntryDesc::new(0x20, "Sync error", BOOL, RO),
+    ]
+}
+
+const fn ns(value: u32) -> Value {
+    Value::Uint(value as u64)
+}
+
+static SYNC_OUTPUTS: [EntryDesc; 20] = sync_parameters(false);
+static SYNC_INPUTS: [EntryDesc; 20] = sync_parameters(true);
+
+const AI_NAMES: [&str; AI_CHANNELS] = [
+    "AI 1", "AI 2", "AI 3", "AI 4", "AI 5", "AI 6", "AI 7", "AI 8",
+];
+const AO_NAMES: [&str; AO_CHANNELS] = ["AO 1", "AO 2"];
+
+static AI: [EntryDesc; AI_CHANNELS + 1] =
+    entries(AI_CHANNELS as u8, &AI_NAMES, I16, RO.tx_mappable(), &[]);
+static AO: [EntryDesc; AO_CHANNELS + 1] =
+    entries(AO_CHANNELS as u8, &AO_NAMES, I16, RW.rx_mappable(), &[]);
+/// 0x6443: 1 = on a fault the output takes the 0x6444 value (the default), 0 = it keeps its value.
+static AO_ERROR_MODE: [EntryDesc; AO_CHANNELS + 1] = {
+    let mut out = entries(AO_CHANNELS as u8, &AO_NAMES, U8, RW, &[1, 1]);
+    let mut i = 1;
+    while i <= AO_CHANNELS {
+        out[i] = out[i].with_range(Value::Uint(0), Value::Uint(1));
+        i += 1;
+    }
+    out
+};
+/// 0x6444: the fault value per output, in process-value units 0..=0x7FFF (0..10 V).
+static AO_ERROR_VALUE: [EntryDesc; AO_CHANNELS + 1] = {
+    let mut out = entries(AO_CHANNELS as u8, &AO_NAMES, I32, RW, &[0, 0]);
+    let mut i = 1;
+    while i <= AO_CHANNELS {
+        out[i] = out[i].with_range(Value::Int(0), Value::Int(i16::MAX as i64));
+        i += 1;
+    }
+    out
+};
+
+/// The module's object dictionary.
+pub static OD: ObjectDictionary = ObjectDictionary::new(&[
+    ObjectDesc::var(
+        0x1000,
+        "Device type",
+        &[EntryDesc::new(0, "Device type", U32, RO).with_default(Value::Uint(DEVICE_TYPE as u64))],
+    ),
+    ObjectDesc::var(
+        0x1001,
+        "Error register",
+        &[EntryDesc::new(0, "Error register", U8, RO.tx_mappable())],
+    ),
+    ObjectDesc::var(
+        0x1008,
+        "Device name",
+        &[EntryDesc::string(0, "Device name", NAMES.device_name)],
+    ),
+    ObjectDesc::var(
+        0x1009,
+        "Hardware version",
+        &[EntryDesc::string(
+            0,
+            "Hardware version",
+            NAMES.hardware_version,
+        )],
+    ),
+    ObjectDesc::var(
+        0x100A,
+        "Software version",
+        &[EntryDesc::string(
+            0,
+            "Software version",
+            NAMES.software_version,
+        )],
+    ),
+    ObjectDesc::record(
+        0x1018,
+        "Identity",
+        DataType::Identity,
+        &[
+            EntryDesc::count(4),
+            EntryDesc::new(1, "Vendor ID", U32, RO)
+                .with_default(Value::Uint(IDENTITY.vendor_id as u64)),
+            EntryDesc::new(2, "Product code", U32, RO)
+                .with_default(Value::Uint(IDENTITY.product_code as u64)),
+            EntryDesc::new(3, "Revision", U32, RO)
+                .with_default(Value::Uint(IDENTITY.revision as u64)),
+            EntryDesc::new(4, "Serial number", U32, RO)
+                .with_default(Value::Uint(IDENTITY.serial_number as u64)),
+        ],
+    ),
+    // Manufacturer record types 0x0040.. (ETG.1000.6: device-specific complex types).
+    ObjectDesc::record(
+        0x10F1,
+        "Error settings",
+        DataType::Unknown(0x0040),
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "Local error reaction", U32, RW).with_default(Value::Uint(0)),
+            EntryDesc::new(2, "Sync error counter limit", U16, RW)
+                .with_default(Value::Uint(DEFAULT_SYNC_ERROR_LIMIT as u64)),
+        ],
+    ),
+    ObjectDesc::record(0x1600, "RxPDO 1", DataType::PdoMapping, &RXPDO_1),
+    ObjectDesc::record(0x1601, "RxPDO 2", DataType::PdoMapping, &RXPDO_2),
+    ObjectDesc::record(0x1A00, "TxPDO 1", DataType::PdoMapping, &TXPDO_1),
+    ObjectDesc::record(0x1A01, "TxPDO 2", DataType::PdoMapping, &TXPDO_2),
+    ObjectDesc::array(0x1C00, "Sync manager type", &SM_TYPES),
+    ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGN),
+    ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGN),
+    // Record type 0x0042: the ETG.1020 SM synchronisation record (as SSC/SOES name it).
+    ObjectDesc::record(
+        0x1C32,
+        "SM output parameter",
+        DataType::Unknown(0x0042),
+        &SYNC_OUTPUTS,
+    ),
+    ObjectDesc::record(
+        0x1C33,
+        "SM input parameter",
+        DataType::Unknown(0x0042),
+        &SYNC_INPUTS,
+    ),
+    ObjectDesc::record(
+        SETTINGS_INDEX,
+        "Analog input settings",
+        DataType::Unknown(0x0041),
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "AI filter", U8, RW)
+                .with_default(Value::Uint(PublishMode::Latest.setting() as u64))
+                .with_range(Value::Uint(0), Value::Uint(1)),
+            EntryDesc::new(2, "Full scale (uV)", U32, RO)
+                .with_default(Value::Uint(FULL_SCALE_UV as u64)),
+        ],
+    ),
+    ObjectDesc::var(
+        MODULE_DESCRIPTION_INDEX,
+        "Module description",
+        &[EntryDesc::string(
+            0,
+            "Module description",
+            MODULE_DESCRIPTION,
+        )],
+    ),
+    ObjectDesc::array(0x6401, "Read analog input 16-bit", &AI),
+    ObjectDesc::array(0x6411, "Write analog output 16-bit", &AO),
+    ObjectDesc::array(0x6443, "Analog output error mode", &AO_ERROR_MODE),
+    ObjectDesc::array(0x6444, "Analog output error value", &AO_ERROR_VALUE),
+]);
+
+/// 0x1000: CiA 401 (0x0191) with analog inputs (bit 18) and analog outputs (bit 19).
+pub const DEVICE_TYPE: u32 = 0x0191 | 1 << 18 | 1 << 19;
+
+const _: () = if let Err(e) = OD.validate() {
+    panic!("{}", e.message())
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::vec::Vec;
+
+    #[test]
+    fn device_type_is_cia401_analog_io() {
+        assert_eq!(DEVICE_TYPE, 0x000C_0191);
+    }
+
+    #[test]
+    fn objects_in_index_order_with_the_required_ones() {
+        let indices: Vec<u16> = OD.iter().map(|o| o.index).collect();
+        assert!(indices.windows(2).all(|w| w[0] < w[1]), "{indices:x?}");
+        for index in [
+            0x1000, 0x1001, 0x1008, 0x1009, 0x100A, 0x1018, 0x10F1, 0x1600, 0x1A00, 0x1C00, 0x1C12,
+            0x1C13, 0x1C32, 0x1C33, 0x6401, 0x6411, 0x6443, 0x6444,
+        ] {
+            assert!(OD.find(index).is_some(), "{index:#06x} missing");
+        }
+    }
+
+    #[test]
+    fn io_objects_are_integer16_and_mappable_the_right_way() {
+        let ai = OD.find(0x6401).unwrap();
+        assert_eq!(ai.max_subindex(), 8);
+        assert!(ai.entries[1..].iter().all(|e| e.data_type == I16
+            && e.access.is_tx_mappable()
+            && !e.access.is_rx_mappable()));
+        let ao = OD.find(0x6411).unwrap();
+        assert_eq!(ao.max_subindex(), 2);
+        assert!(ao.entries[1..]
+            .iter()
+            .all(|e| e.data_type == I16 && e.access.is_rx_mappable()));
+    }
+
+    #[test]
+    fn sync_manager_types_follow_the_layout() {
+        let types: Vec<Value> = OD
+            .find(0x1C00)
+            .unwrap()
+            .entries
+            .iter()
+            .map(|e| e.default)
+            .collect();
+        assert_eq!(
+            types,
+            [4u64, 1, 2, 3, 4].map(Value::Uint),
+            "0x1C00: 4 SMs, mailbox out/in, outputs, inputs"
+        );
+    }
+
+    #[test]
+    fn module_description_needs_a_segmented_upload() {
+        // Mailbox data area: mailbox size minus mailbox header (6), CoE header (2) and the
+        // SDO initiate response (8 incl. the size) - an expedited or single-frame normal
+        // upload cannot carry it.
+        let single_frame = crate::app::mailbox::MAILBOX_SIZE - 6 - 2 - 8;
+        assert!(MODULE_DESCRIPTION.len() > 2 * single_frame);
+        assert!(MODULE_DESCRIPTION.len() <= crate::app::mailbox::TRANSFER_BUFFER);
+        assert!(MODULE_DESCRIPTION.is_ascii());
+        let (_, entry) = OD.entry(MODULE_DESCRIPTION_INDEX, 0).unwrap();
+        assert_eq!(entry.byte_len(), MODULE_DESCRIPTION.len());
+    }
+}
