@@ -1283,4 +1283,4 @@ impl fmt::Display for DescError {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

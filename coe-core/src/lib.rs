@@ -22,6 +22,7 @@ pub mod mailbox;
 pub mod od;
 pub mod pdo;
 pub mod sdo_server;
+pub mod sii;
 pub mod wire;
 
 pub use abort::SdoAbortCode;

@@ -58,7 +58,7 @@ const IDENTITY: Identity = Identity {
 };
 
 /// The objects of a valid test device, in index order.
-fn base_objects() -> Vec<ObjectDesc> {
+pub(crate) fn base_objects() -> Vec<ObjectDesc> {
     std::vec![
         ObjectDesc::var(
             0x1000,
@@ -132,7 +132,7 @@ fn base_objects() -> Vec<ObjectDesc> {
     ]
 }
 
-fn od(objects: Vec<ObjectDesc>) -> &'static ObjectDictionary {
+pub(crate) fn od(objects: Vec<ObjectDesc>) -> &'static ObjectDictionary {
     Box::leak(Box::new(ObjectDictionary::new(leak(objects))))
 }
 
@@ -165,7 +165,8 @@ const OP_MODES: &[DcOpMode] = &[DcOpMode {
     shift_time_sync1: 0,
 }];
 
-fn valid() -> DeviceDescription {
+/// A valid description (shared with the SII tests).
+pub(crate) fn valid() -> DeviceDescription {
     DeviceDescription {
         identity: IDENTITY,
         names: NAMES,

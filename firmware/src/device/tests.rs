@@ -138,3 +138,18 @@ fn pdi_and_dc_match_the_board() {
     }
     assert_eq!(DEVICE.eeprom.size_word(), 15, "16 Kbit");
 }
+
+#[test]
+fn sii_image_fits_the_eeprom_and_carries_the_identity() {
+    let mut image = [0xFFu8; 2048];
+    let len = coe_core::sii::generate(&DEVICE, &mut image).expect("SII image");
+    assert!(len <= DEVICE.eeprom.size_bytes as usize);
+    let word = |i: usize| u16::from_le_bytes([image[2 * i], image[2 * i + 1]]);
+    assert_eq!((word(0), word(1), word(2)), (0x0E05, 0x0603, 0x0064));
+    let u32_at = |i: usize| u32::from(word(i)) | u32::from(word(i + 1)) << 16;
+    assert_eq!(u32_at(8), IDENTITY.vendor_id);
+    assert_eq!(u32_at(0x0A), IDENTITY.product_code);
+    assert_eq!(u32_at(0x0C), IDENTITY.revision);
+    assert_eq!((word(0x18), word(0x19)), (0x1000, MAILBOX_SIZE as u16));
+    assert_eq!((word(0x1A), word(0x1B)), (0x1080, MAILBOX_SIZE as u16));
+}
