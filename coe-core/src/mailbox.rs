@@ -1,8 +1,8 @@
 //! The mailbox service of the slave (ETG.1000.4 5.6 / ETG.1000.6 5.3): what happens to a
 //! mailbox frame before and after the protocol handler sees it.
 //!
-//! - received header checks, answered with mailbox error replies (type 0, ETG.1000.4
-//!   table 29): a length beyond the buffer (InvalidSize), data too short for the protocol
+//! - received header checks, answered with mailbox error replies (type 0,
+//!   [`crate::wire::mailbox`]): a length beyond the buffer (InvalidSize), data too short for the protocol
 //!   header (SizeTooShort), an unsupported protocol type (UnsupportedProtocol), a CoE service
 //!   the slave does not offer (ServiceNotSupported), an invalid CoE service number
 //!   (InvalidHeader);
@@ -15,37 +15,18 @@
 //! - a fixed-capacity queue of Emergencies (CoE service 1), sent when the read mailbox is free.
 //!
 //! [`crate::sdo_server::SdoServer`] owns one [`MailboxService`] and is the entry point the
-//! firmware calls.
+//! firmware calls. Every frame is read and written through the [`crate::wire`] layer.
 
 use crate::esm::AlState;
-use crate::sdo_server::frame::{
-    coe_service, emit_coe, MbxHeader, COE_HDR, MBX_HDR, SVC_EMERGENCY, SVC_SDO_INFO,
-    SVC_SDO_REQUEST, TYPE_COE, TYPE_ERROR,
+use crate::wire::{
+    self, Coe, CoeRepr, CoeService, EmergencyRepr, Mailbox, MailboxErrorReply,
+    MailboxErrorReplyRepr, MailboxRepr, MailboxType,
 };
 
-/// Length of the mailbox header.
-pub const MAILBOX_HEADER_LEN: usize = MBX_HDR;
+pub use crate::wire::MailboxErrorCode;
 
-/// Mailbox error detail codes (ETG.1000.4 table 30; the u16 after the 0x0001 service word of
-/// a mailbox error reply).
-pub mod error_code {
-    /// Syntax of the 6-byte header wrong.
-    pub const SYNTAX: u16 = 0x0001;
-    /// Mailbox protocol not supported.
-    pub const UNSUPPORTED_PROTOCOL: u16 = 0x0002;
-    /// Channel field invalid.
-    pub const INVALID_CHANNEL: u16 = 0x0003;
-    /// Service in the mailbox protocol not supported.
-    pub const SERVICE_NOT_SUPPORTED: u16 = 0x0004;
-    /// Mailbox protocol header invalid.
-    pub const INVALID_HEADER: u16 = 0x0005;
-    /// Length of received mailbox data too short.
-    pub const SIZE_TOO_SHORT: u16 = 0x0006;
-    /// Mailbox protocol cannot be processed: no memory.
-    pub const NO_MORE_MEMORY: u16 = 0x0007;
-    /// Length of data inconsistent.
-    pub const INVALID_SIZE: u16 = 0x0008;
-}
+/// Length of the mailbox header.
+pub const MAILBOX_HEADER_LEN: usize = wire::mailbox::HEADER_LEN;
 
 /// The outcome of a call into the server: nothing to send, or a frame of `n` bytes at the
 /// start of the caller's reply buffer (to be written to the read mailbox, SM1).
@@ -70,30 +51,27 @@ impl Reply {
 
 /// An Emergency message (CoE service 1; ETG.1000.6 5.6.4, CiA 301 7.2.7): error code
 /// (CiA 301 table 21), error register (object 0x1001) and 5 manufacturer-specific bytes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Emergency {
-    /// Error code (e.g. 0x8700 sync controller, 0x8211 PDO length, 0xFF00.. manufacturer).
-    pub error_code: u16,
-    /// Error register (the value of 0x1001).
-    pub error_register: u8,
-    /// Manufacturer-specific data.
-    pub data: [u8; 5],
+/// The wire layer's [`EmergencyRepr`] is what the queue holds and sends.
+pub type Emergency = EmergencyRepr;
+
+/// The part of a mailbox frame after the mailbox header, where a reply's payload goes
+/// before [`MailboxService::send`] writes the header in front of it.
+pub(crate) fn payload_area(reply: &mut [u8]) -> &mut [u8] {
+    reply.get_mut(MAILBOX_HEADER_LEN..).unwrap_or_default()
 }
 
-impl Emergency {
-    /// Bytes after the CoE header.
-    pub const LEN: usize = 8;
-
-    fn emit(&self, out: &mut [u8]) -> Option<usize> {
-        let out = out.get_mut(..Self::LEN)?;
-        let (code, rest) = out.split_at_mut(2);
-        code.copy_from_slice(&self.error_code.to_le_bytes());
-        let (reg, data) = rest.split_at_mut(1);
-        reg.copy_from_slice(&[self.error_register]);
-        data.copy_from_slice(&self.data);
-        Some(Self::LEN)
-    }
+/// Writes a CoE header for `service` into `out`, then the service data through `body`
+/// (which gets the bytes after the CoE header and returns how many it wrote). Returns
+/// the CoE frame length.
+pub(crate) fn emit_coe(
+    out: &mut [u8],
+    service: CoeService,
+    body: impl FnOnce(&mut [u8]) -> wire::Result<usize>,
+) -> Option<usize> {
+    let mut coe = Coe::new_unchecked(out);
+    CoeRepr::new(service).emit(&mut coe).ok()?;
+    let n = body(coe.payload_mut()).ok()?;
+    Some(wire::coe::HEADER_LEN + n)
 }
 
 /// Counter, backup and emergency queue of one mailbox; `MBX` is the largest frame kept for
@@ -120,10 +98,10 @@ impl<const MBX: usize, const EMCY: usize> Default for MailboxService<MBX, EMCY> 
 pub(crate) enum Incoming<'a> {
     /// A retry of the frame served last: no reply.
     Duplicate,
-    /// Answer with this mailbox error (an [`error_code`]).
-    Error(u16),
+    /// Answer with this mailbox error.
+    Error(MailboxErrorCode),
     /// A CoE frame for this service: the data after the CoE header.
-    Coe(u8, &'a [u8]),
+    Coe(CoeService, &'a [u8]),
 }
 
 impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
@@ -216,62 +194,61 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
 
     /// Checks a received frame (the whole write-mailbox content).
     pub(crate) fn receive<'a>(&mut self, frame: &'a [u8]) -> Incoming<'a> {
-        let Some(header) = MbxHeader::parse(frame) else {
-            return Incoming::Error(error_code::SIZE_TOO_SHORT);
-        };
-        if header.counter != 0 && header.counter == self.last_rx_counter {
+        if frame.len() < MAILBOX_HEADER_LEN {
+            return Incoming::Error(MailboxErrorCode::SizeTooShort);
+        }
+        // Unchecked until the counter is read: a header whose length field overruns the
+        // buffer still counts (and is answered with InvalidSize by `parse` below).
+        let view = Mailbox::new_unchecked(frame);
+        let counter = view.counter();
+        if counter != 0 && counter == self.last_rx_counter {
             return Incoming::Duplicate;
         }
-        self.last_rx_counter = header.counter;
-        let end = MBX_HDR + usize::from(header.length);
-        let Some(data) = frame.get(MBX_HDR..end) else {
-            return Incoming::Error(error_code::INVALID_SIZE);
+        self.last_rx_counter = counter;
+        let Ok(header) = MailboxRepr::parse(&view) else {
+            return Incoming::Error(MailboxErrorCode::InvalidSize);
         };
-        if header.mailbox_type != TYPE_COE {
-            return Incoming::Error(error_code::UNSUPPORTED_PROTOCOL);
+        if header.mailbox_type != MailboxType::Coe {
+            return Incoming::Error(MailboxErrorCode::UnsupportedProtocol);
         }
-        let Some(service) = coe_service(data) else {
-            return Incoming::Error(error_code::SIZE_TOO_SHORT);
+        let coe = Coe::new_unchecked(view.payload());
+        let Ok(coe_header) = CoeRepr::parse(&coe) else {
+            return Incoming::Error(MailboxErrorCode::SizeTooShort);
         };
-        let rest = data.get(COE_HDR..).unwrap_or(&[]);
-        match service {
-            SVC_SDO_REQUEST | SVC_SDO_INFO => Incoming::Coe(service, rest),
-            1..=7 => Incoming::Error(error_code::SERVICE_NOT_SUPPORTED),
-            _ => Incoming::Error(error_code::INVALID_HEADER),
+        match coe_header.service {
+            CoeService::SdoRequest | CoeService::SdoInformation => {
+                Incoming::Coe(coe_header.service, coe.payload())
+            }
+            CoeService::Unknown(_) => Incoming::Error(MailboxErrorCode::InvalidHeader),
+            _ => Incoming::Error(MailboxErrorCode::ServiceNotSupported),
         }
-    }
-
-    fn next_counter(&mut self) -> u8 {
-        self.tx_counter = if self.tx_counter >= 7 {
-            1
-        } else {
-            self.tx_counter + 1
-        };
-        self.tx_counter
     }
 
     /// Writes the mailbox header in front of `data_len` bytes already in
-    /// `reply[6..]`, numbers the frame and keeps a copy for the repeat request.
-    pub(crate) fn send(&mut self, reply: &mut [u8], mailbox_type: u8, data_len: usize) -> Reply {
-        let total = MAILBOX_HEADER_LEN + data_len;
-        let Ok(length) = u16::try_from(data_len) else {
-            return Reply::None;
-        };
-        if total > reply.len() {
-            return Reply::None;
-        }
-        let counter = self.next_counter();
-        let header = MbxHeader {
-            length,
+    /// [`payload_area`], numbers the frame and keeps a copy for the repeat request.
+    pub(crate) fn send(
+        &mut self,
+        reply: &mut [u8],
+        mailbox_type: MailboxType,
+        data_len: usize,
+    ) -> Reply {
+        let counter = wire::next_counter(self.tx_counter);
+        let header = MailboxRepr {
             address: 0,
             channel: 0,
             priority: 0,
             mailbox_type,
             counter,
+            payload_len: data_len,
         };
-        if header.emit(reply).is_none() {
+        if header
+            .emit(&mut Mailbox::new_unchecked(&mut *reply))
+            .is_err()
+        {
             return Reply::None;
         }
+        self.tx_counter = counter;
+        let total = header.buffer_len();
         if let (Some(src), Some(dst)) = (reply.get(..total), self.backup.get_mut(..total)) {
             dst.copy_from_slice(src);
             self.backup_len = total;
@@ -282,31 +259,30 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
     }
 
     /// Sends a mailbox error reply.
-    pub(crate) fn send_error(&mut self, reply: &mut [u8], code: u16) -> Reply {
-        let Some(body) = reply.get_mut(MBX_HDR..MBX_HDR + 4) else {
+    pub(crate) fn send_error(&mut self, reply: &mut [u8], code: MailboxErrorCode) -> Reply {
+        let error = MailboxErrorReplyRepr { code };
+        let mut body = MailboxErrorReply::new_unchecked(payload_area(reply));
+        if error.emit(&mut body).is_err() {
             return Reply::None;
-        };
-        body[..2].copy_from_slice(&0x0001u16.to_le_bytes());
-        body[2..].copy_from_slice(&code.to_le_bytes());
-        self.send(reply, TYPE_ERROR, 4)
+        }
+        self.send(reply, MailboxType::Error, error.buffer_len())
     }
 
     /// Sends the oldest queued Emergency, if any.
     pub(crate) fn send_emergency(&mut self, reply: &mut [u8]) -> Reply {
-        let needed = MBX_HDR + COE_HDR + Emergency::LEN;
-        if reply.len() < needed {
+        if reply.len() < MAILBOX_HEADER_LEN + wire::emergency::MAILBOX_LEN {
             return Reply::None;
         }
         let Some(emergency) = self.pop_emergency() else {
             return Reply::None;
         };
-        let Some(body) = reply.get_mut(MBX_HDR..needed) else {
-            return Reply::None;
-        };
-        let (coe, data) = body.split_at_mut(COE_HDR);
-        if emit_coe(coe, SVC_EMERGENCY).is_none() || emergency.emit(data).is_none() {
-            return Reply::None;
+        let len = emit_coe(payload_area(reply), CoeService::Emergency, |out| {
+            emergency.emit(&mut wire::Emergency::new_unchecked(out))?;
+            Ok(emergency.buffer_len())
+        });
+        match len {
+            Some(n) => self.send(reply, MailboxType::Coe, n),
+            None => Reply::None,
         }
-        self.send(reply, TYPE_COE, COE_HDR + Emergency::LEN)
     }
 }

@@ -24,17 +24,16 @@
 //! SM0 until then), and [`SdoServer::poll`] whenever the read mailbox has become free.
 
 mod complete;
-pub(crate) mod frame;
 mod info;
 
 use crate::abort::SdoAbortCode;
 use crate::esm::AlState;
-use crate::mailbox::{error_code, Incoming, MailboxService};
+use crate::mailbox::{emit_coe, payload_area, Incoming, MailboxService, MAILBOX_HEADER_LEN};
 pub use crate::mailbox::{Emergency, Reply};
 use crate::od::{EntryDesc, ObjectAccess, ObjectDictionary};
-use frame::{
-    emit_info_header, emit_sdo, emit_segment, COE_HDR, MBX_HDR, SVC_SDO_REQUEST, SVC_SDO_RESPONSE,
-    TYPE_COE,
+use crate::wire::{
+    self, CoeService, Direction, InitData, MailboxType, Sdo, SdoInfo, SdoInfoHeaderRepr,
+    SdoInfoRepr, SdoRepr,
 };
 use info::InfoQuery;
 
@@ -43,20 +42,23 @@ pub const DEFAULT_TIMEOUT_MS: u32 = 1000;
 
 /// Smallest read mailbox the server can answer SDO requests through (mailbox header, CoE
 /// header, SDO header).
-pub const MIN_MAILBOX: usize = MBX_HDR + COE_HDR + 8;
+pub const MIN_MAILBOX: usize = MAILBOX_HEADER_LEN + wire::coe::HEADER_LEN + wire::sdo::HEADER_LEN;
 
-/// SDO command bits (ETG.1000.6 5.6.2).
-mod cmd {
-    pub const SIZE_INDICATED: u8 = 0x01;
-    pub const EXPEDITED: u8 = 0x02;
-    pub const COMPLETE_ACCESS: u8 = 0x10;
-    pub const TOGGLE: u8 = 0x10;
-    pub const LAST_SEGMENT: u8 = 0x01;
-    pub const DOWNLOAD_RESPONSE: u8 = 0x60;
-    pub const UPLOAD_RESPONSE: u8 = 0x40;
-    pub const DOWNLOAD_SEGMENT_RESPONSE: u8 = 0x20;
-    pub const UPLOAD_SEGMENT_RESPONSE: u8 = 0x00;
-    pub const ABORT: u8 = 0x80;
+/// Bytes of a read mailbox frame in front of upload segment data.
+const SEGMENT_OVERHEAD: usize =
+    MAILBOX_HEADER_LEN + wire::coe::HEADER_LEN + wire::sdo::SEGMENT_HEADER_LEN;
+
+/// Bytes of a read mailbox frame in front of SDO Information service data.
+const INFO_OVERHEAD: usize =
+    MAILBOX_HEADER_LEN + wire::coe::HEADER_LEN + wire::sdo_info::HEADER_LEN;
+
+/// Writes an SDO frame (CoE header with the frame's service, then the frame) after the
+/// mailbox header; returns the CoE frame length.
+fn emit_sdo(reply: &mut [u8], frame: &SdoRepr<'_>) -> Option<usize> {
+    emit_coe(payload_area(reply), frame.coe_service(), |out| {
+        frame.emit(&mut Sdo::new_unchecked(out))?;
+        Ok(frame.buffer_len())
+    })
 }
 
 /// A segmented transfer in progress.
@@ -132,17 +134,6 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> Default for SdoServe
     fn default() -> Self {
         Self::new()
     }
-}
-
-fn u16_at(data: &[u8], at: usize) -> u16 {
-    match data.get(at..at + 2) {
-        Some(&[a, b]) => u16::from_le_bytes([a, b]),
-        _ => 0,
-    }
-}
-
-fn byte_at(data: &[u8], at: usize) -> u8 {
-    data.get(at).copied().unwrap_or(0)
 }
 
 /// Checks a value for one entry before it is written: length, range, and the unused high
@@ -238,7 +229,7 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         match self.mailbox.receive(request) {
             Incoming::Duplicate => Reply::None,
             Incoming::Error(code) => self.mailbox.send_error(reply, code),
-            Incoming::Coe(SVC_SDO_REQUEST, data) => {
+            Incoming::Coe(CoeService::SdoRequest, data) => {
                 self.info = None;
                 self.sdo_request(data, state, od, app, now_ms, reply)
             }
@@ -267,47 +258,20 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
 
     fn send_coe(&mut self, reply: &mut [u8], len: Option<usize>) -> Reply {
         match len {
-            Some(n) => self.mailbox.send(reply, TYPE_COE, n),
+            Some(n) => self.mailbox.send(reply, MailboxType::Coe, n),
             None => Reply::None,
         }
     }
 
     fn abort(&mut self, reply: &mut [u8], index: u16, subindex: u8, code: SdoAbortCode) -> Reply {
-        let code = u32::from(code).to_le_bytes();
-        let len = reply
-            .get_mut(MBX_HDR..)
-            .and_then(|out| emit_sdo(out, SVC_SDO_REQUEST, cmd::ABORT, index, subindex, code, &[]));
-        self.send_coe(reply, len)
-    }
-
-    fn respond(
-        &mut self,
-        reply: &mut [u8],
-        command: u8,
-        index: u16,
-        subindex: u8,
-        head: [u8; 4],
-        payload: Payload,
-    ) -> Reply {
-        let len = match reply.get_mut(MBX_HDR..) {
-            Some(out) => {
-                let data = match payload {
-                    Payload::None => &[][..],
-                    Payload::Buf(n) => self.buf.get(..n).unwrap_or(&[]),
-                };
-                emit_sdo(out, SVC_SDO_RESPONSE, command, index, subindex, head, data)
-            }
-            None => None,
-        };
-        self.send_coe(reply, len)
-    }
-
-    fn segment(&mut self, reply: &mut [u8], command: u8, range: (usize, usize)) -> Reply {
-        let len = match (reply.get_mut(MBX_HDR..), self.buf.get(range.0..range.1)) {
-            (Some(out), Some(data)) => emit_segment(out, command, data),
-            (Some(out), None) => emit_segment(out, command, &[]),
-            _ => None,
-        };
+        let len = emit_sdo(
+            reply,
+            &SdoRepr::Abort {
+                index,
+                sub_index: subindex,
+                code,
+            },
+        );
         self.send_coe(reply, len)
     }
 
@@ -322,46 +286,75 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         now_ms: u32,
         reply: &mut [u8],
     ) -> Reply {
-        if data.len() < 8 {
-            return self.mailbox.send_error(reply, error_code::SIZE_TOO_SHORT);
-        }
+        let view = match Sdo::new_checked(data) {
+            Ok(view) => view,
+            Err(e) => return self.mailbox.send_error(reply, e.mailbox_error_code()),
+        };
         if reply.len() < MIN_MAILBOX {
             return Reply::None;
         }
-        let command = byte_at(data, 0);
-        let index = u16_at(data, 1);
-        let subindex = byte_at(data, 3);
-        let ccs = command >> 5;
+        // Segment requests (specifier 0 download, 3 upload) continue a transfer.
+        let segment = matches!(view.command_specifier(), 0 | 3);
         if let Some((t_index, t_sub, last_ms)) = self.transfer.target() {
             if now_ms.wrapping_sub(last_ms) > self.timeout_ms {
                 self.transfer = Transfer::Idle;
-                if ccs == 0 || ccs == 3 {
+                if segment {
                     return self.abort(reply, t_index, t_sub, SdoAbortCode::SdoProtocolTimeout);
                 }
             }
         }
-        match ccs {
-            1 => {
+        let request = match SdoRepr::parse(&view, Direction::Request) {
+            Ok(request) => request,
+            Err(e) => {
+                // A segment frame has no index: name the transfer's object.
+                let (index, subindex) = self
+                    .transfer
+                    .target()
+                    .filter(|_| segment)
+                    .map_or((view.index(), view.sub_index()), |(i, s, _)| (i, s));
                 self.transfer = Transfer::Idle;
-                self.init_download(data, state, od, app, now_ms, reply)
+                return self.abort(reply, index, subindex, e.sdo_abort_code());
             }
-            0 => self.download_segment(data, state, od, app, now_ms, reply),
-            2 => {
+        };
+        match request {
+            SdoRepr::InitiateDownloadRequest {
+                index,
+                sub_index,
+                complete_access,
+                data,
+            } => {
                 self.transfer = Transfer::Idle;
-                self.init_upload(data, state, od, app, now_ms, reply)
+                let target = Target::new(index, sub_index, complete_access);
+                self.init_download(target, data, state, od, app, now_ms, reply)
             }
-            3 => self.upload_segment(data, now_ms, reply),
-            4 => {
+            SdoRepr::DownloadSegmentRequest { toggle, last, data } => {
+                self.download_segment(toggle, last, data, state, od, app, now_ms, reply)
+            }
+            SdoRepr::InitiateUploadRequest {
+                index,
+                sub_index,
+                complete_access,
+            } => {
+                self.transfer = Transfer::Idle;
+                let target = Target::new(index, sub_index, complete_access);
+                self.init_upload(target, state, od, app, now_ms, reply)
+            }
+            SdoRepr::UploadSegmentRequest { toggle } => self.upload_segment(toggle, now_ms, reply),
+            SdoRepr::Abort { .. } => {
                 // Abort transfer from the master: no response.
                 self.transfer = Transfer::Idle;
                 Reply::None
             }
-            _ => {
+            // Responses are never parsed from the request direction.
+            SdoRepr::InitiateDownloadResponse { .. }
+            | SdoRepr::InitiateUploadResponse { .. }
+            | SdoRepr::DownloadSegmentResponse { .. }
+            | SdoRepr::UploadSegmentResponse { .. } => {
                 self.transfer = Transfer::Idle;
                 self.abort(
                     reply,
-                    index,
-                    subindex,
+                    view.index(),
+                    view.sub_index(),
                     SdoAbortCode::InvalidCommandSpecifier,
                 )
             }
@@ -384,35 +377,36 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         )
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn init_download<A: ObjectAccess + ?Sized>(
         &mut self,
-        data: &[u8],
+        target: Target,
+        data: InitData<'_>,
         state: AlState,
         od: &ObjectDictionary,
         app: &mut A,
         now_ms: u32,
         reply: &mut [u8],
     ) -> Reply {
-        let command = byte_at(data, 0);
-        let index = u16_at(data, 1);
-        let subindex = byte_at(data, 3);
-        let complete = command & cmd::COMPLETE_ACCESS != 0;
-        let expedited = command & cmd::EXPEDITED != 0;
-        let (declared, payload): (Option<usize>, &[u8]) = if expedited {
-            let size = (command & cmd::SIZE_INDICATED != 0)
-                .then(|| 4 - usize::from((command >> 2) & 0x03));
-            (size, data.get(4..8).unwrap_or(&[]))
-        } else {
-            let size = u32::from_le_bytes([
-                byte_at(data, 4),
-                byte_at(data, 5),
-                byte_at(data, 6),
-                byte_at(data, 7),
-            ]);
-            (
-                Some(usize::try_from(size).unwrap_or(usize::MAX)),
-                data.get(8..).unwrap_or(&[]),
-            )
+        let Target {
+            index,
+            subindex,
+            complete,
+        } = target;
+        let expedited_bytes;
+        let (declared, payload): (Option<usize>, &[u8]) = match data {
+            // All four bytes: without a size indicated, the entry's size picks from them.
+            InitData::Expedited { size, data } => {
+                expedited_bytes = data;
+                (size.map(usize::from), &expedited_bytes[..])
+            }
+            InitData::Normal {
+                complete_size,
+                data,
+            } => (
+                Some(usize::try_from(complete_size).unwrap_or(usize::MAX)),
+                data,
+            ),
         };
         let result = if complete {
             self.check_complete_download(od, index, subindex, declared)
@@ -434,7 +428,7 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
                 Self::commit(od, app, state, index, subindex, value)
             };
             return match result {
-                Ok(()) => self.download_ack(reply, index, subindex, complete),
+                Ok(()) => self.download_ack(reply, target),
                 Err(code) => self.abort(reply, index, subindex, code),
             };
         }
@@ -455,18 +449,19 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
             toggle: false,
             last_ms: now_ms,
         };
-        self.download_ack(reply, index, subindex, complete)
+        self.download_ack(reply, target)
     }
 
-    fn download_ack(
-        &mut self,
-        reply: &mut [u8],
-        index: u16,
-        subindex: u8,
-        complete: bool,
-    ) -> Reply {
-        let command = cmd::DOWNLOAD_RESPONSE | if complete { cmd::COMPLETE_ACCESS } else { 0 };
-        self.respond(reply, command, index, subindex, [0; 4], Payload::None)
+    fn download_ack(&mut self, reply: &mut [u8], target: Target) -> Reply {
+        let len = emit_sdo(
+            reply,
+            &SdoRepr::InitiateDownloadResponse {
+                index: target.index,
+                sub_index: target.subindex,
+                complete_access: target.complete,
+            },
+        );
+        self.send_coe(reply, len)
     }
 
     /// Access and size checks of a single-entry download; returns the value size.
@@ -547,9 +542,12 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         app.write(index, subindex, value, state)
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn download_segment<A: ObjectAccess + ?Sized>(
         &mut self,
-        data: &[u8],
+        seg_toggle: bool,
+        last: bool,
+        segment: &[u8],
         state: AlState,
         od: &ObjectDictionary,
         app: &mut A,
@@ -568,20 +566,10 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         else {
             return self.unexpected_segment(reply);
         };
-        let command = byte_at(data, 0);
-        let seg_toggle = command & cmd::TOGGLE != 0;
         if seg_toggle != toggle {
             self.transfer = Transfer::Idle;
             return self.abort(reply, index, subindex, SdoAbortCode::ToggleBitNotAlternated);
         }
-        let last = command & cmd::LAST_SEGMENT != 0;
-        let segment = data.get(1..).unwrap_or(&[]);
-        let valid = if data.len() == 8 {
-            7 - usize::from((command >> 1) & 0x07)
-        } else {
-            segment.len()
-        };
-        let segment = segment.get(..valid).unwrap_or(segment);
         let end = received + segment.len();
         if end > total {
             self.transfer = Transfer::Idle;
@@ -594,7 +582,7 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
                 return self.abort(reply, index, subindex, SdoAbortCode::OutOfMemory);
             }
         }
-        let response = cmd::DOWNLOAD_SEGMENT_RESPONSE | if toggle { cmd::TOGGLE } else { 0 };
+        let response = SdoRepr::DownloadSegmentResponse { toggle };
         if !last {
             self.transfer = Transfer::Download {
                 index,
@@ -605,7 +593,8 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
                 toggle: !toggle,
                 last_ms: now_ms,
             };
-            return self.segment(reply, response, (0, 0));
+            let len = emit_sdo(reply, &response);
+            return self.send_coe(reply, len);
         }
         self.transfer = Transfer::Idle;
         if end < total {
@@ -621,24 +610,28 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
             Self::commit(od, app, state, index, subindex, value)
         };
         match result {
-            Ok(()) => self.segment(reply, response, (0, 0)),
+            Ok(()) => {
+                let len = emit_sdo(reply, &response);
+                self.send_coe(reply, len)
+            }
             Err(code) => self.abort(reply, index, subindex, code),
         }
     }
 
     fn init_upload<A: ObjectAccess + ?Sized>(
         &mut self,
-        data: &[u8],
+        target: Target,
         state: AlState,
         od: &ObjectDictionary,
         app: &mut A,
         now_ms: u32,
         reply: &mut [u8],
     ) -> Reply {
-        let command = byte_at(data, 0);
-        let index = u16_at(data, 1);
-        let subindex = byte_at(data, 3);
-        let complete = command & cmd::COMPLETE_ACCESS != 0;
+        let Target {
+            index,
+            subindex,
+            complete,
+        } = target;
         let read = if complete {
             match od.find(index) {
                 Some(object) => complete::upload(object, subindex, app, state, &mut self.buf),
@@ -651,35 +644,37 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
             Ok(n) => n.min(BUF),
             Err(code) => return self.abort(reply, index, subindex, code),
         };
-        let ca = if complete { cmd::COMPLETE_ACCESS } else { 0 };
-        if (1..=4).contains(&n) {
-            // Expedited with the exact size: 4 - n unused bytes in bits 2..3.
-            let mut head = [0u8; 4];
-            if let (Some(dst), Some(src)) = (head.get_mut(..n), self.buf.get(..n)) {
-                dst.copy_from_slice(src);
-            }
-            let command = cmd::UPLOAD_RESPONSE
-                | cmd::EXPEDITED
-                | cmd::SIZE_INDICATED
-                | (((4 - n) as u8) << 2)
-                | ca;
-            return self.respond(reply, command, index, subindex, head, Payload::None);
-        }
-        let command = cmd::UPLOAD_RESPONSE | cmd::SIZE_INDICATED | ca;
-        let size = u32::try_from(n).unwrap_or(u32::MAX).to_le_bytes();
+        let value = self.buf.get(..n).unwrap_or_default();
         let room = reply.len().saturating_sub(MIN_MAILBOX);
-        if n <= room {
-            return self.respond(reply, command, index, subindex, size, Payload::Buf(n));
-        }
-        self.transfer = Transfer::Upload {
-            index,
-            subindex,
-            total: n,
-            sent: room,
-            toggle: false,
-            last_ms: now_ms,
+        // Expedited with the exact size for 1..4 bytes; else normal, segmented if the
+        // value does not fit the read mailbox.
+        let data = match InitData::expedited(value) {
+            Some(expedited) => expedited,
+            None => InitData::Normal {
+                complete_size: u32::try_from(n).unwrap_or(u32::MAX),
+                data: value.get(..room).unwrap_or(value),
+            },
         };
-        self.respond(reply, command, index, subindex, size, Payload::Buf(room))
+        if n > 4 && n > room {
+            self.transfer = Transfer::Upload {
+                index,
+                subindex,
+                total: n,
+                sent: room,
+                toggle: false,
+                last_ms: now_ms,
+            };
+        }
+        let len = emit_sdo(
+            reply,
+            &SdoRepr::InitiateUploadResponse {
+                index,
+                sub_index: subindex,
+                complete_access: complete,
+                data,
+            },
+        );
+        self.send_coe(reply, len)
     }
 
     /// Access checks and read of a single entry into the transfer buffer.
@@ -708,7 +703,7 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         Ok(n.min(cap))
     }
 
-    fn upload_segment(&mut self, data: &[u8], now_ms: u32, reply: &mut [u8]) -> Reply {
+    fn upload_segment(&mut self, seg_toggle: bool, now_ms: u32, reply: &mut [u8]) -> Reply {
         let Transfer::Upload {
             index,
             subindex,
@@ -720,74 +715,71 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         else {
             return self.unexpected_segment(reply);
         };
-        let command = byte_at(data, 0);
-        if (command & cmd::TOGGLE != 0) != toggle {
+        if seg_toggle != toggle {
             self.transfer = Transfer::Idle;
             return self.abort(reply, index, subindex, SdoAbortCode::ToggleBitNotAlternated);
         }
-        let room = reply.len().saturating_sub(MBX_HDR + COE_HDR + 1);
+        let room = reply.len().saturating_sub(SEGMENT_OVERHEAD);
         let remaining = total.saturating_sub(sent);
         let chunk = remaining.min(room);
         let last = chunk == remaining;
-        let mut response = cmd::UPLOAD_SEGMENT_RESPONSE | if toggle { cmd::TOGGLE } else { 0 };
-        if last {
-            response |= cmd::LAST_SEGMENT;
-            self.transfer = Transfer::Idle;
+        self.transfer = if last {
+            Transfer::Idle
         } else {
-            self.transfer = Transfer::Upload {
+            Transfer::Upload {
                 index,
                 subindex,
                 total,
                 sent: sent + chunk,
                 toggle: !toggle,
                 last_ms: now_ms,
-            };
-        }
-        if chunk < 7 {
-            response |= ((7 - chunk) as u8) << 1;
-        }
-        self.segment(reply, response, (sent, sent + chunk))
+            }
+        };
+        let len = emit_sdo(
+            reply,
+            &SdoRepr::UploadSegmentResponse {
+                toggle,
+                last,
+                data: self.buf.get(sent..sent + chunk).unwrap_or_default(),
+            },
+        );
+        self.send_coe(reply, len)
     }
 
     // ---------------------------------------------------------------- SDO Information
 
     fn sdo_info(&mut self, data: &[u8], od: &ObjectDictionary, reply: &mut [u8]) -> Reply {
-        let opcode = byte_at(data, 0) & 0x7F;
-        let needed = match opcode {
-            0x01 | 0x03 => 6,
-            0x05 => 8,
-            _ => 4,
+        let view = match SdoInfo::new_checked(data) {
+            Ok(view) => view,
+            Err(e) => return self.mailbox.send_error(reply, e.mailbox_error_code()),
         };
-        if data.len() < needed {
-            return self.mailbox.send_error(reply, error_code::SIZE_TOO_SHORT);
-        }
+        let query = if InfoQuery::is_request(view.opcode()) {
+            match SdoInfoRepr::parse(&view) {
+                Ok(request) => InfoQuery::from_request(&request),
+                Err(e) => return self.mailbox.send_error(reply, e.mailbox_error_code()),
+            }
+        } else {
+            None
+        };
         self.info = None;
-        let query = match opcode {
-            0x01 => InfoQuery::OdList(u16_at(data, 4)),
-            0x03 => InfoQuery::Object(u16_at(data, 4)),
-            0x05 => InfoQuery::Entry {
-                index: u16_at(data, 4),
-                subindex: byte_at(data, 6),
-                value_info: byte_at(data, 7),
-            },
-            _ => return self.info_error(reply, SdoAbortCode::InvalidCommandSpecifier),
+        let Some(query) = query else {
+            return self.info_error(reply, SdoAbortCode::InvalidCommandSpecifier);
         };
         let total = match info::stream_len(&query, od) {
             Ok(total) => total,
             Err(code) => return self.info_error(reply, code),
         };
         // Even fragment sizes keep the u16 indices of an OD list whole.
-        let chunk = reply.len().saturating_sub(MBX_HDR + COE_HDR + 4) & !1;
-        if chunk == 0 {
+        let chunk = reply.len().saturating_sub(INFO_OVERHEAD) & !1;
+        let Some(fragments) = wire::sdo_info::fragment_count(total, chunk) else {
             return Reply::None;
-        }
-        let fragments = total.div_ceil(chunk).max(1);
+        };
         let pending = InfoPending {
             query,
             total,
             sent: 0,
             chunk,
-            fragments_left: u16::try_from(fragments - 1).unwrap_or(u16::MAX),
+            fragments_left: fragments - 1,
         };
         self.info_fragment(pending, od, reply)
     }
@@ -798,11 +790,10 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         od: &ObjectDictionary,
         reply: &mut [u8],
     ) -> Reply {
-        let body_at = MBX_HDR + COE_HDR + 4;
         let len = pending
             .chunk
             .min(pending.total.saturating_sub(pending.sent));
-        let written = match reply.get_mut(body_at..body_at + len) {
+        let written = match reply.get_mut(INFO_OVERHEAD..INFO_OVERHEAD + len) {
             Some(out) => info::stream_chunk(&pending.query, od, pending.sent, out),
             None => {
                 self.info = None;
@@ -810,40 +801,48 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
             }
         };
         let incomplete = pending.fragments_left > 0;
-        let header = reply.get_mut(MBX_HDR..).and_then(|out| {
-            emit_info_header(
-                out,
-                pending.query.response_opcode(),
-                incomplete,
-                pending.fragments_left,
-                written,
-            )
+        let header = SdoInfoHeaderRepr {
+            opcode: pending.query.response_opcode(),
+            incomplete,
+            fragments_left: pending.fragments_left,
+        };
+        // The service data is already in place; only the headers go in front of it.
+        let len = emit_coe(payload_area(reply), CoeService::SdoInformation, |out| {
+            header.emit(&mut SdoInfo::new_unchecked(out))?;
+            Ok(header.buffer_len() + written)
         });
         self.info = incomplete.then(|| InfoPending {
             sent: pending.sent + written,
             fragments_left: pending.fragments_left - 1,
             ..pending
         });
-        self.send_coe(reply, header)
+        self.send_coe(reply, len)
     }
 
     fn info_error(&mut self, reply: &mut [u8], code: SdoAbortCode) -> Reply {
-        let body_at = MBX_HDR + COE_HDR + 4;
-        let Some(out) = reply.get_mut(body_at..body_at + 4) else {
-            return Reply::None;
-        };
-        out.copy_from_slice(&u32::from(code).to_le_bytes());
-        let len = reply
-            .get_mut(MBX_HDR..)
-            .and_then(|out| emit_info_header(out, 0x07, false, 0, 4));
+        let error = SdoInfoRepr::Error { code };
+        let len = emit_coe(payload_area(reply), CoeService::SdoInformation, |out| {
+            error.emit(&mut SdoInfo::new_unchecked(out))?;
+            Ok(error.buffer_len())
+        });
         self.send_coe(reply, len)
     }
 }
 
-/// What follows the SDO header of a response.
-#[derive(Debug, Clone, Copy)]
-enum Payload {
-    None,
-    /// The first `n` bytes of the transfer buffer.
-    Buf(usize),
+/// The object a request names and whether it is a complete access.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Target {
+    index: u16,
+    subindex: u8,
+    complete: bool,
+}
+
+impl Target {
+    const fn new(index: u16, subindex: u8, complete: bool) -> Self {
+        Self {
+            index,
+            subindex,
+            complete,
+        }
+    }
 }

@@ -147,11 +147,13 @@ fn object_descriptions() {
 fn entry_description_with_all_value_info() {
     let mut b = Bench::new();
     // 0x2001:00, value info 0x78 (unit 0x08, default 0x10, min 0x20, max 0x40).
-    // Data type UNSIGNED16 (6), 16 bits, access RW + backup = 0x013F, unit 0x00260000,
-    // default 100, min 10, max 1000, name.
+    // Data type UNSIGNED16 (6), 16 bits, access RW + backup = 0x013F, unit type 0x0026
+    // (UNSIGNED16, see wire::sdo_info::UNIT_TYPE_LEN), default 100, min 10, max 1000, name.
     let mut body = vec![
-        0x01, 0x20, 0x00, 0x78, 0x06, 0x00, 0x10, 0x00, 0x3F, 0x01, 0x00, 0x00, 0x26, 0x00, 0x64,
-        0x00, 0x0A, 0x00, 0xE8, 0x03,
+        0x01, 0x20, 0x00, 0x78, // index, subindex, value info
+        0x06, 0x00, 0x10, 0x00, 0x3F, 0x01, // data type, bit length, access
+        0x26, 0x00, // unit type
+        0x64, 0x00, 0x0A, 0x00, 0xE8, 0x03, // default, minimum, maximum
     ];
     body.extend_from_slice(b"U16 ranged");
     assert_eq!(

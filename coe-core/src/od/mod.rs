@@ -35,6 +35,7 @@ pub use types::{Access, DataType, EsiTypeName, ObjectCode};
 pub use value::{check_range, decode_int, decode_real, int_limits, Value};
 
 use crate::abort::SdoAbortCode;
+use crate::wire::ValueInfo;
 use core::fmt;
 
 /// One entry (subindex) of an object: type, length, access, limits and the name the SDO
@@ -53,8 +54,9 @@ pub struct EntryDesc {
     pub bit_len: u16,
     /// Access rights and PDO/backup/settings flags.
     pub access: Access,
-    /// Unit (ETG.1004 unit code, the SDO Information "unit type" u32), if any.
-    pub unit: Option<u32>,
+    /// Unit type, if any: the UNSIGNED16 the SDO Information entry description carries
+    /// with value info 0x08 (see [`crate::wire::sdo_info::UNIT_TYPE_LEN`] for the size).
+    pub unit: Option<u16>,
     /// Default value (ESI `DefaultValue`, SDO Information value info 0x10).
     pub default: Value,
     /// Minimum value (ESI `MinValue`, value info 0x20); writes below it are refused.
@@ -132,8 +134,8 @@ impl EntryDesc {
         self
     }
 
-    /// Sets the unit.
-    pub const fn with_unit(mut self, unit: u32) -> Self {
+    /// Sets the unit type.
+    pub const fn with_unit(mut self, unit: u16) -> Self {
         self.unit = Some(unit);
         self
     }
@@ -151,20 +153,20 @@ impl EntryDesc {
     }
 
     /// Value info bits of the SDO Information entry description this entry can fill:
-    /// 0x08 unit, 0x10 default, 0x20 minimum, 0x40 maximum.
+    /// unit, default, minimum, maximum ([`ValueInfo`] bits).
     pub const fn value_info(&self) -> u8 {
         let mut info = 0;
         if self.unit.is_some() {
-            info |= 0x08;
+            info |= ValueInfo::UNIT_TYPE;
         }
         if self.default.is_some() {
-            info |= 0x10;
+            info |= ValueInfo::DEFAULT;
         }
         if self.min.is_some() {
-            info |= 0x20;
+            info |= ValueInfo::MINIMUM;
         }
         if self.max.is_some() {
-            info |= 0x40;
+            info |= ValueInfo::MAXIMUM;
         }
         info
     }

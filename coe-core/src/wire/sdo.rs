@@ -54,6 +54,9 @@ mod field {
 /// Length of an initiate or abort frame (and the minimum length of every SDO frame).
 pub const HEADER_LEN: usize = field::NORMAL_DATA;
 
+/// Length of a segment frame's header: the command byte before the segment data.
+pub const SEGMENT_HEADER_LEN: usize = field::SEGMENT_DATA;
+
 /// The fewest data bytes a segment frame carries (shorter segments are padded).
 pub const MIN_SEGMENT_DATA: usize = 7;
 

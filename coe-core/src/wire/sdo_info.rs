@@ -107,7 +107,7 @@ crate::open_enum! {
 pub struct ValueInfo(pub u8);
 
 impl ValueInfo {
-    /// Unit type (u16) included.
+    /// Unit type included: an UNSIGNED16 ([`UNIT_TYPE_LEN`] bytes).
     pub const UNIT_TYPE: u8 = 0x08;
     /// Default value included.
     pub const DEFAULT: u8 = 0x10;
@@ -119,6 +119,109 @@ impl ValueInfo {
     /// True if all bits of `mask` are set.
     pub const fn contains(self, mask: u8) -> bool {
         self.0 & mask == mask
+    }
+}
+
+/// Length of the unit type of an entry description response: UNSIGNED16.
+///
+/// The ETG.1000.6 text itself was not at hand; the size follows the two Beckhoff sources
+/// that read or write the field: the SSC `sdoinfoserv.h` (`TSDOINFOENTRYDESC`: "UINT16
+/// UnitType; // optional if bit3 of valueInfo", and `SIZEOF_MAXVALUEINFO 26 // 2 Bytes
+/// UnitType + (3 * DEFTYPE_REAL64)`) and the Wireshark EtherCAT mailbox dissector
+/// (`plugins/ethercat/packet-ecatmb.c`, contributed by Beckhoff: 2 bytes when value info
+/// bit 3 is set). SOES and the IgH master never ask for the unit.
+pub const UNIT_TYPE_LEN: usize = 2;
+
+/// Which optional value of an entry description a writer is asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EntryValue {
+    /// Default value ([`ValueInfo::DEFAULT`]).
+    Default,
+    /// Minimum value ([`ValueInfo::MINIMUM`]).
+    Minimum,
+    /// Maximum value ([`ValueInfo::MAXIMUM`]).
+    Maximum,
+}
+
+impl EntryValue {
+    /// The three values in the order they follow each other on the wire.
+    pub const ALL: [EntryValue; 3] = [
+        EntryValue::Default,
+        EntryValue::Minimum,
+        EntryValue::Maximum,
+    ];
+
+    /// The value info bit that includes this value.
+    pub const fn flag(self) -> u8 {
+        match self {
+            EntryValue::Default => ValueInfo::DEFAULT,
+            EntryValue::Minimum => ValueInfo::MINIMUM,
+            EntryValue::Maximum => ValueInfo::MAXIMUM,
+        }
+    }
+}
+
+/// The fixed fields of a Get Entry Description response; [`write`](Self::write) streams the
+/// whole service data with the optional values supplied by the caller. Both
+/// [`SdoInfoRepr::EntryDescriptionResponse`] and a server that encodes the values straight
+/// from its object dictionary write through it, so the layout exists once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EntryDescriptionHead {
+    /// Index.
+    pub index: u16,
+    /// Subindex.
+    pub sub_index: u8,
+    /// Optional fields present.
+    pub value_info: ValueInfo,
+    /// Data type.
+    pub data_type: DataType,
+    /// Bit length.
+    pub bit_length: u16,
+    /// Access rights and mapping flags.
+    pub access: Access,
+    /// Unit type (written with [`ValueInfo::UNIT_TYPE`]).
+    pub unit_type: u16,
+}
+
+impl EntryDescriptionHead {
+    /// Streams the service data: the fixed fields, the unit type and each value that the
+    /// value info selects (`value` writes it and must push exactly
+    /// [`value_len`]`(bit_length)` bytes), then the name.
+    pub fn write(
+        &self,
+        w: &mut FragmentWriter<'_>,
+        mut value: impl FnMut(EntryValue, &mut FragmentWriter<'_>),
+        name: &[u8],
+    ) {
+        w.push_u16(self.index);
+        w.push(&[self.sub_index, self.value_info.0]);
+        w.push_u16(self.data_type.into());
+        w.push_u16(self.bit_length);
+        w.push_u16(self.access.bits());
+        if self.value_info.contains(ValueInfo::UNIT_TYPE) {
+            w.push_u16(self.unit_type);
+        }
+        for which in EntryValue::ALL {
+            if self.value_info.contains(which.flag()) {
+                value(which, w);
+            }
+        }
+        w.push(name);
+    }
+}
+
+/// Streams the service data of a Get OD List response: the list type, then one u16 per
+/// index (for list type 0 the five counts).
+pub fn write_od_list(
+    w: &mut FragmentWriter<'_>,
+    list_type: OdListType,
+    indices: impl IntoIterator<Item = u16>,
+) {
+    w.push_u16(list_type.into());
+    for index in indices {
+        w.push_u16(index);
     }
 }
 
@@ -367,6 +470,20 @@ impl<'a> FragmentWriter<'a> {
         self.push(&value.to_le_bytes())
     }
 
+    /// Appends `n` zero bytes (padding of a value shorter than its entry).
+    pub fn push_zeros(&mut self, n: usize) {
+        let start = self.pos;
+        let end = start.saturating_add(n);
+        self.pos = end;
+        let lo = start.max(self.skip);
+        let hi = end.min(self.skip.saturating_add(self.out.len()));
+        if lo < hi {
+            if let Some(dst) = self.out.get_mut(lo - self.skip..hi - self.skip) {
+                dst.fill(0);
+            }
+        }
+    }
+
     /// Stream bytes seen so far (the total length once everything is pushed).
     pub fn position(&self) -> usize {
         self.pos
@@ -435,7 +552,8 @@ pub enum SdoInfoRepr<'a> {
         bit_length: u16,
         /// Access rights and mapping flags.
         access: Access,
-        /// Unit type (present with [`ValueInfo::UNIT_TYPE`]; else 0).
+        /// Unit type, UNSIGNED16 (present with [`ValueInfo::UNIT_TYPE`]; else 0; see
+        /// [`UNIT_TYPE_LEN`]).
         unit_type: u16,
         /// Default value, ceil(bit_length / 8) bytes (with [`ValueInfo::DEFAULT`]; else empty).
         default: &'a [u8],
@@ -545,7 +663,7 @@ impl<'a> SdoInfoRepr<'a> {
                         Ok(&[])
                     }
                 };
-                let unit_type = get_u16(optional(ValueInfo::UNIT_TYPE, 2)?, 0..2);
+                let unit_type = get_u16(optional(ValueInfo::UNIT_TYPE, UNIT_TYPE_LEN)?, 0..2);
                 let default = optional(ValueInfo::DEFAULT, n)?;
                 let minimum = optional(ValueInfo::MINIMUM, n)?;
                 let maximum = optional(ValueInfo::MAXIMUM, n)?;
@@ -633,13 +751,13 @@ impl<'a> SdoInfoRepr<'a> {
         }
     }
 
-    /// Generates the service data into `w`.
-    fn write(&self, w: &mut FragmentWriter<'_>) {
+    /// Generates the service data into `w` (unchecked: [`emit`](Self::emit) and
+    /// [`emit_fragment`](Self::emit_fragment) check first).
+    pub(crate) fn write(&self, w: &mut FragmentWriter<'_>) {
         match *self {
             SdoInfoRepr::OdListRequest { list_type } => w.push_u16(list_type.into()),
             SdoInfoRepr::OdListResponse { list_type, list } => {
-                w.push_u16(list_type.into());
-                w.push(list);
+                write_od_list(w, list_type, iter_u16(list))
             }
             SdoInfoRepr::ObjectDescriptionRequest { index } => w.push_u16(index),
             SdoInfoRepr::ObjectDescriptionResponse {
@@ -674,20 +792,26 @@ impl<'a> SdoInfoRepr<'a> {
                 minimum,
                 maximum,
                 name,
-            } => {
-                w.push_u16(index);
-                w.push(&[sub_index, value_info.0]);
-                w.push_u16(data_type.into());
-                w.push_u16(bit_length);
-                w.push_u16(access.bits());
-                if value_info.contains(ValueInfo::UNIT_TYPE) {
-                    w.push_u16(unit_type);
-                }
-                w.push(default);
-                w.push(minimum);
-                w.push(maximum);
-                w.push(name);
+            } => EntryDescriptionHead {
+                index,
+                sub_index,
+                value_info,
+                data_type,
+                bit_length,
+                access,
+                unit_type,
             }
+            .write(
+                w,
+                |which, w| {
+                    w.push(match which {
+                        EntryValue::Default => default,
+                        EntryValue::Minimum => minimum,
+                        EntryValue::Maximum => maximum,
+                    })
+                },
+                name,
+            ),
             SdoInfoRepr::Error { code } => w.push(&u32::from(code).to_le_bytes()),
         }
     }
@@ -1095,6 +1219,19 @@ mod tests {
         let mut w = FragmentWriter::new(usize::MAX, &mut none);
         w.push(&[1; 8]);
         assert_eq!(w.written(), 0);
+        // Zeros go through the same window.
+        let mut out = [0xa5u8; 3];
+        let mut w = FragmentWriter::new(1, &mut out);
+        w.push(&[7, 8]);
+        w.push_zeros(1);
+        w.push(&[9, 9]);
+        assert_eq!((w.position(), w.written()), (5, 3));
+        assert_eq!(out, [8, 0, 9]);
+        let mut out = [0xa5u8; 2];
+        let mut w = FragmentWriter::new(3, &mut out);
+        w.push_zeros(4);
+        assert_eq!((w.position(), w.written()), (4, 1));
+        assert_eq!(out, [0, 0xa5]);
         assert_eq!(fragment_count(0, 10), Some(1));
         assert_eq!(fragment_count(10, 0), None);
         assert_eq!(fragment_count(usize::MAX, 1), None);

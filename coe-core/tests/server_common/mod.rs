@@ -83,7 +83,7 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             EntryDesc::new(0, "U16 ranged", DataType::Unsigned16, Access::RW.backup())
                 .with_range(Value::Int(10), Value::Int(1000))
                 .with_default(Value::Int(100))
-                .with_unit(0x0026_0000),
+                .with_unit(0x0026),
         ],
     ),
     ObjectDesc::var(
