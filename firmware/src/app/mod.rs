@@ -37,7 +37,6 @@
 
 pub mod diagnostics;
 pub mod esc;
-pub mod esm;
 pub mod mailbox;
 pub mod objects;
 pub mod outputs;
@@ -49,13 +48,13 @@ pub mod sync;
 #[cfg(test)]
 mod tests;
 
+use coe_core::esm::{Esm, Transition};
 use coe_core::od::ObjectDictionary;
-use coe_core::AlState;
+use coe_core::{AlState, AlStatusCode};
 use diagnostics::{
     EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
 };
 use esc::{event, reg, EscExt, EscPort, SmConfig, SmExpect};
-use esm::{code, Decision, Esm};
 use mailbox::MailboxLink;
 use objects::{AppData, RxSink, TxSource};
 use outputs::OutputStage;
@@ -100,7 +99,7 @@ impl SlaveApp {
     /// `pd`.
     pub fn new(od: &'static ObjectDictionary, config: AppConfig, pd: ProcessData) -> Self {
         Self {
-            esm: Esm::new(config.device_id),
+            esm: Esm::new().with_device_id(config.device_id),
             mailbox: MailboxLink::new(),
             data: AppData::new(od, pd),
             config,
@@ -215,7 +214,7 @@ impl SlaveApp {
     // ------------------------------------------------------------------ ESM
 
     fn write_status<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
-        esc.write_al_status(self.esm.status_word(), self.esm.status_code_word())
+        esc.write_al_status(self.esm.status(), self.esm.status_code_word())
     }
 
     fn update_mask<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
@@ -243,13 +242,13 @@ impl SlaveApp {
     ) -> Result<(), E::Error> {
         let control = esc.read_u16(reg::AL_CONTROL)?;
         let had_error = self.esm.error();
-        let decision = self.esm.on_control(control);
+        let decision = self.esm.request(control);
         if had_error && !self.esm.error() {
             if let Some(e) = self.data.diag.clear(ERR_COMMUNICATION) {
                 self.mailbox.queue_emergency(e);
             }
         }
-        if let Decision::Change { from, to } = decision {
+        if let Transition::Allowed { from, to } = decision {
             match self.transition(esc, stage, from, to, out)? {
                 Ok(()) => self.esm.complete(to),
                 Err((state, code)) => self.esm.fail(state, code),
@@ -267,7 +266,7 @@ impl SlaveApp {
         from: AlState,
         to: AlState,
         out: &mut PdiOutcome,
-    ) -> Result<Result<(), (AlState, u16)>, E::Error> {
+    ) -> Result<Result<(), (AlState, AlStatusCode)>, E::Error> {
         if from == AlState::Op {
             // Leaving OP: safe outputs at once, stale outputs never come back.
             self.data.outputs.enter_fault(stage);
@@ -280,7 +279,10 @@ impl SlaveApp {
                     let sm = esc.sm(n)?;
                     let expect = self.config.sm.get(usize::from(n)).copied();
                     if !expect.is_some_and(|e| mailbox_sm_ok(&sm, &e)) {
-                        return Ok(Err((AlState::Init, code::INVALID_MAILBOX_CONFIGURATION)));
+                        return Ok(Err((
+                            AlState::Init,
+                            AlStatusCode::InvalidMailboxConfiguration,
+                        )));
                     }
                 }
                 self.data.sync.reset();
@@ -307,7 +309,7 @@ impl SlaveApp {
         &mut self,
         esc: &mut E,
         stage: &OutputStage,
-    ) -> Result<Result<(), u16>, E::Error> {
+    ) -> Result<Result<(), AlStatusCode>, E::Error> {
         let sm2 = esc.sm(2)?;
         let sm3 = esc.sm(3)?;
         let dc_activation = esc.read_u8(reg::DC_ACTIVATION)?;
@@ -347,7 +349,7 @@ impl SlaveApp {
     ) -> Result<(), E::Error> {
         let status = esc.read_u16(reg::WD_STATUS_PD)?;
         if status & 1 == 0 && self.esm.state() == AlState::Op {
-            self.local_error(esc, stage, code::SM_WATCHDOG, out)?;
+            self.local_error(esc, stage, AlStatusCode::SyncManagerWatchdog, out)?;
             let e = self
                 .data
                 .diag
@@ -371,7 +373,7 @@ impl SlaveApp {
         );
         self.mailbox.queue_emergency(e);
         if self.esm.state() == AlState::Op {
-            self.local_error(esc, stage, code::SYNC_ERROR, out)?;
+            self.local_error(esc, stage, AlStatusCode::SynchronizationError, out)?;
         }
         Ok(())
     }
@@ -381,7 +383,7 @@ impl SlaveApp {
         &mut self,
         esc: &mut E,
         stage: &OutputStage,
-        code: u16,
+        code: AlStatusCode,
         out: &mut PdiOutcome,
     ) -> Result<(), E::Error> {
         let from = self.esm.state();

@@ -11,10 +11,9 @@
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
 use super::esc::{sm_control, SmConfig, SmExpect};
-use super::esm::code;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoMapping};
-use coe_core::{AlState, SdoAbortCode};
+use coe_core::{AlState, AlStatusCode, SdoAbortCode};
 
 /// RxPDO mapping objects the module offers.
 pub const RX_PDOS: usize = 2;
@@ -192,29 +191,29 @@ impl ProcessData {
         sm3: &SmConfig,
         expect2: &SmExpect,
         expect3: &SmExpect,
-    ) -> Result<(), u16> {
+    ) -> Result<(), AlStatusCode> {
         let valid = |maps: &[Mapping]| maps.iter().all(|m| m.validate(od, MAX_BITS).is_ok());
         if !valid(&self.rx) || self.rx_assign.validate(&self.rx, MAX_BITS).is_err() {
-            return Err(code::INVALID_OUTPUT_MAPPING);
+            return Err(AlStatusCode::InvalidOutputMapping);
         }
         if !valid(&self.tx) || self.tx_assign.validate(&self.tx, MAX_BITS).is_err() {
-            return Err(code::INVALID_INPUT_MAPPING);
+            return Err(AlStatusCode::InvalidInputMapping);
         }
         let rx_layout = ImageLayout::build(&self.rx_assign, &self.rx)
-            .map_err(|_| code::INVALID_OUTPUT_MAPPING)?;
+            .map_err(|_| AlStatusCode::InvalidOutputMapping)?;
         let tx_layout = ImageLayout::build(&self.tx_assign, &self.tx)
-            .map_err(|_| code::INVALID_INPUT_MAPPING)?;
+            .map_err(|_| AlStatusCode::InvalidInputMapping)?;
         if rx_layout.byte_len() > MAX_IMAGE {
-            return Err(code::INVALID_OUTPUT_MAPPING);
+            return Err(AlStatusCode::InvalidOutputMapping);
         }
         if tx_layout.byte_len() > MAX_IMAGE {
-            return Err(code::INVALID_INPUT_MAPPING);
+            return Err(AlStatusCode::InvalidInputMapping);
         }
         if !sm_matches(sm2, expect2, rx_layout.byte_len()) {
-            return Err(code::INVALID_OUTPUT_CONFIGURATION);
+            return Err(AlStatusCode::InvalidOutputConfiguration);
         }
         if !sm_matches(sm3, expect3, tx_layout.byte_len()) {
-            return Err(code::INVALID_INPUT_CONFIGURATION);
+            return Err(AlStatusCode::InvalidInputConfiguration);
         }
         self.rx_layout = rx_layout;
         self.tx_layout = tx_layout;

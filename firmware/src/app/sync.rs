@@ -28,7 +28,7 @@
 //! application answers with an Emergency, the error register and SAFEOP + 0x001A.
 
 use super::outputs::Sync0Counts;
-use coe_core::SdoAbortCode;
+use coe_core::{AlStatusCode, SdoAbortCode};
 
 /// Shortest cycle the module handles (0x1C32:05/0x1C33:05): the product target of a 25 us
 /// DC cycle with 2 AO + 8 AI (BRIEF section 6); to be confirmed by the benchmark.
@@ -123,12 +123,12 @@ pub enum SyncConfigError {
 
 impl SyncConfigError {
     /// The AL status code (0x0134) of the refusal.
-    pub const fn al_status_code(self) -> u16 {
+    pub const fn al_status_code(self) -> AlStatusCode {
         match self {
-            Self::InvalidDcSyncConfiguration => 0x0030,
-            Self::DcInvalidSyncCycleTime => 0x0035,
-            Self::FreeRunNeeds3BufferMode => 0x0029,
-            Self::SyncModeNotSupported => 0x0028,
+            Self::InvalidDcSyncConfiguration => AlStatusCode::InvalidDcSyncConfiguration,
+            Self::DcInvalidSyncCycleTime => AlStatusCode::DcInvalidSyncCycleTime,
+            Self::FreeRunNeeds3BufferMode => AlStatusCode::FreeRunNeeds3BufferMode,
+            Self::SyncModeNotSupported => AlStatusCode::SyncModeNotSupported,
         }
     }
 }
@@ -615,7 +615,7 @@ mod tests {
             Err(SyncConfigError::InvalidDcSyncConfiguration)
         );
         assert_eq!(
-            SyncConfigError::InvalidDcSyncConfiguration.al_status_code(),
+            u16::from(SyncConfigError::InvalidDcSyncConfiguration.al_status_code()),
             0x0030
         );
     }
@@ -637,7 +637,7 @@ mod tests {
         let mut i = dc(MIN_CYCLE_TIME_NS - 1);
         assert_eq!(check_sync(&i), Err(SyncConfigError::DcInvalidSyncCycleTime));
         assert_eq!(
-            SyncConfigError::DcInvalidSyncCycleTime.al_status_code(),
+            u16::from(SyncConfigError::DcInvalidSyncCycleTime.al_status_code()),
             0x0035
         );
         i.sync0_cycle_ns = 0; // single shot
@@ -672,7 +672,7 @@ mod tests {
             Err(SyncConfigError::FreeRunNeeds3BufferMode)
         );
         assert_eq!(
-            SyncConfigError::FreeRunNeeds3BufferMode.al_status_code(),
+            u16::from(SyncConfigError::FreeRunNeeds3BufferMode.al_status_code()),
             0x0029
         );
         i.sm2_three_buffer = true;
