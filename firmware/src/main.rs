@@ -33,6 +33,7 @@ mod rtic_app {
     use core::sync::atomic::{AtomicBool, Ordering};
     use firmware::app::esc::{reg, EscPort};
     use firmware::app::outputs::{DacLatch, OutputStage};
+    use firmware::app::pdi_task::LevelIrq;
     use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
     use lpc17xx_pac::Interrupt;
     use rtic_monotonics::systick::prelude::*;
@@ -42,10 +43,6 @@ mod rtic_app {
     /// Set by the PDI task before it pends TIMER1: "apply the staged outputs now" (free run,
     /// SM-synchronous, fault values), as opposed to a SYNC0 capture.
     static DAC_APPLY: AtomicBool = AtomicBool::new(false);
-
-    /// How often the PDI task pends itself again while the ESC keeps SPI_IRQ asserted before
-    /// it waits for the next edge or SYNC0 (bounds a stuck IRQ line).
-    const MAX_REPENDS: u8 = 16;
 
     #[shared]
     struct Shared {}
@@ -76,7 +73,7 @@ mod rtic_app {
     pub struct PdiSide {
         samples_out: SampleConsumer<'static, SAMPLE_RING_LEN>,
         sampler: Sampler,
-        repends: u8,
+        line: LevelIrq,
         bus_errors: u32,
     }
 
@@ -126,23 +123,25 @@ mod rtic_app {
             mut wdt,
         } = board;
 
+        // Outputs to 0 V first: after an MCU-only reset the DAC still drives the old values.
+        if dac.init().is_err() {
+            defmt::error!("AD5663 init failed");
+        }
+
         let ring = hw::mem::sample_ring().expect("sample ring is taken only here");
         let (samples_in, samples_out) = ring.split();
         let mut pdi = PdiSide {
             samples_out,
             sampler: Sampler::new(PublishMode::Latest),
-            repends: 0,
+            line: LevelIrq::new(),
             bus_errors: 0,
         };
 
-        if !esc_eeprom_loaded.is_high() {
+        if !hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded) {
             defmt::warn!("ET1100 EEPROM not loaded yet: PDI may not be operational");
         }
         if pdi.start(&mut esc).is_err() {
             defmt::error!("ET1100: no answer on the SPI PDI");
-        }
-        if dac.init().is_err() {
-            defmt::error!("AD5663 init failed");
         }
         if wdt.caused_reset() {
             defmt::warn!("reset by the MCU watchdog");
@@ -219,11 +218,8 @@ mod rtic_app {
         let edge = esc_irq.acknowledge();
         pdi.serve(esc, stage_pdi, hw::timers::now_ns());
         // SPI_IRQ is a level: serve again while it stays asserted (bounded).
-        if esc_irq.still_asserted() && pdi.repends < MAX_REPENDS {
-            pdi.repends += 1;
+        if pdi.line.after_serve(edge, esc_irq.still_asserted()) {
             rtic::pend(Interrupt::EINT3);
-        } else if edge || !esc_irq.still_asserted() {
-            pdi.repends = 0;
         }
     }
 

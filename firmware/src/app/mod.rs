@@ -35,11 +35,14 @@
 //! app.poll(&mut esc, &stage, now_ns)?;
 //! ```
 
+pub mod adc_scan;
+pub mod dac;
 pub mod diagnostics;
 pub mod esc;
 pub mod mailbox;
 pub mod objects;
 pub mod outputs;
+pub mod pdi_task;
 pub mod process_data;
 pub mod sampler;
 pub mod scaling;

@@ -32,14 +32,16 @@
 //! when used).
 
 use super::clocks::{self, ClockError, Clocks};
+use super::dac::{Dac, LdacPin};
 use super::delay::CycleDelay;
+use super::esc::EscPdi;
 use super::gpio::{InPin, OutPin};
 use super::gpio_irq::EscIrq;
 use super::spi::LegacySpi;
 use super::ssp::{Ssp, SspConfig};
 use super::timers::{AdcSampler, Sync0Capture};
 use super::wdt::Watchdog;
-use super::{dac::Dac, esc::EscPdi};
+use super::CCLK_HZ;
 use embedded_hal_bus::spi::ExclusiveDevice;
 use lpc17xx_pac as pac;
 
@@ -283,8 +285,9 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     let ssp0 = Ssp::new(dp.SSP0, SspConfig::AD5663);
     let dac = Dac::new(
         ExclusiveDevice::new(ssp0, dac_sync, CycleDelay).unwrap_or_else(|e| match e {}),
-        dac_ldac,
-    );
+        LdacPin::new(dac_ldac),
+    )
+    .unwrap_or_else(|e| match e {});
     let ssp1 = Ssp::new(dp.SSP1, SspConfig::AD7689);
     let adc = AdcSampler::new(dp.TIMER2, ssp1);
     let sync0 = Sync0Capture::new(dp.TIMER1);
@@ -301,4 +304,23 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
         wdt,
     };
     (board, clock_result.map_err(BoardError::Clock))
+}
+
+/// How long [`wait_esc_eeprom_loaded`] waits: the ET1100 reads its configuration area
+/// (16 words over I2C) within a few ms of its reset; 100 ms covers a slow EEPROM and a late
+/// ESC reset release.
+pub const ESC_EEPROM_WAIT_MS: u32 = 100;
+
+/// Waits (bounded by [`ESC_EEPROM_WAIT_MS`], polled every 100 us) for EEPROM_LOADED: the
+/// ESC's PDI works only after its EEPROM has been loaded. `false` on timeout; the PDI task
+/// then starts the application when the pin rises. Call from `init` (the MCU watchdog is not
+/// running yet). Without PLL0 the CPU runs slower and the wait is longer, still bounded.
+pub fn wait_esc_eeprom_loaded(pin: &InPin) -> bool {
+    for _ in 0..ESC_EEPROM_WAIT_MS * 10 {
+        if pin.is_high() {
+            return true;
+        }
+        cortex_m::asm::delay(CCLK_HZ / 10_000);
+    }
+    pin.is_high()
 }

@@ -1,86 +1,51 @@
-//! The AD5663 on SSP0 (hardware-facts 5): 24-bit frames `x x C2 C1 C0 A2 A1 A0 | D15..D0`,
-//! MSB first, SYNC (GPIO) low for the whole frame, data taken on the falling SCLK edge.
-//!
-//! Stand-in for the `ad5663` driver crate (still a stub at the time of writing): the four
-//! commands the DAC task needs, byte-exact as the virtual board's AD5663 model expects. When
-//! the driver lands, [`Dac`] keeps its API and delegates.
+//! The AD5663 on SSP0 (hardware-facts 5): the application's [`OutputDac`] (the `ad5663`
+//! driver carrying out the DAC task's actions) on the board's SPI device (SSP0, mode 1,
+//! 25 MHz, GPIO SYNC held low for each 24-bit frame) and LDAC pin.
 
 use super::board::DacSpiDevice;
 use super::gpio::OutPin;
-use embedded_hal::spi::SpiDevice;
-use firmware::app::outputs::{DacAction, DacPair};
-
-/// Commands (C2..C0).
-mod cmd {
-    pub const WRITE_INPUT: u8 = 0b000;
-    pub const WRITE_INPUT_UPDATE_ALL: u8 = 0b010;
-    pub const POWER: u8 = 0b100;
-    pub const LDAC_REGISTER: u8 = 0b110;
-}
-
-/// Addresses (A2..A0).
-mod addr {
-    pub const A: u8 = 0b000;
-    pub const B: u8 = 0b001;
-    pub const BOTH: u8 = 0b111;
-}
-
-/// The frame bytes of one command.
-pub const fn frame(command: u8, address: u8, data: u16) -> [u8; 3] {
-    [command << 3 | address, (data >> 8) as u8, data as u8]
-}
-
-/// The DAC's bus error.
-pub type DacError = <DacSpiDevice as embedded_hal::spi::ErrorType>::Error;
+use super::CCLK_HZ;
+use core::convert::Infallible;
+use firmware::app::dac::OutputDac;
 
 /// The AD5663 with its LDAC pin (owner: the SYNC0/DAC task).
-pub struct Dac {
-    spi: DacSpiDevice,
-    ldac: OutPin,
+pub type Dac = OutputDac<DacSpiDevice, LdacPin>;
+
+/// The DAC's error on this board.
+/// CPU cycles LDAC stays low: twice the (UNCONFIRMED) minimum pulse width of the driver's
+/// `unconfirmed` module, 4 cycles = 40 ns at 100 MHz. Two back-to-back writes to the fast
+/// GPIO block can be as short as two cycles, too close to that minimum.
+const LDAC_LOW_CYCLES: u32 =
+    (2 * ad5663::unconfirmed::LDAC_LOW_MIN_NS * (CCLK_HZ / 1_000_000)).div_ceil(1000);
+
+/// The LDAC pin (P2.3, active low) with a guaranteed low time before it rises again.
+#[derive(Debug)]
+pub struct LdacPin(OutPin);
+
+impl LdacPin {
+    /// The pin from the board's pin map.
+    pub fn new(pin: OutPin) -> Self {
+        Self(pin)
+    }
 }
 
-impl Dac {
-    /// The DAC on its device; LDAC idles high.
-    pub fn new(spi: DacSpiDevice, ldac: OutPin) -> Self {
-        Self { spi, ldac }
+impl embedded_hal::digital::ErrorType for LdacPin {
+    type Error = Infallible;
+}
+
+impl embedded_hal::digital::OutputPin for LdacPin {
+    #[inline(always)]
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.0.set(false);
+        Ok(())
     }
 
-    fn send(&mut self, command: u8, address: u8, data: u16) -> Result<(), DacError> {
-        self.spi.write(&frame(command, address, data))
-    }
-
-    /// Power-up state for the SYNC0 scheme: both channels powered (normal operation), LDAC
-    /// register 0 (the LDAC pin updates both channels together).
-    pub fn init(&mut self) -> Result<(), DacError> {
-        self.send(cmd::POWER, addr::BOTH, 0x0003)?; // DB5:4 = 00 normal, DB1:0 = both
-        self.send(cmd::LDAC_REGISTER, addr::BOTH, 0x0000)
-    }
-
-    /// Writes both input registers without changing the outputs (DC fast path).
-    pub fn preload(&mut self, pair: DacPair) -> Result<(), DacError> {
-        self.send(cmd::WRITE_INPUT, addr::A, pair.a)?;
-        self.send(cmd::WRITE_INPUT, addr::B, pair.b)
-    }
-
-    /// Pulses LDAC (>= 20 ns low): both outputs take their input registers together.
-    pub fn pulse_ldac(&mut self) {
-        self.ldac.set(false);
-        cortex_m::asm::delay(4); // 40 ns at 100 MHz
-        self.ldac.set(true);
-    }
-
-    /// Carries out the DAC task's action.
-    pub fn execute(&mut self, action: DacAction) -> Result<(), DacError> {
-        match action {
-            DacAction::Keep => Ok(()),
-            DacAction::PulseLdac(_) => {
-                self.pulse_ldac();
-                Ok(())
-            }
-            DacAction::WriteAndUpdate(pair) => {
-                self.send(cmd::WRITE_INPUT, addr::A, pair.a)?;
-                self.send(cmd::WRITE_INPUT_UPDATE_ALL, addr::B, pair.b)
-            }
-        }
+    /// Waits out the minimum low time first (also when the pin was already high: the
+    /// driver only raises it at construction and at the end of a pulse).
+    #[inline(always)]
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        cortex_m::asm::delay(LDAC_LOW_CYCLES);
+        self.0.set(true);
+        Ok(())
     }
 }

@@ -13,7 +13,7 @@
 //! | [`gpio_irq`] | ESC IRQ on P0.22 (falling edge, EINT3 vector)                         |
 //! | [`wdt`]      | the MCU watchdog                                                      |
 //! | [`esc`]      | the application's `EscPort` over the `et1100` driver                  |
-//! | [`dac`]      | AD5663 frames for the DAC task's actions                              |
+//! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
 

@@ -16,10 +16,11 @@
 //! (DMAREQSEL lines 12/13) writing MR0 (toggle CNV) and the SSP1 DR, and one on SSP1 RX into a
 //! ring in AHB SRAM. That removes the per-sample interrupt (about 60-80 cycles per 4 us at
 //! 250 kSPS, i.e. ~20 % CPU here); the CPU would only drain the ring. The pure logic (the scan
-//! pipeline below) stays the same.
+//! pipeline, `firmware::app::adc_scan`) stays the same.
 
 use super::ssp::Ssp;
 use core::sync::atomic::{AtomicU32, Ordering};
+use firmware::app::adc_scan::ScanPipeline;
 use lpc17xx_pac as pac;
 
 /// Timer tick in ns (PCLK 100 MHz, PR = 0).
@@ -109,54 +110,20 @@ impl Sync0Capture {
     }
 }
 
-/// AD7689 CFG (hardware-facts 6): CFG overwrite, unipolar to GND (INCC 111), scan IN0..INx
-/// with INx = 7, full bandwidth, external reference with buffer (REF 111), SEQ 11 (scan
-/// without temperature), no readback; shifted into the top 14 bits of the 16-bit frame.
-/// Same word as the virtual board's `ADC_SCAN_CFG`.
-pub const ADC_SCAN_CFG: u16 = 0x3FFF;
-
-/// Number of analog inputs scanned.
-pub const ADC_CHANNELS: u8 = 8;
-
 /// The sample period (MR3 + 1 ticks): 4 us = 250 kSPS aggregate, 31.25 kSPS per channel.
 pub const ADC_PERIOD_TICKS: u32 = 400;
 /// CNV high from MR0 (tick 1) to MR1: 2.3 us > tCONV max 2.2 us; the 16-bit frame (0.96 us
 /// at 16.7 MHz) then ends ~3.3 us into the 4 us period, before the next CNV edge.
 pub const ADC_CNV_HIGH_TICKS: u32 = 230;
 
-/// The AD7689 frame pipeline (hardware-facts 6): the CFG sent in frame N governs conversion
-/// N + 1, whose data arrives in frame N + 2; the first two conversions after power-up are
-/// dummies. Frames 0 and 1 carry the CFG, from frame 3 on frame k holds channel (k - 3) % 8.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct ScanPipeline {
-    frames: u32,
-}
-
-impl ScanPipeline {
-    /// The 16-bit word to send in the next frame (CFG during start-up, then 0: DIN low
-    /// keeps the CFG, bit 13 = 0).
-    pub fn next_tx(&self) -> u16 {
-        if self.frames < 2 {
-            ADC_SCAN_CFG << 2
-        } else {
-            0
-        }
-    }
-
-    /// Accounts one received frame; `Some(channel)` when it holds a scan result.
-    pub fn on_rx(&mut self) -> Option<u8> {
-        let k = self.frames;
-        // Once the scan runs, `frames` cycles through 3..=10, so it never overflows.
-        self.frames = if k >= 3 {
-            3 + (k - 2) % u32::from(ADC_CHANNELS)
-        } else {
-            k + 1
-        };
-        (k >= 3).then(|| (k - 3) as u8)
-    }
-}
-
 /// Timer2 CNV generation + SSP1 frames (owner: the sampler task, TIMER2 handler).
+///
+/// The frames go straight into the SSP1 FIFO instead of through the `ad7689` driver's
+/// `SpiDevice` path: a driver frame is a blocking transaction (about 1 us of polling at
+/// 16.7 MHz in every 4 us period), while here one interrupt collects the previous frame and
+/// queues the next in a few register accesses. What is sent and how results are tagged come
+/// from the driver's rules all the same: the CFG word from its typed builder and the frame
+/// pipeline in `firmware::app::adc_scan`, host-tested against the driver.
 pub struct AdcSampler {
     t: pac::TIMER2,
     ssp: Ssp<pac::SSP1>,
@@ -183,7 +150,7 @@ impl AdcSampler {
         Self {
             t,
             ssp,
-            pipeline: ScanPipeline::default(),
+            pipeline: ScanPipeline::new(),
             in_flight: false,
             missed: 0,
         }

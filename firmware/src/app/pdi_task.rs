@@ -1,0 +1,349 @@
+//! One activation of the PDI task: the slave application behind the ESC's level IRQ as an
+//! edge interrupt sees it, plus the background work pended after SYNC0 or by a timer tick.
+//!
+//! The ET1100's SPI_IRQ is a level (AL event & mask != 0); the MCU's GPIO interrupt only
+//! sees its falling edge. So after serving, the task looks at the line again and pends
+//! itself while it stays asserted, at most [`MAX_REPENDS`] times in a row: a line stuck low
+//! (an event the application never clears, a broken pin) must not starve the lower
+//! priorities. After that the line is still served once per activation (SYNC0, tick), and
+//! the budget comes back with the next edge or when the line is seen released.
+//!
+//! The application is started only once the ESC's PDI is operational (EEPROM loaded), and
+//! retried on every activation until then, so a slow or late EEPROM load does not leave the
+//! module silent.
+
+use super::esc::EscPort;
+use super::outputs::{OutputStage, StageKind};
+use super::SlaveApp;
+
+/// Self-pends in a row while the IRQ line stays asserted after serving.
+pub const MAX_REPENDS: u8 = 16;
+
+/// What woke the PDI task, as the hardware layer saw it at entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Wake {
+    /// A falling edge of the IRQ line (acknowledged).
+    pub edge: bool,
+    /// The IRQ line is asserted now.
+    pub line_asserted: bool,
+    /// Background work was requested (pended after SYNC0, or the periodic tick).
+    pub poll: bool,
+    /// The ESC's PDI is operational (EEPROM_LOADED high).
+    pub pdi_ready: bool,
+}
+
+/// What the hardware layer must do after an activation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Done {
+    /// Pend the DAC task to apply the staged outputs now.
+    pub apply_outputs: bool,
+    /// Pend the PDI task again: the line is still asserted.
+    pub pend_again: bool,
+}
+
+/// Bounds the self-pends of a level IRQ seen through an edge interrupt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LevelIrq {
+    repends: u8,
+    exhausted: u32,
+}
+
+impl LevelIrq {
+    /// A line with its full budget.
+    pub const fn new() -> Self {
+        Self {
+            repends: 0,
+            exhausted: 0,
+        }
+    }
+
+    /// After serving: whether to pend again. `edge`: this activation came from an edge;
+    /// `asserted`: the line is still asserted now.
+    pub fn after_serve(&mut self, edge: bool, asserted: bool) -> bool {
+        if edge || !asserted {
+            self.repends = 0;
+        }
+        if !asserted {
+            return false;
+        }
+        if self.repends < MAX_REPENDS {
+            self.repends += 1;
+            return true;
+        }
+        if self.repends == MAX_REPENDS {
+            // Count each exhaustion once; stay above the budget until it comes back.
+            self.repends = MAX_REPENDS + 1;
+            self.exhausted = self.exhausted.wrapping_add(1);
+        }
+        false
+    }
+
+    /// How often the line stayed asserted through a whole budget.
+    pub const fn exhausted(&self) -> u32 {
+        self.exhausted
+    }
+}
+
+/// The PDI task's state: the application, the IRQ line bookkeeping and the error counters.
+pub struct PdiTask {
+    app: SlaveApp,
+    line: LevelIrq,
+    started: bool,
+    bus_errors: u32,
+}
+
+impl PdiTask {
+    /// The task around `app` (not started: see [`PdiTask::run`]).
+    pub fn new(app: SlaveApp) -> Self {
+        Self {
+            app,
+            line: LevelIrq::new(),
+            started: false,
+            bus_errors: 0,
+        }
+    }
+
+    /// The application.
+    pub fn app(&self) -> &SlaveApp {
+        &self.app
+    }
+
+    /// The application, e.g. to drain the sample ring into its sampler.
+    pub fn app_mut(&mut self) -> &mut SlaveApp {
+        &mut self.app
+    }
+
+    /// Whether [`SlaveApp::start`] has succeeded.
+    pub const fn started(&self) -> bool {
+        self.started
+    }
+
+    /// ESC accesses that failed (the activation's work was cut short).
+    pub const fn bus_errors(&self) -> u32 {
+        self.bus_errors
+    }
+
+    /// The IRQ line bookkeeping.
+    pub const fn line(&self) -> &LevelIrq {
+        &self.line
+    }
+
+    /// Starts the application if the PDI is ready and it has not started yet; `true` once
+    /// started.
+    pub fn start<E: EscPort + ?Sized>(&mut self, esc: &mut E, pdi_ready: bool) -> bool {
+        if !self.started && pdi_ready {
+            match self.app.start(esc) {
+                Ok(()) => self.started = true,
+                Err(_) => self.bus_errors = self.bus_errors.wrapping_add(1),
+            }
+        }
+        self.started
+    }
+
+    /// One activation. `still_asserted` reads the line after the work is done.
+    pub fn run<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        stage: &OutputStage,
+        now_ns: u64,
+        wake: Wake,
+        still_asserted: impl FnOnce() -> bool,
+    ) -> Done {
+        if !self.start(esc, wake.pdi_ready) {
+            // Nothing can be served; the periodic tick retries. No self-pend: a line that
+            // an unready ESC holds low must not keep the task busy.
+            return Done::default();
+        }
+        let mut done = Done::default();
+        if wake.edge || wake.line_asserted {
+            let r = self.app.on_pdi_irq(esc, stage, now_ns);
+            done.apply_outputs |= self.outcome(r, stage);
+        }
+        if wake.poll {
+            let r = self.app.poll(esc, stage, now_ns);
+            done.apply_outputs |= self.outcome(r, stage);
+        }
+        done.pend_again = self.line.after_serve(wake.edge, still_asserted());
+        done
+    }
+
+    /// Whether to pend the DAC task after a call. A failed ESC access may have cut off an
+    /// outcome that a fault already staged: then the DAC task is asked anyway (outside DC
+    /// mode, or when a fault pair waits). It applies only a pair it has not applied yet.
+    fn outcome<E>(&mut self, r: Result<super::PdiOutcome, E>, stage: &OutputStage) -> bool {
+        match r {
+            Ok(o) => o.apply_outputs,
+            Err(_) => {
+                self.bus_errors = self.bus_errors.wrapping_add(1);
+                !stage.dc_mode() || stage.staged().0 == StageKind::Fault
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::esc::fake::FakeEsc;
+    use crate::app::esc::{event, reg};
+    use crate::app::{DacLatch, DacPair};
+    use crate::device::{app_config, process_data};
+    use crate::od::OD;
+    use coe_core::AlState;
+
+    fn task() -> (PdiTask, FakeEsc, OutputStage) {
+        let app = SlaveApp::new(&OD, app_config(), process_data());
+        (PdiTask::new(app), FakeEsc::new(), OutputStage::new())
+    }
+
+    const EDGE: Wake = Wake {
+        edge: true,
+        line_asserted: true,
+        poll: false,
+        pdi_ready: true,
+    };
+
+    const POLL: Wake = Wake {
+        edge: false,
+        line_asserted: false,
+        poll: true,
+        pdi_ready: true,
+    };
+
+    /// The master configures the mailbox SyncManagers as the device description says.
+    fn mailbox_sms(esc: &mut FakeEsc) {
+        for (n, sm) in app_config().sm.iter().take(2).enumerate() {
+            esc.master_sm(n as u8, sm.start, sm.len, sm.control, true);
+        }
+    }
+
+    fn mask(esc: &FakeEsc) -> u32 {
+        let a = usize::from(reg::AL_EVENT_MASK);
+        u32::from_le_bytes(esc.mem[a..a + 4].try_into().unwrap())
+    }
+
+    #[test]
+    fn repends_are_bounded_while_the_line_stays_asserted() {
+        let mut line = LevelIrq::new();
+        assert!(line.after_serve(true, true));
+        for _ in 1..MAX_REPENDS {
+            assert!(line.after_serve(false, true));
+        }
+        assert!(!line.after_serve(false, true));
+        assert_eq!(line.exhausted(), 1);
+        // Later activations (SYNC0, tick) do not pend again and do not count again.
+        assert!(!line.after_serve(false, true));
+        assert_eq!(line.exhausted(), 1);
+        // An edge brings the budget back.
+        assert!(line.after_serve(true, true));
+    }
+
+    #[test]
+    fn a_released_line_restores_the_budget() {
+        let mut line = LevelIrq::new();
+        for _ in 0..=MAX_REPENDS {
+            line.after_serve(false, true);
+        }
+        assert!(!line.after_serve(false, true));
+        assert!(!line.after_serve(false, false));
+        assert!(line.after_serve(false, true));
+        assert_eq!(line.exhausted(), 1);
+    }
+
+    #[test]
+    fn nothing_happens_before_the_pdi_is_ready() {
+        let (mut t, mut esc, stage) = task();
+        let wake = Wake {
+            pdi_ready: false,
+            ..EDGE
+        };
+        let done = t.run(&mut esc, &stage, 0, wake, || true);
+        assert_eq!(done, Done::default());
+        assert!(!t.started());
+        assert_eq!(esc.writes, 0);
+        assert_eq!(mask(&esc), 0);
+    }
+
+    #[test]
+    fn starts_when_ready_and_retries_after_a_bus_error() {
+        let (mut t, mut esc, stage) = task();
+        esc.fail_next = true;
+        assert_eq!(t.run(&mut esc, &stage, 0, POLL, || false), Done::default());
+        assert!(!t.started());
+        assert_eq!(t.bus_errors(), 1);
+        t.run(&mut esc, &stage, 0, POLL, || false);
+        assert!(t.started());
+        assert_eq!(esc.al_status(), (0x01, 0));
+        assert_ne!(mask(&esc) & event::AL_CONTROL, 0);
+    }
+
+    #[test]
+    fn an_edge_serves_the_al_events() {
+        let (mut t, mut esc, stage) = task();
+        mailbox_sms(&mut esc);
+        esc.master_al_control(0x02);
+        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        assert_eq!(t.app().state(), AlState::PreOp);
+        assert_eq!(esc.al_status(), (0x02, 0));
+        assert!(!done.pend_again);
+    }
+
+    #[test]
+    fn a_pended_activation_polls_and_leaves_the_events_alone() {
+        let (mut t, mut esc, stage) = task();
+        mailbox_sms(&mut esc);
+        esc.master_al_control(0x02);
+        t.run(&mut esc, &stage, 0, EDGE, || false);
+        // An SDO upload of 0x1000 arrives; only the background poll runs.
+        let upload = [
+            10, 0, 0, 0, 0x00, 0x13, 0x00, 0x20, 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0,
+        ];
+        assert!(esc.master_write_mailbox(&upload));
+        esc.master_al_control(0x01);
+        t.run(&mut esc, &stage, 1_000, POLL, || true);
+        let reply = esc
+            .master_read_mailbox()
+            .expect("the poll served the mailbox");
+        assert_eq!(reply[8], 0x43);
+        assert_eq!(reply[12..16], 0x000C_0191u32.to_le_bytes());
+        // The pending AL control request was not touched.
+        assert_eq!(t.app().state(), AlState::PreOp);
+    }
+
+    #[test]
+    fn a_stuck_line_is_served_a_bounded_number_of_times() {
+        let (mut t, mut esc, stage) = task();
+        let mut activations = 1;
+        let mut done = t.run(&mut esc, &stage, 0, EDGE, || true);
+        while done.pend_again {
+            let wake = Wake {
+                edge: false,
+                ..EDGE
+            };
+            done = t.run(&mut esc, &stage, 0, wake, || true);
+            activations += 1;
+            assert!(activations <= 1 + usize::from(MAX_REPENDS));
+        }
+        assert_eq!(activations, 1 + usize::from(MAX_REPENDS));
+        assert_eq!(t.line().exhausted(), 1);
+    }
+
+    #[test]
+    fn a_failed_access_still_applies_a_staged_fault() {
+        let (mut t, mut esc, stage) = task();
+        t.run(&mut esc, &stage, 0, POLL, || false);
+        stage.set_dc_mode(true);
+        stage.stage(DacPair::new(1, 2));
+        esc.fail_next = true;
+        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        // DC mode, outputs waiting for SYNC0: not applied early.
+        assert!(!done.apply_outputs);
+        assert_eq!(t.bus_errors(), 1);
+        let mut latch = DacLatch::new();
+        stage.enter_fault(&Default::default());
+        esc.fail_next = true;
+        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        assert!(done.apply_outputs);
+        assert!(latch.apply_now(&stage).pair().is_some());
+    }
+}
