@@ -5,28 +5,24 @@
 //! Input layout: byte 0 = state selector, byte 1 = read-mailbox size, byte 2 = clock step,
 //! then frames separated by the length byte in front of each.
 //!
-//! Cargo.toml entry (coe-core/fuzz/Cargo.toml):
-//! ```toml
-//! [[bin]]
-//! name = "sdo_server"
-//! path = "fuzz_targets/sdo_server.rs"
-//! test = false
-//! doc = false
-//! bench = false
-//! ```
+//! Run: `cd coe-core/fuzz && cargo +nightly fuzz run sdo_server` (see the `[[bin]]` entries
+//! in this crate's Cargo.toml).
 #![no_main]
 
 use coe_core::esm::AlState;
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, OdStore, Value};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
+use coe_core::wire::{Mailbox, MailboxRepr, MailboxType};
 use libfuzzer_sys::fuzz_target;
 
 static OD: ObjectDictionary = ObjectDictionary::new(&[
     ObjectDesc::var(
         0x1000,
         "Device type",
-        &[EntryDesc::new(0, "Device type", DataType::Unsigned32, Access::RO)
-            .with_default(Value::Uint(0x000C_0191))],
+        &[
+            EntryDesc::new(0, "Device type", DataType::Unsigned32, Access::RO)
+                .with_default(Value::Uint(0x000C_0191)),
+        ],
     ),
     ObjectDesc::var(
         0x1008,
@@ -79,12 +75,17 @@ const STATES: [AlState; 5] = [
     AlState::Bootstrap,
 ];
 
+/// A reply fits the buffer, its mailbox header parses, its length field covers exactly the
+/// frame, and it is a CoE frame or a mailbox error reply.
 fn check(reply: Reply, buf: &[u8]) {
     if let Reply::Frame(n) = reply {
-        assert!(n >= 6 && n <= buf.len());
-        let len = usize::from(u16::from_le_bytes([buf[0], buf[1]]));
-        assert_eq!(len + 6, n);
-        assert!(matches!(buf[5] & 0x0F, 0 | 3));
+        let frame = buf.get(..n).expect("reply fits the read mailbox");
+        let header = MailboxRepr::parse(&Mailbox::new_unchecked(frame)).expect("mailbox header");
+        assert_eq!(header.buffer_len(), n);
+        assert!(matches!(
+            header.mailbox_type,
+            MailboxType::Coe | MailboxType::Error
+        ));
     }
 }
 
