@@ -6,6 +6,10 @@ mod server_common;
 
 use coe_core::esm::AlState;
 use coe_core::od::{decode_int, int_limits, Value};
+use coe_core::wire::{
+    Coe, CoeService, Direction, Emergency, EmergencyRepr, Mailbox, MailboxRepr, Sdo, SdoInfo,
+    SdoInfoHeaderRepr, SdoRepr,
+};
 use proptest::prelude::*;
 use server_common::*;
 
@@ -57,6 +61,29 @@ fn assert_well_formed(reply: &[u8], mbx: usize) {
             }
         }
         t => panic!("mailbox type {t}"),
+    }
+    // The wire layer reads the same frame back.
+    let frame = Mailbox::new_checked(reply).expect("mailbox frame");
+    assert!(MailboxRepr::parse(&frame).is_ok());
+    if let Ok(coe) = Coe::new_checked(frame.payload()) {
+        let body = coe.payload();
+        match coe.service() {
+            CoeService::SdoRequest => assert!(matches!(
+                SdoRepr::parse(&Sdo::new_unchecked(body), Direction::Request),
+                Ok(SdoRepr::Abort { .. })
+            )),
+            CoeService::SdoResponse => {
+                let parsed = SdoRepr::parse(&Sdo::new_unchecked(body), Direction::Response);
+                assert!(parsed.is_ok(), "{reply:02X?}");
+            }
+            CoeService::SdoInformation => {
+                assert!(SdoInfoHeaderRepr::parse(&SdoInfo::new_unchecked(body)).is_ok())
+            }
+            CoeService::Emergency => {
+                assert!(EmergencyRepr::parse(&Emergency::new_unchecked(body)).is_ok())
+            }
+            _ => {}
+        }
     }
 }
 

@@ -301,6 +301,47 @@ fn unknown_command_specifier() {
 }
 
 #[test]
+fn reserved_command_bits_are_refused() {
+    let mut b = Bench::new();
+    // Bits an initiate command leaves reserved must be 0 (ETG.1000.6 5.6.2); the server
+    // answers 0x05040001 instead of guessing: an upload request with size bits (0x41), a
+    // download neither expedited nor with a size (0x20), an expedited download without
+    // size but with n (0x26), a normal download with n (0x25).
+    for command in [0x41u8, 0x20, 0x26, 0x25] {
+        assert_eq!(
+            b.ask(&sdo(command, 0x2002, 0, [1, 2, 3, 4])),
+            abort(0x2002, 0, A::InvalidCommandSpecifier),
+            "command {command:#04X}"
+        );
+    }
+    assert!(b.app.writes.is_empty());
+}
+
+#[test]
+fn expedited_download_without_size_into_a_u64_is_length_mismatch() {
+    use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, OdStore};
+    use coe_core::sdo_server::SdoServer;
+    static OD64: ObjectDictionary = ObjectDictionary::new(&[ObjectDesc::var(
+        0x2000,
+        "U64",
+        &[EntryDesc::new(0, "U64", DataType::Unsigned64, Access::RW)],
+    )]);
+    let mut app = OdStore::<64>::new(OD64).unwrap();
+    let mut server: SdoServer<64, 64, 1> = SdoServer::new();
+    let mut reply = [0u8; 64];
+    // 0x22: expedited, size not indicated: 4 bytes cannot fill an 8-byte entry.
+    let request = frame(1, &sdo(0x22, 0x2000, 0, [1, 2, 3, 4]));
+    let n = server
+        .process(&request, AlState::PreOp, &OD64, &mut app, 0, &mut reply)
+        .frame_len()
+        .expect("a reply");
+    assert_eq!(
+        check_coe_frame(&reply[..n]),
+        abort(0x2000, 0, A::LengthMismatch)
+    );
+}
+
+#[test]
 fn abort_from_master_gets_no_reply() {
     let mut b = Bench::new();
     assert_eq!(b.coe(&sdo(0x80, 0x1000, 0, [0, 0, 0x04, 0x05])), None);
@@ -475,6 +516,33 @@ fn segmented_download_length_errors() {
         abort(0x2006, 0, A::LengthTooLow)
     );
     assert!(b.app.writes.is_empty());
+}
+
+#[test]
+fn malformed_segments_end_the_transfer() {
+    let mut b = Bench::new();
+    let mut req = sdo(0x21, 0x2006, 0, [30, 0, 0, 0]);
+    req.extend_from_slice(&[1; 10]);
+    b.ask(&req);
+    // n (unused bytes, 0x04 = 2) only counts in a minimum 7-byte segment; here 10 bytes
+    // follow. The abort names the transfer's object and the transfer ends.
+    assert_eq!(
+        b.ask(&seg(0x04, &[2; 10])),
+        abort(0x2006, 0, A::InvalidCommandSpecifier)
+    );
+    assert_eq!(
+        b.ask(&seg(0x00, &[2; 10])),
+        abort(0, 0, A::InvalidCommandSpecifier)
+    );
+    assert!(b.app.writes.is_empty());
+    // An upload segment request with reserved bits set (0x61) in a segmented upload.
+    let mut b = Bench::with_mailbox(32);
+    b.ask(&sdo(0x40, 0x1008, 0, [0; 4]));
+    let mut req = vec![0x00, 0x20, 0x61];
+    req.extend_from_slice(&[0; 7]);
+    assert_eq!(b.ask(&req), abort(0x1008, 0, A::InvalidCommandSpecifier));
+    req[2] = 0x60;
+    assert_eq!(b.ask(&req), abort(0, 0, A::InvalidCommandSpecifier));
 }
 
 #[test]
