@@ -37,6 +37,10 @@ pub struct Wake {
 pub struct Done {
     /// Pend the DAC task to apply the staged outputs now.
     pub apply_outputs: bool,
+    /// DC mode: pend the DAC task without the apply request, so it writes freshly staged
+    /// outputs into the input registers and the next SYNC0 only pulses LDAC (it does nothing
+    /// when nothing fresh is staged).
+    pub preload_outputs: bool,
     /// Pend the PDI task again: the line is still asserted.
     pub pend_again: bool,
 }
@@ -158,6 +162,7 @@ impl PdiTask {
         if wake.edge || wake.line_asserted {
             let r = self.app.on_pdi_irq(esc, stage, now_ns);
             done.apply_outputs |= self.outcome(r, stage);
+            done.preload_outputs = stage.dc_mode() && !done.apply_outputs;
         }
         if wake.poll {
             let r = self.app.poll(esc, stage, now_ns);
@@ -308,6 +313,20 @@ mod tests {
         assert_eq!(reply[12..16], 0x000C_0191u32.to_le_bytes());
         // The pending AL control request was not touched.
         assert_eq!(t.app().state(), AlState::PreOp);
+    }
+
+    #[test]
+    fn dc_mode_asks_for_a_preload_after_serving_events() {
+        let (mut t, mut esc, stage) = task();
+        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        assert!(!done.preload_outputs, "not in DC mode");
+        stage.set_dc_mode(true);
+        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        assert!(done.preload_outputs);
+        assert!(!done.apply_outputs);
+        // A pure poll serves no SM2 event: nothing new to preload.
+        let done = t.run(&mut esc, &stage, 0, POLL, || false);
+        assert!(!done.preload_outputs);
     }
 
     #[test]
