@@ -47,6 +47,7 @@ pub mod process_data;
 pub mod sampler;
 pub mod scaling;
 pub mod sync;
+pub mod timebase;
 
 #[cfg(test)]
 mod tests;

@@ -34,6 +34,33 @@ const PLL0CFG_IRC: u32 = (1 << 16) | 74;
 const CCLKCFG_XTAL: u32 = 3; // 400 / 4 = 100 MHz
 const CCLKCFG_IRC: u32 = 2; // 300 / 3 = 100 MHz
 
+/// CCLK from PLL0 for the input `fin_hz`, a PLL0CFG/PLL0STAT value (M - 1 in bits 14:0,
+/// N - 1 in bits 23:16) and a CCLKCFG value: FCCO = 2 * M * Fin / N, CCLK = FCCO / (CCLKCFG + 1).
+const fn pll0_cclk_hz(fin_hz: u32, cfg: u32, cclkcfg: u32) -> u32 {
+    let m = (cfg & 0x7FFF) as u64 + 1;
+    let n = ((cfg >> 16) & 0xFF) as u64 + 1;
+    let div = (cclkcfg & 0xFF) as u64 + 1;
+    (2 * m * fin_hz as u64 / n / div) as u32
+}
+
+/// FCCO of a configuration (must be 275..=550 MHz, UM10360 4.5.10).
+const fn pll0_fcco_hz(fin_hz: u32, cfg: u32) -> u32 {
+    pll0_cclk_hz(fin_hz, cfg, 0)
+}
+
+// Both configurations give 100 MHz with FCCO in range.
+const _: () = assert!(pll0_cclk_hz(XTAL_HZ, PLL0CFG_XTAL, CCLKCFG_XTAL) == CCLK_HZ);
+const _: () = assert!(pll0_cclk_hz(IRC_HZ, PLL0CFG_IRC, CCLKCFG_IRC) == CCLK_HZ);
+const _: () = assert!(pll0_fcco_hz(XTAL_HZ, PLL0CFG_XTAL) == 400_000_000);
+const _: () = assert!(pll0_fcco_hz(IRC_HZ, PLL0CFG_IRC) == 300_000_000);
+const _: () = {
+    let (a, b) = (
+        pll0_fcco_hz(XTAL_HZ, PLL0CFG_XTAL),
+        pll0_fcco_hz(IRC_HZ, PLL0CFG_IRC),
+    );
+    assert!(a >= 275_000_000 && a <= 550_000_000 && b >= 275_000_000 && b <= 550_000_000);
+};
+
 const SCS_OSCEN: u32 = 1 << 5;
 const SCS_OSCSTAT: u32 = 1 << 6;
 const PLL0STAT_PLLE: u32 = 1 << 24;
@@ -178,13 +205,11 @@ pub fn current(syscon: &pac::SYSCON) -> Clocks {
         ClockSource::Crystal => XTAL_HZ,
         ClockSource::Irc => IRC_HZ,
     };
-    let div = (syscon.cclkcfg.read().bits() & 0xFF) + 1;
+    let cclkcfg = syscon.cclkcfg.read().bits();
     let cclk_hz = if pll_connected {
-        let m = (stat & 0x7FFF) + 1;
-        let n = ((stat >> 16) & 0xFF) + 1;
-        ((2 * u64::from(m) * u64::from(fin) / u64::from(n)) / u64::from(div)) as u32
+        pll0_cclk_hz(fin, stat, cclkcfg)
     } else {
-        fin / div
+        fin / ((cclkcfg & 0xFF) + 1)
     };
     Clocks {
         source,

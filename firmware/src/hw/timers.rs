@@ -21,6 +21,7 @@
 use super::ssp::Ssp;
 use core::sync::atomic::{AtomicU32, Ordering};
 use firmware::app::adc_scan::ScanPipeline;
+use firmware::app::timebase;
 use lpc17xx_pac as pac;
 
 /// Timer tick in ns (PCLK 100 MHz, PR = 0).
@@ -45,12 +46,7 @@ pub fn now_ns() -> u64 {
         let wrapped_pending = t1.ir.read().bits() & IR_MR0 != 0;
         if TIME_HI.load(Ordering::Acquire) == hi {
             // A wrap the handler has not counted yet (we run above it or it is masked).
-            let hi = if wrapped_pending && lo < 0x8000_0000 {
-                hi.wrapping_add(1)
-            } else {
-                hi
-            };
-            return ((u64::from(hi) << 32) | u64::from(lo)) * TICK_NS;
+            return timebase::extend(hi, lo, wrapped_pending) * TICK_NS;
         }
     }
     u64::from(t1.tc.read().bits()) * TICK_NS
@@ -99,12 +95,8 @@ impl Sync0Capture {
         if ir & IR_CR0 != 0 {
             self.t.ir.write(|w| unsafe { w.bits(IR_CR0) });
             // A capture just before the wrap belongs to the old high word.
-            let hi = if ir & IR_MR0 != 0 && captured >= 0x8000_0000 {
-                hi.wrapping_sub(1)
-            } else {
-                hi
-            };
-            return Timer1Event::Sync0(((u64::from(hi) << 32) | u64::from(captured)) * TICK_NS);
+            let ticks = timebase::extend_capture(hi, captured, ir & IR_MR0 != 0);
+            return Timer1Event::Sync0(ticks * TICK_NS);
         }
         Timer1Event::Pended
     }
