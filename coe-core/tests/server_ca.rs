@@ -261,3 +261,20 @@ fn segmented_complete_access_download() {
         Some(&[0xD4, 0xC3, 0xB2, 0xA1][..])
     );
 }
+
+#[test]
+fn image_larger_than_the_transfer_buffer_is_out_of_memory() {
+    // 0x1018 from sub 0 is 2 + 4 * 4 = 18 bytes; this server's transfer buffer holds 8.
+    let mut app = App::new();
+    let mut server: coe_core::sdo_server::SdoServer<64, 8, 1> = Default::default();
+    let mut reply = [0u8; 64];
+    let request = frame(1, &sdo(0x50, 0x1018, 0, [0; 4]));
+    let n = server
+        .process(&request, AlState::PreOp, &OD, &mut app, 0, &mut reply)
+        .frame_len()
+        .expect("a reply");
+    assert_eq!(
+        check_coe_frame(&reply[..n]),
+        abort(0x1018, 0, A::OutOfMemory)
+    );
+}
