@@ -17,6 +17,7 @@ mod open_enum;
 pub mod abort;
 pub mod al_status;
 pub mod device;
+pub mod esi;
 pub mod esm;
 pub mod mailbox;
 pub mod od;
