@@ -3,6 +3,7 @@
 //! Each command lives in its own module; `main` only parses arguments and dispatches.
 
 mod build;
+mod esi;
 mod image;
 mod setup;
 mod sim;
@@ -34,6 +35,9 @@ enum Command {
     Sim(sim::Args),
     /// Release image for the LPC1754: ELF + BIN with the vector checksum, CRP check, budget.
     Build(build::Args),
+    /// Device description files from the firmware's description: the ESI XML, validated
+    /// against the ETG.2000 schema (../shared/vectors/esi-schema) when it and xmllint exist.
+    Esi(esi::Args),
     /// Flash/RAM figures of the release image, per crate and per symbol.
     Size(size::Args),
 }
@@ -46,6 +50,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(&args),
         Command::Build(args) => build::run(&args),
         Command::Size(args) => size::run(&args),
+        Command::Esi(args) => esi::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

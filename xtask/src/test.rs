@@ -1,7 +1,7 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, Result};
-use crate::{build, setup};
+use crate::{build, esi, setup};
 
 /// The `no_std` crates that must build for every embedded target.
 const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
@@ -27,6 +27,8 @@ pub fn run(args: &Args) -> Result {
         ]))?;
     }
     exec(cargo().args(["test", "--workspace"]))?;
+    // The device description files, the ESI validated against the ETG.2000 schema.
+    esi::run(&esi::Args::default())?;
     for target in setup::TARGETS {
         let mut cmd = cargo();
         cmd.args(["build", "--release", "--target", target]);

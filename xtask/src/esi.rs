@@ -1,0 +1,117 @@
+//! `cargo xtask esi [--out DIR]`: the files a configuration tool needs, generated from the
+//! firmware's one device description (`firmware::device::DEVICE`): the ESI XML
+//! (`<order code>.xml`, ETG.2000), validated against the ETG.2000 schema when the schema and
+//! `xmllint` are at hand.
+
+use crate::util::{display, have, root, Result};
+use coe_core::device::DeviceDescription;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The ETG.2000 schema, relative to the project root: it sits beside the repository in the
+/// shared vectors and is never part of it.
+pub const SCHEMA: &str = "../shared/vectors/esi-schema/EtherCATInfo.xsd";
+
+#[derive(clap::Args, Default)]
+pub struct Args {
+    /// Output directory (created if missing); default `target/esi` in the project.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+pub fn run(args: &Args) -> Result {
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| root().join("target").join("esi"));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let desc = &firmware::device::DEVICE;
+    let xml = write_xml(desc, &dir)?;
+    validate(&xml)
+}
+
+/// The file name of the device's files without extension: its order code, with anything but
+/// letters, digits, `-` and `_` replaced by `_`.
+pub fn file_stem(desc: &DeviceDescription) -> String {
+    desc.names
+        .order_code
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Writes `<stem>.xml` into `dir`; returns its path.
+fn write_xml(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
+    let mut xml = String::new();
+    coe_core::esi::write_esi(desc, &mut xml).map_err(|e| e.to_string())?;
+    let path = dir.join(format!("{}.xml", file_stem(desc)));
+    std::fs::write(&path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    println!("ESI: {} ({} bytes)", path.display(), xml.len());
+    Ok(path)
+}
+
+/// Validates `xml` against the ETG.2000 schema with `xmllint`; says clearly when and why the
+/// check was skipped.
+fn validate(xml: &Path) -> Result {
+    let schema = root().join(SCHEMA);
+    if !schema.is_file() {
+        println!(
+            "ESI schema validation SKIPPED: no schema at {} (the shared vectors are not beside this checkout)",
+            schema.display()
+        );
+        return Ok(());
+    }
+    if !have("xmllint") {
+        println!(
+            "ESI schema validation SKIPPED: xmllint is not installed (`cargo xtask setup` installs libxml2-utils)"
+        );
+        return Ok(());
+    }
+    let mut cmd = Command::new("xmllint");
+    cmd.arg("--noout").arg("--schema").arg(&schema).arg(xml);
+    let out = cmd
+        .output()
+        .map_err(|e| format!("cannot start `{}`: {e}", display(&cmd)))?;
+    if out.status.success() {
+        println!("ESI: valid against {}", schema.display());
+        Ok(())
+    } else {
+        Err(format!(
+            "{} does not validate against the ETG.2000 schema:\n{}",
+            xml.display(),
+            String::from_utf8_lossy(&out.stderr)
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_stem_keeps_safe_characters_only() {
+        let mut desc = firmware::device::DEVICE;
+        desc.names.order_code = "AIO-8AI/2AO v1.0";
+        assert_eq!(file_stem(&desc), "AIO-8AI_2AO_v1_0");
+        assert_eq!(file_stem(&firmware::device::DEVICE), "AIO-8AI2AO");
+    }
+
+    #[test]
+    fn the_module_esi_is_written() {
+        let dir = std::env::temp_dir().join(format!("xtask-esi-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = write_xml(&firmware::device::DEVICE, &dir).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(text.starts_with("<?xml"));
+        let product = firmware::device::DEVICE.identity.product_code;
+        assert!(text.contains(&format!("<Type ProductCode=\"#x{product:08X}\"")));
+        assert!(text.trim_end().ends_with("</EtherCATInfo>"));
+    }
+}
