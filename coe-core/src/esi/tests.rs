@@ -6,7 +6,7 @@ use super::*;
 use crate::device::tests::valid;
 use crate::device::{
     CoeDetails, DcDesc, DcOpMode, DescErrorKind, EepromDesc, FmmuUsage, Identity, MailboxDesc,
-    MemoryWindow, Names, SmRole, SyncManagerDesc,
+    MemoryWindow, Names, PortType, SmRole, SyncManagerDesc,
 };
 use crate::od::{ObjectDictionary, OdErrorKind};
 use roxmltree::{Document, Node};
@@ -1234,6 +1234,55 @@ fn schema() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// Variants that reach every optional part of the file: all mailbox protocols, E-Bus
+/// ports with a current, no bootstrap, no DC, escaped text, a mandatory fixed assignment.
+fn variants() -> Vec<(&'static str, DeviceDescription)> {
+    let mut all_protocols = module();
+    all_protocols.mailbox.protocols = MailboxProtocols(0x003F);
+    all_protocols.mailbox.bootstrap = None;
+    all_protocols.ports = [
+        PortType::Ebus,
+        PortType::Ebus,
+        PortType::None,
+        PortType::Ebus,
+    ];
+    all_protocols.ebus_current_ma = 120;
+    let mut plain = module();
+    plain.dc.op_modes = &[];
+    plain.mailbox.coe = CoeDetails(CoeDetails::SDO);
+    plain.names.vendor_name = "Smith & Sons <GmbH> \"quoted\" 'single'";
+    vec![
+        ("module", module()),
+        ("all-protocols", all_protocols),
+        ("plain", plain),
+    ]
+}
+
+#[test]
+fn ports_current_and_protocols_of_the_variants() {
+    let [(_, module), (_, all), (_, plain)] = <[_; 3]>::try_from(variants()).ok().unwrap();
+    let xml = esi(&all);
+    assert!(xml.contains("<Device Physics=\"KK K\">"));
+    assert!(xml.contains("<EBusCurrent>120</EBusCurrent>"));
+    let doc = Document::parse(&xml).unwrap();
+    let mailbox = doc
+        .descendants()
+        .find(|n| n.has_tag_name("Mailbox"))
+        .unwrap();
+    let tags: Vec<&str> = mailbox
+        .children()
+        .filter(Node::is_element)
+        .map(|n| n.tag_name().name())
+        .collect();
+    assert_eq!(tags, ["AoE", "EoE", "CoE", "FoE", "SoE", "VoE"]);
+    assert!(!xml.contains("<BootStrap>"));
+    let xml = esi(&plain);
+    assert!(!xml.contains("<Dc>"));
+    // Assignment not configurable: assigned PDOs are mandatory.
+    assert!(xml.contains("<RxPdo Mandatory=\"1\" Sm=\"2\">"));
+    assert!(!esi(&module).contains("Mandatory"));
+}
+
 #[test]
 fn the_file_validates_against_the_etg2000_schema() {
     let Some(xsd) = schema() else {
@@ -1242,13 +1291,17 @@ fn the_file_validates_against_the_etg2000_schema() {
     };
     let dir = std::env::temp_dir().join(format!("coe-core-esi-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("module.xml");
-    std::fs::write(&file, esi(&module())).unwrap();
+    let mut files = Vec::new();
+    for (name, desc) in variants() {
+        let file = dir.join(format!("{name}.xml"));
+        std::fs::write(&file, esi(&desc)).unwrap();
+        files.push(file);
+    }
     let run = std::process::Command::new("xmllint")
         .arg("--noout")
         .arg("--schema")
         .arg(&xsd)
-        .arg(&file)
+        .args(&files)
         .output();
     let _ = std::fs::remove_dir_all(&dir);
     match run {
