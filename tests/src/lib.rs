@@ -20,6 +20,7 @@
 
 pub mod adc;
 pub mod board;
+pub mod bus_cost;
 pub mod clock;
 pub mod dac;
 pub mod esc;

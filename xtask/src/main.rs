@@ -2,6 +2,7 @@
 //!
 //! Each command lives in its own module; `main` only parses arguments and dispatches.
 
+mod bench;
 mod build;
 mod esi;
 mod image;
@@ -40,6 +41,9 @@ enum Command {
     Esi(esi::Args),
     /// Flash/RAM figures of the release image, per crate and per symbol.
     Size(size::Args),
+    /// Performance figures against the targets (PDI bytes, Cortex-M3 instructions under
+    /// QEMU, cycle time, footprint, ADC, thesis loop-back) as one table.
+    Bench(bench::Args),
 }
 
 fn main() -> ExitCode {
@@ -51,6 +55,7 @@ fn main() -> ExitCode {
         Command::Build(args) => build::run(&args),
         Command::Size(args) => size::run(&args),
         Command::Esi(args) => esi::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

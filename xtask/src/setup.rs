@@ -11,8 +11,9 @@ pub const TARGETS: [&str; 3] = [
 ];
 
 /// Debian packages the tests use when present: `tshark` decodes the virtual board's pcaps,
-/// `xmllint` (libxml2-utils) validates the generated ESI against the ETG.2000 schema.
-pub const DEBIAN_PACKAGES: [&str; 2] = ["tshark", "libxml2-utils"];
+/// `xmllint` (libxml2-utils) validates the generated ESI against the ETG.2000 schema;
+/// `qemu-system-arm` runs the Cortex-M3 benchmark (`bench`, which fails without it).
+pub const DEBIAN_PACKAGES: [&str; 3] = ["tshark", "libxml2-utils", "qemu-system-arm"];
 
 /// Everything: targets, cargo tools and Debian packages.
 pub fn all() -> Result {

@@ -336,6 +336,8 @@ pub struct SimReport {
     pub wall: Duration,
     /// Where the pcap went, and how many frames it holds.
     pub pcap: Option<(PathBuf, usize)>,
+    /// Every DAC load of the run (for plots of the loop-back; windows in `loopback`).
+    pub dac_updates: Vec<crate::dac::DacUpdate>,
 }
 
 /// A failure that ends a run.
@@ -585,6 +587,7 @@ pub fn run_in_process(
     let b = board.borrow();
     report.frames = b.stats.frames;
     report.virtual_ns = b.now_ns();
+    report.dac_updates = b.dac().borrow().updates.clone();
     report.wall = wall.elapsed();
     if let (Some(path), Some(p)) = (&cfg.pcap, b.pcap()) {
         p.save(path)

@@ -1,20 +1,34 @@
 //! A register-file ESC for the host tests: the PDI side through [`EscPort`], the master
 //! side through the `master_*` methods, with the SyncManager behaviour the application
 //! relies on (mailbox full/empty on the last byte, 3-buffer outputs, read-to-clear events).
+//!
+//! Also used outside the crate's tests (feature `fake-esc`): the Cortex-M3 benchmark
+//! (`xtask/bench-cm3`) runs the application's hot paths against it in RAM.
 
 use super::{event, reg, EscPort, SmConfig};
 
-pub(crate) struct FakeEsc {
+/// The register file (0x0000..0x2000) with the PDI-side effects of the ET1100.
+pub struct FakeEsc {
+    /// ESC memory.
     pub mem: [u8; 0x2000],
-    /// SM2 outputs written by the master since the PDI last read them.
+    /// Fail the next PDI access with [`BusError`].
     pub fail_next: bool,
+    /// PDI writes so far.
     pub writes: usize,
 }
 
+/// A PDI access outside the register file or to a register the PDI cannot write.
 #[derive(Debug, PartialEq, Eq)]
-pub(crate) struct BusError;
+pub struct BusError;
+
+impl Default for FakeEsc {
+    fn default() -> Self {
+        Self::new()
+    }
+}
 
 impl FakeEsc {
+    /// INIT, PD watchdog OK, no SyncManager configured.
     pub fn new() -> Self {
         let mut esc = Self {
             mem: [0; 0x2000],
@@ -123,17 +137,25 @@ impl FakeEsc {
     }
 
     /// Master reads SM1 if full.
+    #[cfg(test)]
     pub fn master_read_mailbox(&mut self) -> Option<std::vec::Vec<u8>> {
+        let mut data = std::vec![0u8; usize::from(self.sm(1).len)];
+        self.master_read_mailbox_into(&mut data).map(|_| data)
+    }
+
+    /// Master reads SM1 into `out` (up to its length) if full; returns the SM1 length.
+    pub fn master_read_mailbox_into(&mut self, out: &mut [u8]) -> Option<usize> {
         let sm = self.sm(1);
         if !sm.mailbox_full() {
             return None;
         }
         let start = usize::from(sm.start);
         let len = usize::from(sm.len);
-        let data = self.mem[start..start + len].to_vec();
+        let n = len.min(out.len());
+        out[..n].copy_from_slice(&self.mem[start..start + n]);
         self.set_sm_status_bit(1, 0x08, false);
         self.raise(event::sm(1));
-        Some(data)
+        Some(len)
     }
 
     /// Master toggles the SM1 repeat request.
@@ -153,6 +175,7 @@ impl FakeEsc {
     }
 
     /// Master reads the inputs (SM3).
+    #[cfg(test)]
     pub fn master_read_inputs(&self) -> std::vec::Vec<u8> {
         let sm = self.sm(3);
         let start = usize::from(sm.start);

@@ -8,8 +8,8 @@
 //! hidden state.
 
 mod driver;
-#[cfg(test)]
-pub(crate) mod fake;
+#[cfg(any(test, feature = "fake-esc"))]
+pub mod fake;
 
 /// Register addresses used by the application.
 pub mod reg {

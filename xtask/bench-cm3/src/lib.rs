@@ -1,0 +1,263 @@
+//! The firmware's hot paths as benchmark scenarios, for a real Cortex-M3 instruction set
+//! (`cargo xtask bench` runs `src/main.rs` under QEMU with an instruction-counting plugin).
+//!
+//! Everything measured is the firmware's own code ([`firmware::app`], `coe-core`); only the
+//! ESC is the register file of the firmware's tests ([`FakeEsc`], in RAM), so the counts are
+//! the application's CPU work without the SPI transfers (those are counted in bytes on the
+//! virtual board and converted to time separately). A [`Rig`] is brought to OP in DC SYNC0
+//! mode with the module's process data (2 AO in SM2, 8 AI in SM3), then each path is
+//! prepared (not measured), run (measured) and checked (not measured):
+//!
+//! | path            | firmware code                                   | when it runs on the board |
+//! |-----------------|-------------------------------------------------|---------------------------|
+//! | `sync0_ldac`    | [`DacLatch::on_sync0`] with a preloaded pair    | SYNC0 task, every cycle   |
+//! | `dac_preload`   | [`DacLatch::preload`]                           | DAC task after new outputs|
+//! | `pdi_outputs`   | [`SlaveApp::on_pdi_irq`] on the SM2 event       | PDI task, every cycle     |
+//! | `pdi_inputs`    | [`SlaveApp::poll`] after a SYNC0 edge (SM3)     | PDI task, every cycle     |
+//! | `sdo_upload`    | [`SlaveApp::on_pdi_irq`] on SM0: expedited upload 0x1018:02 | per SDO request |
+//! | `sdo_download`  | [`SlaveApp::on_pdi_irq`] on SM0: expedited download 0x6443:01 | per SDO request |
+//! | `sample_push`   | [`SampleProducer::push`] of one sample          | sampler, 250 000 /s       |
+//! | `sampler_drain` | [`SampleConsumer::drain_into`] of one 8-channel scan | PDI task            |
+//! | `esc_read4`, `esc_write16` | the register file itself (not firmware): its cost per access | - |
+//! | `driver_read4`, `driver_write16` | the `et1100` SPI driver's work per access ([`driver_port`]) | every ESC access |
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod device;
+
+use core::convert::Infallible;
+use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
+use et1100::{Et1100, SpiPdi};
+pub use firmware::app::esc::fake::FakeEsc;
+use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
+use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
+use firmware::app::{PdiOutcome, SlaveApp};
+
+/// Ring length of the sampler scenario (one scan fits many times).
+pub const RING: usize = 64;
+
+/// A scenario that did not do what it should (the benchmark would measure the wrong thing).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CheckFailed(pub &'static str);
+
+/// The slave application in OP (DC SYNC0) on the register-file ESC.
+pub struct Rig {
+    /// The ESC (master side through its `master_*` methods).
+    pub esc: FakeEsc,
+    /// The application.
+    pub app: SlaveApp,
+    /// The PDI -> DAC task stage.
+    pub stage: OutputStage,
+    /// The DAC task's latch.
+    pub latch: DacLatch,
+    /// The PDI task's sampler (fed by the ring).
+    pub sampler: Sampler,
+    now_ns: u64,
+    counter: u8,
+    cycle: u16,
+    reply: [u8; device::MBX_LEN as usize],
+}
+
+impl Rig {
+    /// Power-up and the master's ESM walk to OP with DC SYNC0 at `cycle_ns`.
+    pub fn new(cycle_ns: u32) -> Result<Self, CheckFailed> {
+        let mut esc = FakeEsc::new();
+        let mut app = SlaveApp::new(&device::OD, device::config(), device::process_data());
+        app.start(&mut esc).map_err(|_| CheckFailed("start"))?;
+        let mut rig = Self {
+            esc,
+            app,
+            stage: OutputStage::new(),
+            latch: DacLatch::new(),
+            sampler: Sampler::new(PublishMode::Latest),
+            now_ns: 0,
+            counter: 0,
+            cycle: 0,
+            reply: [0; device::MBX_LEN as usize],
+        };
+        let [m0, m1, p2, p3] = device::config().sm;
+        rig.esc.master_sm(0, m0.start, m0.len, m0.control, true);
+        rig.esc.master_sm(1, m1.start, m1.len, m1.control, true);
+        rig.request(0x02, "INIT -> PREOP")?;
+        rig.esc
+            .master_sm(2, p2.start, device::OUTPUT_BYTES, p2.control, true);
+        rig.esc
+            .master_sm(3, p3.start, device::INPUT_BYTES, p3.control, true);
+        // DC: cyclic unit + SYNC0 (0x0981 = 0x03).
+        rig.esc.master_dc(0x03, cycle_ns);
+        rig.request(0x04, "PREOP -> SAFEOP")?;
+        rig.request(0x08, "SAFEOP -> OP")?;
+        Ok(rig)
+    }
+
+    fn tick(&mut self) -> u64 {
+        self.now_ns += 10_000;
+        self.now_ns
+    }
+
+    fn request(&mut self, state: u16, what: &'static str) -> Result<(), CheckFailed> {
+        self.esc.master_al_control(state);
+        self.irq().map_err(|_| CheckFailed(what))?;
+        if self.esc.al_status() == (state, 0) {
+            Ok(())
+        } else {
+            Err(CheckFailed(what))
+        }
+    }
+
+    /// The PDI IRQ handler once.
+    pub fn irq(&mut self) -> Result<PdiOutcome, CheckFailed> {
+        let now = self.tick();
+        self.app
+            .on_pdi_irq(&mut self.esc, &self.stage, now)
+            .map_err(|_| CheckFailed("ESC access failed"))
+    }
+
+    /// The PDI task's background call once.
+    pub fn poll(&mut self) -> Result<PdiOutcome, CheckFailed> {
+        let now = self.tick();
+        self.app
+            .poll(&mut self.esc, &self.stage, now)
+            .map_err(|_| CheckFailed("ESC access failed"))
+    }
+
+    /// The SYNC0 task once.
+    pub fn sync0(&mut self) -> DacAction {
+        let now = self.tick();
+        self.latch.on_sync0(&self.stage, now)
+    }
+
+    /// The DAC task's preload once.
+    pub fn preload(&mut self) -> Option<DacPair> {
+        self.latch.preload(&self.stage)
+    }
+
+    /// Master side of a cycle: fresh outputs (both AO) into SM2.
+    pub fn master_outputs(&mut self) {
+        self.cycle = self.cycle.wrapping_add(1);
+        let a = (self.cycle & 0x3FFF) as i16;
+        let b = 0x2000 - a;
+        let mut image = [0u8; device::OUTPUT_BYTES as usize];
+        image[..2].copy_from_slice(&a.to_le_bytes());
+        image[2..4].copy_from_slice(&b.to_le_bytes());
+        self.esc.master_write_outputs(&image);
+    }
+
+    /// One whole DC cycle without measuring (outputs, preload, SYNC0, inputs).
+    pub fn cycle(&mut self) -> Result<(), CheckFailed> {
+        self.master_outputs();
+        self.irq()?;
+        self.preload();
+        self.sync0();
+        self.poll()?;
+        self.check_op()
+    }
+
+    /// Still in OP without error.
+    pub fn check_op(&self) -> Result<(), CheckFailed> {
+        if self.esc.al_status() == (0x08, 0) {
+            Ok(())
+        } else {
+            Err(CheckFailed("the slave left OP"))
+        }
+    }
+
+    /// Master side: an SDO request (expedited frame) into SM0.
+    pub fn master_sdo(
+        &mut self,
+        command: u8,
+        index: u16,
+        sub: u8,
+        data: [u8; 4],
+    ) -> Result<(), CheckFailed> {
+        self.counter = self.counter % 7 + 1;
+        let i = index.to_le_bytes();
+        let frame = [
+            10,
+            0,
+            0,
+            0,
+            0x00,
+            0x03 | self.counter << 4,
+            0x00,
+            0x20,
+            command,
+            i[0],
+            i[1],
+            sub,
+            data[0],
+            data[1],
+            data[2],
+            data[3],
+        ];
+        if self.esc.master_write_mailbox(&frame) {
+            Ok(())
+        } else {
+            Err(CheckFailed("SM0 still full"))
+        }
+    }
+
+    /// Master side: takes the SDO reply from SM1; returns its SDO command byte and data.
+    pub fn master_sdo_reply(&mut self) -> Result<(u8, [u8; 4]), CheckFailed> {
+        let mut reply = self.reply;
+        self.esc
+            .master_read_mailbox_into(&mut reply)
+            .ok_or(CheckFailed("no SDO reply in SM1"))?;
+        self.reply = reply;
+        // The SM1 event: the PDI task sees the mailbox free again.
+        self.irq()?;
+        Ok((reply[8], [reply[12], reply[13], reply[14], reply[15]]))
+    }
+}
+
+/// One sample per call, channels in scan order.
+pub fn push_one(producer: &mut SampleProducer<'_, RING>, k: u32) -> bool {
+    producer.push(Sample::new((k % 8) as u8, (k as u16).wrapping_mul(257)))
+}
+
+/// Queues one 8-channel scan (not measured).
+pub fn queue_scan(producer: &mut SampleProducer<'_, RING>) -> Result<(), CheckFailed> {
+    for ch in 0..8u8 {
+        if !producer.push(Sample::new(ch, 0x1000 * u16::from(ch))) {
+            return Err(CheckFailed("sample ring full"));
+        }
+    }
+    Ok(())
+}
+
+/// Moves the queued samples into the sampler.
+pub fn drain(consumer: &mut SampleConsumer<'_, RING>, sampler: &mut Sampler) -> usize {
+    consumer.drain_into(sampler)
+}
+
+/// An SPI device that clocks nothing: MISO reads as 0. Under the `et1100` driver it leaves
+/// the driver's own work per access (address phase, wait and termination bytes, event bits)
+/// plus a minimal per-byte loop; the bus time itself is counted in bytes elsewhere.
+#[derive(Debug, Default)]
+pub struct NullSpi;
+
+impl ErrorType for NullSpi {
+    type Error = Infallible;
+}
+
+impl SpiDevice<u8> for NullSpi {
+    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), Infallible> {
+        for op in operations.iter_mut() {
+            match op {
+                Operation::Read(buf) => buf.fill(0),
+                Operation::Transfer(read, _) => read.fill(0),
+                Operation::TransferInPlace(buf) => buf.fill(0),
+                Operation::Write(_) | Operation::DelayNs(_) => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The firmware's `EscPort` on the real `et1100` SPI driver over [`NullSpi`].
+pub fn driver_port() -> Et1100<SpiPdi<NullSpi>> {
+    Et1100::new(SpiPdi::new(NullSpi))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,70 @@
+//! The scenarios do what the benchmark claims they measure.
+
+use super::*;
+use firmware::app::sampler::SampleRing;
+use firmware::app::sync::SyncMode;
+
+fn rig() -> Rig {
+    let mut r = Rig::new(50_000).unwrap();
+    assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
+    for _ in 0..4 {
+        r.cycle().unwrap();
+    }
+    r
+}
+
+#[test]
+fn dc_cycle_stages_preloads_latches_and_writes_inputs() {
+    let mut r = rig();
+    r.master_outputs();
+    let writes = r.esc.writes;
+    let out = r.irq().unwrap();
+    assert!(!out.apply_outputs, "DC mode: outputs wait for SYNC0");
+    let pair = r.preload().expect("fresh outputs are preloaded");
+    assert!(matches!(r.sync0(), DacAction::PulseLdac(p) if p == pair));
+    r.poll().unwrap();
+    assert!(
+        r.esc.writes > writes,
+        "inputs written to SM3 after the edge"
+    );
+    r.check_op().unwrap();
+    // Nothing fresh: the next edge keeps the outputs.
+    assert_eq!(r.sync0(), DacAction::Keep);
+}
+
+#[test]
+fn sdo_upload_and_download_are_answered() {
+    let mut r = rig();
+    r.master_sdo(0x40, 0x1018, 2, [0; 4]).unwrap();
+    r.irq().unwrap();
+    assert_eq!(
+        r.master_sdo_reply().unwrap(),
+        (0x43, 0x1754u32.to_le_bytes())
+    );
+    r.master_sdo(0x2F, 0x6443, 1, [1, 0, 0, 0]).unwrap();
+    r.irq().unwrap();
+    assert_eq!(r.master_sdo_reply().unwrap().0, 0x60);
+    r.check_op().unwrap();
+}
+
+#[test]
+fn sampler_paths_move_samples() {
+    let mut ring = SampleRing::<RING>::new();
+    let (mut p, mut c) = ring.split();
+    let mut s = Sampler::new(PublishMode::Latest);
+    assert!(push_one(&mut p, 3));
+    assert_eq!(drain(&mut c, &mut s), 1);
+    queue_scan(&mut p).unwrap();
+    assert_eq!(drain(&mut c, &mut s), 8);
+    assert_eq!(s.received(), 9);
+}
+
+#[test]
+fn driver_port_runs_the_et1100_spi_driver() {
+    use firmware::app::esc::EscPort;
+    let mut port = driver_port();
+    let mut word = [0xAAu8; 4];
+    assert_eq!(EscPort::read(&mut port, 0x0440, &mut word), Ok(0));
+    assert_eq!(word, [0; 4]);
+    assert_eq!(EscPort::write(&mut port, 0x1180, &[1; 16]), Ok(0));
+}

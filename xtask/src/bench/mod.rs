@@ -1,0 +1,799 @@
+//! `cargo xtask bench`: the performance figures of BRIEF section 6, measured, in one table.
+//!
+//! 1. PDI bus cost: SPI transactions and bytes per process-data cycle, SDO exchange and ESM
+//!    transition, counted on the virtual board's SPI front end ([`virtual_board::bus_cost`]).
+//! 2. CPU cost of the firmware's hot paths on a Cortex-M3 (QEMU + the project's instruction
+//!    counting plugin, [`cm3`]).
+//! 3. Minimum DC cycle and SYNC0 -> DAC latency from 1 and 2 ([`model`] for the constants).
+//! 4. Flash and static RAM of the release image, per crate (the `size` code).
+//! 5. ADC: conversions per second on the virtual board and the sampler's CPU share.
+//! 6. The thesis loop-back on the virtual board (amplitude error, THD), with a PNG plot.
+
+mod cm3;
+mod model;
+mod plot;
+mod report;
+
+use crate::util::Result;
+use crate::{build, image, size};
+use report::{Group, Row, Verdict};
+use std::path::PathBuf;
+use virtual_board::board::{BoardConfig, VirtualBoard};
+use virtual_board::bus_cost::{self, BusCost, BusReport};
+use virtual_board::sim::{self, SimConfig, SimReport};
+
+#[derive(clap::Args, Debug, Clone, Default)]
+#[command(after_long_help = AFTER_HELP)]
+pub struct Args {
+    /// Short run for CI: fewer cycles, one QEMU run, short loop-back.
+    #[arg(long)]
+    pub quick: bool,
+    /// Also write every figure as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the loop-back plot (PNG) to FILE (default target/bench/loopback.png).
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+}
+
+const AFTER_HELP: &str = "\
+Needs qemu-system-arm (Debian package; `cargo xtask setup` installs it as root) and a C
+compiler (`cc`) for the instruction-counting plugin. Counts (instructions, bytes) are exact and
+repeat from run to run; times follow from them with the constants printed under the table.";
+
+/// DC cycle time of the process-data measurement and of the loop-back (the thesis requires
+/// 20 kHz = 50 us).
+const CYCLE_US: u32 = 50;
+/// Loop-back frequencies (the thesis' 50, 500 and 1000 Hz).
+const FREQS_HZ: [f64; 3] = [50.0, 500.0, 1000.0];
+/// Periods shown per frequency in the plot.
+const PLOT_PERIODS: f64 = 3.0;
+
+/// What each mode runs.
+struct Plan {
+    pd_cycles: u64,
+    qemu_runs: usize,
+    loopback_s: f64,
+    adc_ms: u64,
+}
+
+impl Plan {
+    fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                pd_cycles: 50,
+                qemu_runs: 1,
+                loopback_s: 0.045,
+                adc_ms: 2,
+            }
+        } else {
+            Self {
+                pd_cycles: 1000,
+                qemu_runs: 2,
+                loopback_s: 0.1,
+                adc_ms: 20,
+            }
+        }
+    }
+}
+
+pub fn run(args: &Args) -> Result {
+    let plan = Plan::new(args.quick);
+    let cycle_ns = u64::from(CYCLE_US) * 1000;
+
+    eprintln!("[bench] 1/6 PDI bus cost on the virtual board");
+    let bus = bus_cost::measure(sim::firmware_target()?, cycle_ns, plan.pd_cycles)?;
+    eprintln!("[bench] 2/6 CPU cost on a Cortex-M3 (QEMU)");
+    let cpu = cm3::measure(plan.qemu_runs)?;
+    eprintln!("[bench] 4/6 footprint of the release image");
+    let footprint = footprint()?;
+    eprintln!("[bench] 5/6 ADC on the virtual board");
+    let adc = adc_rate(plan.adc_ms)?;
+    eprintln!("[bench] 6/6 loop-back on the virtual board");
+    let sim = loopback(plan.loopback_s)?;
+
+    let mut rows = Vec::new();
+    rows.extend(bus_rows(&bus));
+    rows.extend(cpu_rows(&cpu));
+    let derived = Derived::new(&bus, &cpu)?;
+    rows.extend(derived.rows());
+    rows.extend(footprint.rows());
+    let adc_share = AdcShare::new(&cpu)?;
+    rows.extend(adc_rows(&adc, &adc_share));
+    rows.extend(loopback_rows(&sim)?);
+
+    let plot_path = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| build::target_dir().join("bench").join("loopback.png"));
+    if let Some(dir) = plot_path.parent() {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
+    plot::write_png(&plot_path, &traces(&sim, plan.loopback_s)?)?;
+
+    let notes = notes(&bus, &cpu, &derived, &adc_share, &footprint);
+    println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
+    println!("loop-back plot: {}", plot_path.display());
+    if let Some(path) = &args.json {
+        std::fs::write(path, report::json(&rows, &notes, args.quick))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        println!("JSON: {}", path.display());
+    }
+    Ok(())
+}
+
+// ------------------------------------------------------------------ 1. PDI bus
+
+/// What an ESC register address is, for the cause column.
+fn register_name(addr: u16) -> String {
+    let known = match addr {
+        0x0120 => "AL control",
+        0x0130 => "AL status",
+        0x0134 => "AL status code",
+        0x0204 => "AL event mask",
+        0x0220 => "AL event",
+        0x0440 => "WD status",
+        0x0800 => "SM0 registers",
+        0x0808 => "SM1 registers",
+        0x0810 => "SM2 registers",
+        0x0818 => "SM3 registers",
+        0x0981 => "DC activation",
+        0x09A0 => "SYNC0 cycle",
+        0x1000 => "SM0 mailbox",
+        0x1080 => "SM1 mailbox",
+        0x1100 => "SM2 outputs",
+        0x1180 => "SM3 inputs",
+        _ => "",
+    };
+    if known.is_empty() {
+        format!("{addr:#06x}")
+    } else {
+        format!("{addr:#06x} {known}")
+    }
+}
+
+/// The accesses of `cost` beyond `needed`, grouped: "2x read 0x0800 SM0 registers (8 B)".
+fn extra_accesses(cost: &BusCost, needed: &[(&str, u16, usize)]) -> String {
+    let mut rest: Vec<(&str, u16, usize)> = cost.accesses.clone();
+    for n in needed {
+        if let Some(i) = rest.iter().position(|a| a == n) {
+            rest.remove(i);
+        }
+    }
+    let mut groups: Vec<((&str, u16, usize), usize)> = Vec::new();
+    for a in rest {
+        match groups.iter_mut().find(|(k, _)| *k == a) {
+            Some((_, n)) => *n += 1,
+            None => groups.push((a, 1)),
+        }
+    }
+    groups
+        .iter()
+        .map(|((cmd, addr, len), n)| format!("{n}x {cmd} {} ({len} B)", register_name(*addr)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn bus_value(c: &BusCost) -> String {
+    format!(
+        "{:.1} transactions, {:.1} B = {:.1} us",
+        c.transactions,
+        c.bytes,
+        model::spi_us(c.bytes, c.transactions)
+    )
+}
+
+fn bus_rows(bus: &BusReport) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for c in &bus.costs {
+        let pd = c.name.starts_with("process-data");
+        let min_us = model::spi_wire_us(c.minimum_bytes as f64);
+        if pd {
+            let limit = 1.1 * c.minimum_bytes as f64;
+            let (out, inp) = bus.process_data_bytes;
+            let verdict = if c.bytes <= limit {
+                Verdict::Met(String::new())
+            } else {
+                Verdict::Missed(format!(
+                    "{:.2}x the minimum: beyond the SM2 read and SM3 write the firmware does {}",
+                    c.bytes / c.minimum_bytes as f64,
+                    extra_accesses(
+                        c,
+                        &[
+                            ("read", 0x1100, usize::from(out)),
+                            ("write", 0x1180, usize::from(inp))
+                        ]
+                    )
+                ))
+            };
+            rows.push(
+                Row::new(
+                    Group::Bus,
+                    format!(
+                        "PDI per process-data cycle (2 AO + 8 AI, {} us DC)",
+                        bus.cycle_ns / 1000
+                    ),
+                    bus_value(c),
+                    format!(
+                        "<= {limit:.1} B (minimum {} B + 10 %; {min_us:.1} us on the wire)",
+                        c.minimum_bytes
+                    ),
+                    "BRIEF 6: payload + protocol bytes; bus limit about 16 us".into(),
+                    verdict,
+                )
+                .with_number(c.bytes, "B"),
+            );
+        } else {
+            rows.push(
+                Row::new(
+                    Group::Bus,
+                    format!("PDI per {}", c.name),
+                    bus_value(c),
+                    format!("- (minimum {} B = {min_us:.1} us)", c.minimum_bytes),
+                    "payload + address/wait bytes (hardware-facts 1.2)".into(),
+                    Verdict::Info(format!(
+                        "{:.2}x the minimum; accesses: {}",
+                        c.bytes / c.minimum_bytes as f64,
+                        extra_accesses(c, &[])
+                    )),
+                )
+                .with_number(c.bytes, "B"),
+            );
+        }
+    }
+    rows
+}
+
+// ------------------------------------------------------------------ 2. CPU
+
+/// Paths of the Cortex-M3 benchmark, with what they are.
+const PATHS: [(&str, &str); 12] = [
+    (
+        "sync0_ldac",
+        "SYNC0 task: latch the preloaded pair (DacLatch::on_sync0)",
+    ),
+    (
+        "dac_preload",
+        "DAC task: take the fresh pair to preload (DacLatch::preload)",
+    ),
+    (
+        "pdi_outputs",
+        "PDI IRQ: SM2 outputs -> stage (SlaveApp::on_pdi_irq)",
+    ),
+    (
+        "pdi_inputs",
+        "PDI after SYNC0: inputs -> SM3 (SlaveApp::poll)",
+    ),
+    ("sdo_upload", "one SDO request: expedited upload 0x1018:02"),
+    (
+        "sdo_download",
+        "one SDO request: expedited download 0x6443:01",
+    ),
+    ("sample_push", "sampler: one sample into the ring"),
+    (
+        "sampler_drain",
+        "PDI task: drain one 8-channel scan into the sampler",
+    ),
+    (
+        "esc_read4",
+        "not firmware: the RAM ESC stand-in, one 4-byte read",
+    ),
+    (
+        "esc_write16",
+        "not firmware: the RAM ESC stand-in, one 16-byte write",
+    ),
+    (
+        "driver_read4",
+        "et1100 SPI driver: one 4-byte read (SPI clocking nothing)",
+    ),
+    (
+        "driver_write16",
+        "et1100 SPI driver: one 16-byte write (SPI clocking nothing)",
+    ),
+];
+
+fn cpu_rows(cpu: &cm3::CpuReport) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for (name, what) in PATHS {
+        let Ok(n) = cpu.get(name) else { continue };
+        let us = model::cpu_us(n as f64);
+        let anchor = match name {
+            "sync0_ldac" => "group 3: SYNC0 -> DAC",
+            "sample_push" | "sampler_drain" => "group 5: ADC CPU share",
+            "sdo_upload" | "sdo_download" => "mailbox service time",
+            "esc_read4" | "esc_write16" => "counted inside the paths above",
+            "driver_read4" | "driver_write16" => "replaces the stand-in in group 3",
+            _ => "group 3: DC cycle",
+        };
+        rows.push(
+            Row::new(
+                Group::Cpu,
+                format!("{name}: {what}"),
+                format!("{n} instructions = {us:.2} us"),
+                "-".into(),
+                anchor.into(),
+                Verdict::Info(String::new()),
+            )
+            .with_number(n as f64, "instructions"),
+        );
+    }
+    rows
+}
+
+// ------------------------------------------------------------------ 3. derived
+
+/// The minimum DC cycle and the SYNC0 -> DAC latency from the measured counts.
+struct Derived {
+    bus_us: f64,
+    cpu_instructions: u64,
+    cpu_us: f64,
+    exceptions_us: f64,
+    dac_us: f64,
+    adc_share: f64,
+    cycle_us: f64,
+    latency_us: f64,
+    sync0_instructions: u64,
+    /// Instructions of the cycle spent in the RAM ESC stand-in (accesses x mean cost).
+    stand_in_instructions: f64,
+    /// The same accesses through the et1100 driver.
+    driver_instructions: f64,
+    /// Measured instructions of the cycle's paths.
+    measured_instructions: u64,
+    /// PDI transactions per cycle.
+    transactions: f64,
+}
+
+impl Derived {
+    fn new(bus: &BusReport, cpu: &cm3::CpuReport) -> Result<Self> {
+        let pd = bus
+            .costs
+            .iter()
+            .find(|c| c.name.starts_with("process-data"))
+            .ok_or("no process-data figure")?;
+        let sync0 = cpu.get("sync0_ldac")?;
+        let measured_instructions =
+            cpu.get("pdi_outputs")? + cpu.get("dac_preload")? + sync0 + cpu.get("pdi_inputs")?;
+        // On the board the et1100 SPI driver does the ESC accesses, not the RAM stand-in.
+        let stand_in = (cpu.get("esc_read4")? + cpu.get("esc_write16")?) as f64 / 2.0;
+        let driver = (cpu.get("driver_read4")? + cpu.get("driver_write16")?) as f64 / 2.0;
+        let stand_in_instructions = pd.transactions * stand_in;
+        let driver_instructions = pd.transactions * driver;
+        let cpu_instructions = (measured_instructions as f64 - stand_in_instructions
+            + driver_instructions)
+            .round()
+            .max(0.0) as u64;
+        let bus_us = model::spi_us(pd.bytes, pd.transactions);
+        let cpu_us = model::cpu_us(cpu_instructions as f64);
+        // Four task activations per cycle: PDI IRQ, DAC task (preload), SYNC0, PDI after SYNC0.
+        let exceptions_us =
+            model::cycles_us(4.0 * (model::EXCEPTION_ENTRY_CYCLES + model::EXCEPTION_EXIT_CYCLES));
+        let dac_us = model::dac_us(2.0);
+        let adc_share = AdcShare::new(cpu)?.share;
+        let cycle_us = (bus_us + cpu_us + exceptions_us + dac_us) / (1.0 - adc_share).max(1e-3);
+        let latency_us =
+            model::cycles_us(model::EXCEPTION_ENTRY_CYCLES) + model::cpu_us(sync0 as f64);
+        Ok(Self {
+            bus_us,
+            cpu_instructions,
+            cpu_us,
+            exceptions_us,
+            dac_us,
+            adc_share,
+            cycle_us,
+            latency_us,
+            sync0_instructions: sync0,
+            stand_in_instructions,
+            driver_instructions,
+            measured_instructions,
+            transactions: pd.transactions,
+        })
+    }
+
+    fn rows(&self) -> Vec<Row> {
+        let cycle_target = 25.0;
+        let cycle =
+            if self.cycle_us <= cycle_target {
+                Verdict::Met(String::new())
+            } else {
+                let mut parts = [
+                    (self.bus_us, "PDI SPI transfers"),
+                    (self.cpu_us + self.exceptions_us, "CPU work of the cycle"),
+                    (self.dac_us, "DAC preload frames"),
+                ];
+                parts.sort_by(|a, b| b.0.total_cmp(&a.0));
+                Verdict::Missed(format!(
+                "{}: {:.1} us, {}: {:.1} us, {}: {:.1} us, ADC interrupts take {:.0} % of the CPU",
+                parts[0].1, parts[0].0, parts[1].1, parts[1].0, parts[2].1, parts[2].0,
+                100.0 * self.adc_share
+            ))
+            };
+        let latency_target = 3.0;
+        let latency = if self.latency_us <= 0.3 {
+            Verdict::Met("also the 0.3 us LDAC-only figure".into())
+        } else if self.latency_us <= latency_target {
+            Verdict::Met(format!(
+                "above the 0.3 us LDAC-only figure: {} instructions",
+                self.sync0_instructions
+            ))
+        } else {
+            Verdict::Missed(format!(
+                "{} instructions before LDAC",
+                self.sync0_instructions
+            ))
+        };
+        vec![
+            Row::new(
+                Group::Derived,
+                "minimum DC cycle, 2 AO + 8 AI (formula F1)".into(),
+                format!("{:.1} us ({:.1} kHz)", self.cycle_us, 1e3 / self.cycle_us),
+                format!("<= {cycle_target} us (40 kHz)"),
+                "BRIEF 6; thesis requires 20 kHz".into(),
+                cycle,
+            )
+            .with_number(self.cycle_us, "us"),
+            Row::new(
+                Group::Derived,
+                "SYNC0 edge -> both DAC outputs (LDAC pulse; formula F2)".into(),
+                format!("{:.2} us", self.latency_us),
+                format!("<= {latency_target} us (about 0.3 us with LDAC only)"),
+                "BRIEF 6; AD5663 frame 0.96 us at 25 MHz".into(),
+                latency,
+            )
+            .with_number(self.latency_us, "us"),
+        ]
+    }
+}
+
+// ------------------------------------------------------------------ 4. footprint
+
+struct Footprint {
+    usage: image::Usage,
+    crates: Vec<(String, u64, u64)>,
+    has_app: bool,
+}
+
+fn footprint() -> Result<Footprint> {
+    let out = build::build(&build::Args::default())?;
+    let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
+    let sections = image::sections(&data).map_err(|e| e.to_string())?;
+    let syms = size::symbols(&data, &sections)?;
+    let has_app = syms
+        .iter()
+        .any(|s| s.krate == "coe_core" || s.name.contains("SlaveApp"));
+    Ok(Footprint {
+        usage: out.usage,
+        crates: size::by_crate(&syms),
+        has_app,
+    })
+}
+
+impl Footprint {
+    fn rows(&self) -> Vec<Row> {
+        let note = if self.has_app {
+            String::new()
+        } else {
+            "the image does not link the slave application yet (firmware::app and coe-core \
+             are not wired into the RTIC binary), so this is the hardware layer alone"
+                .to_string()
+        };
+        let verdict = |used: u64, budget: u64| {
+            if used <= budget {
+                Verdict::Met(note.clone())
+            } else {
+                Verdict::Missed(format!("{} B over", used - budget))
+            }
+        };
+        let flash_budget = 32 * 1024;
+        let ram_budget = 6 * 1024;
+        let mut rows = vec![
+            Row::new(
+                Group::Footprint,
+                "flash of the release image".into(),
+                format!(
+                    "{} B ({:.1} KB)",
+                    self.usage.flash,
+                    self.usage.flash as f64 / 1024.0
+                ),
+                "<= 32 KB".into(),
+                "SOES CoE-only: 12.5 KB text".into(),
+                verdict(self.usage.flash, flash_budget),
+            )
+            .with_number(self.usage.flash as f64, "B"),
+            Row::new(
+                Group::Footprint,
+                "static RAM (.data + .bss, stack and .ahbsram excluded)".into(),
+                format!(
+                    "{} B ({:.1} KB)",
+                    self.usage.ram,
+                    self.usage.ram as f64 / 1024.0
+                ),
+                "<= 6 KB".into(),
+                "SOES CoE-only: 1.3 KB RAM".into(),
+                verdict(self.usage.ram, ram_budget),
+            )
+            .with_number(self.usage.ram as f64, "B"),
+        ];
+        for (k, f, r) in self.crates.iter().take(8) {
+            rows.push(
+                Row::new(
+                    Group::Footprint,
+                    format!("crate {k}"),
+                    format!("{f} B flash, {r} B RAM"),
+                    "-".into(),
+                    "symbol sizes (cargo xtask size)".into(),
+                    Verdict::Info(String::new()),
+                )
+                .with_number(*f as f64, "B"),
+            );
+        }
+        rows
+    }
+}
+
+// ------------------------------------------------------------------ 5. ADC
+
+/// Conversions per second of the AD7689 model driven by the firmware harness's CNV timer.
+struct AdcRate {
+    sps: f64,
+    violations: u64,
+    window_ms: u64,
+}
+
+fn adc_rate(ms: u64) -> Result<AdcRate> {
+    let target = sim::firmware_target()?;
+    let mut board = VirtualBoard::new(BoardConfig::new(target.sii));
+    let cpu = (target.make_cpu)(board.io());
+    board.set_cpu(cpu);
+    let warm = 1_000_000;
+    board.step(warm);
+    let t0 = board.now_ns();
+    board.step(ms * 1_000_000);
+    let t1 = board.now_ns();
+    let adc = board.adc().borrow();
+    let n = adc
+        .conversions
+        .iter()
+        .filter(|c| c.time_ns >= t0 && c.time_ns < t1)
+        .count();
+    Ok(AdcRate {
+        sps: n as f64 / ((t1 - t0) as f64 * 1e-9),
+        violations: adc.cycle_violations,
+        window_ms: ms,
+    })
+}
+
+/// The sampler's CPU share at 250 kSPS.
+struct AdcShare {
+    per_sample_cycles: f64,
+    push: u64,
+    drain8: u64,
+    share: f64,
+}
+
+impl AdcShare {
+    fn new(cpu: &cm3::CpuReport) -> Result<Self> {
+        let push = cpu.get("sample_push")?;
+        let drain8 = cpu.get("sampler_drain")?;
+        let per_sample_cycles = (push as f64 + drain8 as f64 / 8.0) * model::CPI
+            + model::EXCEPTION_ENTRY_CYCLES
+            + model::EXCEPTION_EXIT_CYCLES
+            + model::SAMPLER_ISR_REGISTER_CYCLES;
+        Ok(Self {
+            per_sample_cycles,
+            push,
+            drain8,
+            share: model::ADC_RATE_SPS * per_sample_cycles / model::CPU_HZ,
+        })
+    }
+}
+
+fn adc_rows(rate: &AdcRate, share: &AdcShare) -> Vec<Row> {
+    let rate_ok = rate.sps >= 0.999 * model::ADC_RATE_SPS && rate.violations == 0;
+    let share_target = 0.10;
+    vec![
+        Row::new(
+            Group::Adc,
+            format!(
+                "AD7689 conversions on the virtual board ({} ms)",
+                rate.window_ms
+            ),
+            format!(
+                "{:.1} kSPS ({:.2} kSPS per channel), {} tCYC violations",
+                rate.sps / 1e3,
+                rate.sps / 8e3,
+                rate.violations
+            ),
+            "250 kSPS (31.25 kSPS per channel)".into(),
+            "AD7689 limit; thesis requires 20 kSPS/ch".into(),
+            if rate_ok {
+                Verdict::Met(String::new())
+            } else {
+                Verdict::Missed("the CNV timer of the harness does not keep 4 us".into())
+            },
+        )
+        .with_number(rate.sps, "SPS"),
+        Row::new(
+            Group::Adc,
+            "sampler CPU share at 250 kSPS (formula F3)".into(),
+            format!(
+                "{:.1} % ({:.0} cycles per sample)",
+                100.0 * share.share,
+                share.per_sample_cycles
+            ),
+            "<= 10 %".into(),
+            "BRIEF 6".into(),
+            if share.share <= share_target {
+                Verdict::Met(String::new())
+            } else {
+                Verdict::Missed(format!(
+                    "one interrupt per sample (entry/exit {:.0} cycles, ~{:.0} cycles of SSP/timer \
+                     registers) plus {} + {:.0} instructions of ring push and drain per sample; \
+                     the GPDMA design of hardware-facts 10.B leaves only the drain",
+                    model::EXCEPTION_ENTRY_CYCLES + model::EXCEPTION_EXIT_CYCLES,
+                    model::SAMPLER_ISR_REGISTER_CYCLES,
+                    share.push,
+                    share.drain8 as f64 / 8.0
+                ))
+            },
+        )
+        .with_number(100.0 * share.share, "%"),
+    ]
+}
+
+// ------------------------------------------------------------------ 6. loop-back
+
+fn loopback(seconds: f64) -> Result<SimReport> {
+    let cfg = SimConfig {
+        cycle_us: CYCLE_US,
+        seconds: Some(seconds),
+        freqs_hz: FREQS_HZ.to_vec(),
+        ..Default::default()
+    };
+    let target = sim::firmware_target()?;
+    sim::run_in_process(&cfg, target, &mut |_| {}).map_err(|e| e.to_string())
+}
+
+fn loopback_rows(sim: &SimReport) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for (f, r) in &sim.loopback {
+        let a = r.as_ref().map_err(|e| format!("loop-back {f} Hz: {e}"))?;
+        rows.push(
+            Row::new(
+                Group::Loopback,
+                format!(
+                    "{f} Hz, 8 Vpp (5 V +- 4 V), AI1 -> master -> AO1, {CYCLE_US} us DC cycle"
+                ),
+                format!(
+                    "amplitude error {:+.2} %, THD {:.3} % ({:.1} dB), {:.2} Vpp out, latency {:.0} us",
+                    100.0 * a.amplitude_error,
+                    100.0 * a.thd,
+                    a.thd_db(),
+                    a.output_peak_to_peak,
+                    a.latency_ns / 1e3
+                ),
+                "-".into(),
+                "thesis: 8 Vpp in, 8 Vpp out at 50/500/1000 Hz".into(),
+                Verdict::Info(format!("{} periods analysed", a.periods)),
+            )
+            .with_number(100.0 * a.amplitude_error, "%"),
+        );
+    }
+    Ok(rows)
+}
+
+/// Input and DAC output over the last periods of each frequency's window.
+fn traces(sim: &SimReport, _seconds: f64) -> Result<Vec<plot::Trace>> {
+    use virtual_board::adc::Signal;
+    use virtual_board::loopback::Staircase;
+    let cfg = SimConfig::default();
+    let mut out = Vec::new();
+    for (f, r) in &sim.loopback {
+        let a = r.as_ref().map_err(|e| format!("loop-back {f} Hz: {e}"))?;
+        let period_ns = 1e9 / f;
+        let (w0, w1) = a.window_ns;
+        let start = (w1 as f64 - PLOT_PERIODS * period_ns).max(w0 as f64) as u64;
+        let signal = Signal::Sine {
+            amplitude: cfg.amplitude_v,
+            offset: cfg.offset_v,
+            freq_hz: *f,
+            phase: 0.0,
+        };
+        let ms = |t: u64| (t - start) as f64 * 1e-6;
+        let input = (0..=1000u64)
+            .map(|i| {
+                let t = start + (w1 - start) * i / 1000;
+                (ms(t), signal.eval(t))
+            })
+            .collect();
+        let stairs = Staircase::from_dac_updates(&sim.dac_updates, cfg.ao_channel, 0x8000);
+        let mut output = vec![(0.0, stairs.value_at(start))];
+        for &(t, v) in stairs.steps() {
+            if t > start && t < w1 {
+                let prev = output.last().map_or(v, |p| p.1);
+                output.push((ms(t), prev));
+                output.push((ms(t), v));
+            }
+        }
+        output.push((ms(w1), stairs.value_at(w1)));
+        out.push(plot::Trace {
+            freq_hz: *f,
+            input,
+            output,
+        });
+    }
+    Ok(out)
+}
+
+// ------------------------------------------------------------------ notes
+
+fn notes(
+    bus: &BusReport,
+    cpu: &cm3::CpuReport,
+    d: &Derived,
+    adc: &AdcShare,
+    fp: &Footprint,
+) -> Vec<String> {
+    let _ = fp;
+    vec![
+        format!(
+            "Bytes: counted on the virtual board's byte-exact ET1100 SPI model while the firmware's \
+             slave application (over its EscPort) served a scripted master; {} process-data cycles \
+             averaged. Time on the PDI: t = B x (8 / {} MHz + {} us) + N x {} us (B bytes, N \
+             transactions; byte gap of the FIFO-less legacy SPI and SPI_SEL gap are estimates).",
+            bus.costs.iter().find(|c| c.name.starts_with("process-data")).map_or(0, |c| c.runs),
+            model::ESC_SPI_HZ / 1e6,
+            model::SPI_BYTE_GAP_US,
+            model::SPI_SELECT_GAP_US
+        ),
+        format!(
+            "Instructions: {} on QEMU's lm3s6965evb (Cortex-M3, -icount shift=0), counted by \
+             xtask/qemu-plugin/insn_count.c from the entry of bench_begin to the entry of bench_end, \
+             minus an empty region ({} instructions); identical in every repetition and in {} \
+             QEMU run(s). The ESC is the firmware tests' register file in RAM (its bookkeeping is \
+             counted, the SPI transfers are group 1). t = I x CPI / 100 MHz with CPI = {} (assumed: \
+             flash accelerator, 5 wait states).",
+            cpu.qemu, cpu.baseline, cpu.runs, model::CPI
+        ),
+        format!(
+            "F1: T_min = (t_PDI + I_cycle x CPI / f + 4 x (12 + 10) cycles / f + 2 x 24 bit / 25 MHz) \
+             / (1 - u_ADC) = ({:.1} + {:.1} + {:.2} + {:.2}) us / (1 - {:.3}) = {:.1} us. I_cycle = \
+             pdi_outputs + dac_preload + sync0_ldac + pdi_inputs as measured ({} instructions) - \
+             {:.1} ESC accesses per cycle x the stand-in's mean cost ({:.0}) + the same accesses \
+             through the et1100 SPI driver ({:.0}) = {} instructions; the driver's per-byte work \
+             overlaps the SPI bytes in t_PDI.",
+            d.bus_us,
+            d.cpu_us,
+            d.exceptions_us,
+            d.dac_us,
+            d.adc_share,
+            d.cycle_us,
+            d.measured_instructions,
+            d.transactions,
+            d.stand_in_instructions,
+            d.driver_instructions,
+            d.cpu_instructions,
+        ),
+        format!(
+            "F2: t_SYNC0->DAC = 12 cycles (capture interrupt entry) / f + I_sync0_ldac x CPI / f = \
+             {:.2} us ({} instructions); the LDAC pin edge itself adds two GPIO stores.",
+            d.latency_us, d.sync0_instructions
+        ),
+        format!(
+            "F3: u_ADC = 250 kSPS x ((I_push + I_drain8 / 8) x CPI + 12 + 10 + {:.0} cycles) / \
+             100 MHz = 250 kSPS x ({} + {:.1}) x {} + {:.0} cycles / 100 MHz = {:.1} %.",
+            model::SAMPLER_ISR_REGISTER_CYCLES,
+            adc.push,
+            adc.drain8 as f64 / 8.0,
+            model::CPI,
+            model::EXCEPTION_ENTRY_CYCLES + model::EXCEPTION_EXIT_CYCLES + model::SAMPLER_ISR_REGISTER_CYCLES,
+            100.0 * adc.share
+        ),
+        "Loop-back: ethercrab in process drives the virtual board (firmware slave application, \
+         ET1100/AD5663/AD7689 models) on virtual time; the master copies AI1 to AO1 every cycle; \
+         figures from the DAC model's output over whole periods (loopback::analyze_dac). Plot: one \
+         panel per frequency (50, 500, 1000 Hz from the top), blue input, red DAC output, 0..10 V \
+         with lines every 2.5 V and every period."
+            .into(),
+    ]
+}

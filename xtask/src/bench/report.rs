@@ -1,0 +1,271 @@
+//! The bench table: rows grouped as in BRIEF section 6, printed as markdown or JSON.
+
+/// The six groups of the issue, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Group {
+    Bus,
+    Cpu,
+    Derived,
+    Footprint,
+    Adc,
+    Loopback,
+}
+
+impl Group {
+    /// Number and title.
+    pub fn title(self) -> (u8, &'static str) {
+        match self {
+            Self::Bus => (1, "PDI bus cost (virtual board, ET1100 SPI at 12.5 MHz)"),
+            Self::Cpu => (2, "CPU cost on a Cortex-M3 (QEMU, instruction count)"),
+            Self::Derived => (3, "Cycle time and latency (from 1 and 2)"),
+            Self::Footprint => (4, "Footprint of the release firmware"),
+            Self::Adc => (5, "ADC"),
+            Self::Loopback => (6, "Thesis loop-back on the virtual board"),
+        }
+    }
+}
+
+/// Whether a figure meets its target.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verdict {
+    /// Target met (with an optional note).
+    Met(String),
+    /// Target missed, with the cause.
+    Missed(String),
+    /// No target: a measured figure (with an optional note).
+    Info(String),
+}
+
+impl Verdict {
+    fn text(&self) -> String {
+        let with = |word: &str, note: &str| {
+            if note.is_empty() {
+                word.to_string()
+            } else {
+                format!("{word} ({note})")
+            }
+        };
+        match self {
+            Self::Met(n) => with("met", n),
+            Self::Missed(c) => with("**missed**", c),
+            Self::Info(n) => with("measured", n),
+        }
+    }
+
+    fn status(&self) -> &'static str {
+        match self {
+            Self::Met(_) => "met",
+            Self::Missed(_) => "missed",
+            Self::Info(_) => "measured",
+        }
+    }
+
+    fn note(&self) -> &str {
+        match self {
+            Self::Met(n) | Self::Missed(n) | Self::Info(n) => n,
+        }
+    }
+}
+
+/// One figure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    pub group: Group,
+    pub figure: String,
+    pub value: String,
+    pub target: String,
+    pub anchor: String,
+    pub verdict: Verdict,
+    /// The main number of the value, with its unit (for JSON).
+    pub number: Option<(f64, &'static str)>,
+}
+
+impl Row {
+    pub fn new(
+        group: Group,
+        figure: String,
+        value: String,
+        target: String,
+        anchor: String,
+        verdict: Verdict,
+    ) -> Self {
+        Self {
+            group,
+            figure,
+            value,
+            target,
+            anchor,
+            verdict,
+            number: None,
+        }
+    }
+
+    pub fn with_number(mut self, value: f64, unit: &'static str) -> Self {
+        self.number = Some((value, unit));
+        self
+    }
+}
+
+fn cell(s: &str) -> String {
+    s.replace('|', "\\|")
+}
+
+/// The table with its notes.
+pub fn markdown(rows: &[Row], notes: &[String], quick: bool, qemu: &str) -> String {
+    let mut s = String::new();
+    s.push_str(&format!(
+        "Performance ({}; {qemu})\n\n",
+        if quick {
+            "cargo xtask bench --quick: short run"
+        } else {
+            "cargo xtask bench"
+        }
+    ));
+    s.push_str("| # | Figure | Value | Target | Anchor | Result |\n");
+    s.push_str("|---|---|---|---|---|---|\n");
+    for r in rows {
+        let (n, _) = r.group.title();
+        s.push_str(&format!(
+            "| {n} | {} | {} | {} | {} | {} |\n",
+            cell(&r.figure),
+            cell(&r.value),
+            cell(&r.target),
+            cell(&r.anchor),
+            cell(&r.verdict.text())
+        ));
+    }
+    s.push_str("\nGroups: ");
+    let groups = [
+        Group::Bus,
+        Group::Cpu,
+        Group::Derived,
+        Group::Footprint,
+        Group::Adc,
+        Group::Loopback,
+    ];
+    s.push_str(
+        &groups
+            .iter()
+            .map(|g| {
+                let (n, t) = g.title();
+                format!("{n} {t}")
+            })
+            .collect::<Vec<_>>()
+            .join("; "),
+    );
+    s.push_str(".\n\n");
+    for n in notes {
+        s.push_str(&format!("- {n}\n"));
+    }
+    s
+}
+
+fn json_str(s: &str) -> String {
+    let mut o = String::with_capacity(s.len() + 2);
+    o.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => o.push_str("\\\""),
+            '\\' => o.push_str("\\\\"),
+            '\n' => o.push_str("\\n"),
+            c if (c as u32) < 0x20 => o.push_str(&format!("\\u{:04x}", c as u32)),
+            c => o.push(c),
+        }
+    }
+    o.push('"');
+    o
+}
+
+fn json_num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else {
+        "null".into()
+    }
+}
+
+/// Every row and note as JSON.
+pub fn json(rows: &[Row], notes: &[String], quick: bool) -> String {
+    let mut s = String::from("{\n");
+    s.push_str(&format!("  \"quick\": {quick},\n  \"rows\": [\n"));
+    for (i, r) in rows.iter().enumerate() {
+        let (n, title) = r.group.title();
+        let number = match r.number {
+            Some((v, unit)) => format!(
+                ", \"number\": {}, \"unit\": {}",
+                json_num(v),
+                json_str(unit)
+            ),
+            None => String::new(),
+        };
+        s.push_str(&format!(
+            "    {{\"group\": {n}, \"group_title\": {}, \"figure\": {}, \"value\": {}, \"target\": {}, \
+             \"anchor\": {}, \"status\": {}, \"note\": {}{number}}}{}\n",
+            json_str(title),
+            json_str(&r.figure),
+            json_str(&r.value),
+            json_str(&r.target),
+            json_str(&r.anchor),
+            json_str(r.verdict.status()),
+            json_str(r.verdict.note()),
+            if i + 1 < rows.len() { "," } else { "" }
+        ));
+    }
+    s.push_str("  ],\n  \"notes\": [\n");
+    for (i, n) in notes.iter().enumerate() {
+        s.push_str(&format!(
+            "    {}{}\n",
+            json_str(n),
+            if i + 1 < notes.len() { "," } else { "" }
+        ));
+    }
+    s.push_str("  ]\n}\n");
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rows() -> Vec<Row> {
+        vec![
+            Row::new(
+                Group::Bus,
+                "a|b".into(),
+                "1 B".into(),
+                "<= 2 B".into(),
+                "x".into(),
+                Verdict::Met(String::new()),
+            )
+            .with_number(1.0, "B"),
+            Row::new(
+                Group::Derived,
+                "c".into(),
+                "3 us".into(),
+                "<= 2 us".into(),
+                "y".into(),
+                Verdict::Missed("too \"slow\"".into()),
+            ),
+        ]
+    }
+
+    #[test]
+    fn markdown_has_one_row_per_figure_and_says_missed() {
+        let md = markdown(&rows(), &["note".into()], true, "QEMU 7.2");
+        let table: Vec<&str> = md.lines().filter(|l| l.starts_with("| ")).collect();
+        assert_eq!(table.len(), 3); // header + 2
+        assert!(table[1].contains("a\\|b"));
+        assert!(table[2].contains("**missed** (too \"slow\")"));
+        assert!(md.contains("- note"));
+    }
+
+    #[test]
+    fn json_escapes_and_lists_every_row() {
+        let j = json(&rows(), &["n".into()], false);
+        assert!(j.contains("\"status\": \"missed\""));
+        assert!(j.contains("too \\\"slow\\\""));
+        assert!(j.contains("\"number\": 1, \"unit\": \"B\""));
+        assert_eq!(j.matches("\"group\":").count(), 2);
+        assert!(json_num(f64::NAN) == "null");
+    }
+}
