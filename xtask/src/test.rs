@@ -1,7 +1,7 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, Result};
-use crate::{build, esi, setup};
+use crate::{bench, build, esi, setup};
 
 /// The `no_std` crates that must build for every embedded target.
 const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
@@ -40,5 +40,11 @@ pub fn run(args: &Args) -> Result {
     }
     // The LPC1754 image: release build, checksum, CRP word and budget verified on the BIN.
     build::run(&build::Args::default())?;
+    // The benchmark in its short form, so the command cannot rot (needs qemu-system-arm,
+    // which setup installs; it fails, not skips, without it).
+    bench::run(&bench::Args {
+        quick: true,
+        ..Default::default()
+    })?;
     Ok(())
 }

@@ -5,7 +5,8 @@
 //! ESC is the register file of the firmware's tests ([`FakeEsc`], in RAM), so the counts are
 //! the application's CPU work without the SPI transfers (those are counted in bytes on the
 //! virtual board and converted to time separately). A [`Rig`] is brought to OP in DC SYNC0
-//! mode with the module's process data (2 AO in SM2, 8 AI in SM3), then each path is
+//! mode with the module's own device description ([`firmware::device`], [`firmware::od`]:
+//! default process data 2 AO in SM2, 8 AI in SM3), then each path is
 //! prepared (not measured), run (measured) and checked (not measured):
 //!
 //! | path            | firmware code                                   | when it runs on the board |
@@ -23,15 +24,16 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
-pub mod device;
-
 use core::convert::Infallible;
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 use et1100::{Et1100, SpiPdi};
 pub use firmware::app::esc::fake::FakeEsc;
+use firmware::app::mailbox::MAILBOX_SIZE;
 use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
 use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
 use firmware::app::{PdiOutcome, SlaveApp};
+use firmware::device;
+use firmware::od::OD;
 
 /// Ring length of the sampler scenario (one scan fits many times).
 pub const RING: usize = 64;
@@ -55,14 +57,17 @@ pub struct Rig {
     now_ns: u64,
     counter: u8,
     cycle: u16,
-    reply: [u8; device::MBX_LEN as usize],
+    output_len: u16,
+    reply: [u8; MAILBOX_SIZE],
 }
 
 impl Rig {
     /// Power-up and the master's ESM walk to OP with DC SYNC0 at `cycle_ns`.
     pub fn new(cycle_ns: u32) -> Result<Self, CheckFailed> {
         let mut esc = FakeEsc::new();
-        let mut app = SlaveApp::new(&device::OD, device::config(), device::process_data());
+        let pd = device::process_data();
+        let (out_len, in_len) = (pd.output_len() as u16, pd.input_len() as u16);
+        let mut app = SlaveApp::new(&OD, device::app_config(), pd);
         app.start(&mut esc).map_err(|_| CheckFailed("start"))?;
         let mut rig = Self {
             esc,
@@ -73,16 +78,15 @@ impl Rig {
             now_ns: 0,
             counter: 0,
             cycle: 0,
-            reply: [0; device::MBX_LEN as usize],
+            reply: [0; MAILBOX_SIZE],
+            output_len: out_len,
         };
-        let [m0, m1, p2, p3] = device::config().sm;
+        let [m0, m1, p2, p3] = device::app_config().sm;
         rig.esc.master_sm(0, m0.start, m0.len, m0.control, true);
         rig.esc.master_sm(1, m1.start, m1.len, m1.control, true);
         rig.request(0x02, "INIT -> PREOP")?;
-        rig.esc
-            .master_sm(2, p2.start, device::OUTPUT_BYTES, p2.control, true);
-        rig.esc
-            .master_sm(3, p3.start, device::INPUT_BYTES, p3.control, true);
+        rig.esc.master_sm(2, p2.start, out_len, p2.control, true);
+        rig.esc.master_sm(3, p3.start, in_len, p3.control, true);
         // DC: cyclic unit + SYNC0 (0x0981 = 0x03).
         rig.esc.master_dc(0x03, cycle_ns);
         rig.request(0x04, "PREOP -> SAFEOP")?;
@@ -137,10 +141,11 @@ impl Rig {
         self.cycle = self.cycle.wrapping_add(1);
         let a = (self.cycle & 0x3FFF) as i16;
         let b = 0x2000 - a;
-        let mut image = [0u8; device::OUTPUT_BYTES as usize];
+        let mut image = [0u8; 64];
         image[..2].copy_from_slice(&a.to_le_bytes());
         image[2..4].copy_from_slice(&b.to_le_bytes());
-        self.esc.master_write_outputs(&image);
+        let n = usize::from(self.output_len).min(image.len());
+        self.esc.master_write_outputs(&image[..n]);
     }
 
     /// One whole DC cycle without measuring (outputs, preload, SYNC0, inputs).

@@ -519,7 +519,7 @@ impl Footprint {
                 Row::new(
                     Group::Footprint,
                     format!("crate {k}"),
-                    format!("{f} B flash, {r} B RAM"),
+                    format!("{f} B flash, {r} B RAM (with AHB SRAM buffers)"),
                     "-".into(),
                     "symbol sizes (cargo xtask size)".into(),
                     Verdict::Info(String::new()),
