@@ -780,8 +780,8 @@ fn notes(
             d.latency_us, d.sync0_instructions
         ),
         format!(
-            "F3: u_ADC = 250 kSPS x ((I_push + I_drain8 / 8) x CPI + 12 + 10 + {:.0} cycles) / \
-             100 MHz = 250 kSPS x ({} + {:.1}) x {} + {:.0} cycles / 100 MHz = {:.1} %.",
+            "F3: u_ADC = 250 kSPS x ((I_push + I_drain8 / 8) x CPI + 12 + 10 + {:.0}) cycles / \
+             100 MHz = 250 kSPS x (({} + {:.1}) x {} + {:.0}) cycles / 100 MHz = {:.1} %.",
             model::SAMPLER_ISR_REGISTER_CYCLES,
             adc.push,
             adc.drain8 as f64 / 8.0,
