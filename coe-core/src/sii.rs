@@ -10,7 +10,7 @@
 //! | 0x07 | checksum: CRC-8 (poly 0x07, init 0xFF) over words 0..6 in the low byte |
 //! | 0x08..0x0F | vendor ID, product code, revision, serial number (u32 each) |
 //! | 0x14..0x17 | bootstrap mailbox out offset/size, in offset/size |
-//! | 0x18..0x1B | standard mailbox out (SM0) offset/size, in (SM1) offset/size |
+//! | 0x18..0x1B | standard mailbox out (SM0) offset/size, in (SM1) offset/size (0 without mailbox protocols) |
 //! | 0x1C | mailbox protocols |
 //! | 0x3E / 0x3F | EEPROM size (Kbit - 1) / version |
 //! | 0x40.. | categories: type u16, length u16 in words, data; 0xFFFF ends the list |
@@ -405,11 +405,11 @@ fn write_fixed_area(desc: &DeviceDescription, w: &mut Writer<'_>) {
     }
     for role in [SmRole::MailboxOut, SmRole::MailboxIn] {
         match desc.sync_manager(role) {
-            Some((_, sm)) => {
+            Some((_, sm)) if desc.mailbox.protocols.any() => {
                 w.u16(sm.start);
                 w.u16(sm.len);
             }
-            None => w.zeros(4),
+            _ => w.zeros(4),
         }
     }
     w.u16(desc.mailbox.protocols.bits());

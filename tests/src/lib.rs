@@ -12,7 +12,10 @@
 //! - [`board::VirtualBoard`]: ESC + DAC + ADC + [`clock::Clock`] + [`pcap::PcapWriter`],
 //!   with the firmware plugged in as a [`board::PdiCpu`].
 //! - [`master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
-//! - [`sii_builder`]: a tiny SII image builder for tests.
+//! - [`sdo_client`]: an SDO upload client on raw mailbox access (segmented uploads, which
+//!   ethercrab 0.7.1 cannot take).
+//! - [`sii_builder`]: a tiny SII image builder for the ESC model tests (the firmware's
+//!   image is generated from its description, [`sim::firmware_device`]).
 //!
 //! Time: nothing here reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
@@ -29,6 +32,7 @@ pub mod iface;
 pub mod loopback;
 pub mod master;
 pub mod pcap;
+pub mod sdo_client;
 pub mod sii_builder;
 pub mod sim;
 pub mod spi;

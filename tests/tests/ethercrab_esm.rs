@@ -6,6 +6,11 @@
 //! and configures nothing else. The SII image comes from the test SII builder (no
 //! mailbox, one RxPDO and one TxPDO), until the project's SII generator replaces it.
 
+use coe_core::device::{
+    CoeDetails, DcDesc, DeviceDescription, EepromDesc, FmmuUsage, Identity, MailboxDesc,
+    MailboxProtocols, MemoryWindow, Names, PortType, SmRole, SyncManagerDesc,
+};
+use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value};
 use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage, Timeouts};
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
@@ -14,7 +19,7 @@ use std::time::Duration;
 use virtual_board::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
 use virtual_board::esc::regs;
 use virtual_board::master::tx_rx_task;
-use virtual_board::sii_builder::minimal_io_device;
+use virtual_board::sim::firmware_device::sii_image;
 use virtual_board::spi::EscSpi;
 
 use embedded_hal::spi::{Operation, SpiDevice};
@@ -94,12 +99,133 @@ impl PdiCpu for MinimalSlaveCpu {
     }
 }
 
+const U16: DataType = DataType::Unsigned16;
+const U32: DataType = DataType::Unsigned32;
+const I16: DataType = DataType::Integer16;
+const RO: Access = Access::RO;
+
+/// Product code of the test device (placeholder vendor 0: not an ETG vendor ID).
+const PRODUCT_CODE: u32 = 0x0000_1234;
+
+static OD: ObjectDictionary = ObjectDictionary::new(&[
+    ObjectDesc::record(
+        0x1018,
+        "Identity",
+        DataType::Identity,
+        &[
+            EntryDesc::count(4),
+            EntryDesc::new(1, "Vendor ID", U32, RO).with_default(Value::Uint(0)),
+            EntryDesc::new(2, "Product code", U32, RO)
+                .with_default(Value::Uint(PRODUCT_CODE as u64)),
+            EntryDesc::new(3, "Revision", U32, RO).with_default(Value::Uint(1)),
+            EntryDesc::new(4, "Serial number", U32, RO).with_default(Value::Uint(42)),
+        ],
+    ),
+    ObjectDesc::record(
+        0x1600,
+        "Outputs",
+        DataType::PdoMapping,
+        &[
+            EntryDesc::count(1),
+            EntryDesc::new(1, "Entry", U32, RO).with_default(Value::Uint(0x7000_0110)),
+        ],
+    ),
+    ObjectDesc::record(
+        0x1A00,
+        "Inputs",
+        DataType::PdoMapping,
+        &[
+            EntryDesc::count(1),
+            EntryDesc::new(1, "Entry", U32, RO).with_default(Value::Uint(0x6000_0110)),
+        ],
+    ),
+    ObjectDesc::array(
+        0x1C12,
+        "RxPDO assign",
+        &[
+            EntryDesc::count(1),
+            EntryDesc::new(1, "Assign", U16, RO).with_default(Value::Uint(0x1600)),
+        ],
+    ),
+    ObjectDesc::array(
+        0x1C13,
+        "TxPDO assign",
+        &[
+            EntryDesc::count(1),
+            EntryDesc::new(1, "Assign", U16, RO).with_default(Value::Uint(0x1A00)),
+        ],
+    ),
+    ObjectDesc::array(
+        0x6000,
+        "Input",
+        &[
+            EntryDesc::count(1),
+            EntryDesc::new(1, "Input 1", I16, RO.tx_mappable()),
+        ],
+    ),
+    ObjectDesc::array(
+        0x7000,
+        "Output",
+        &[
+            EntryDesc::count(1),
+            EntryDesc::new(1, "Output 1", I16, Access::RW.rx_mappable()),
+        ],
+    ),
+]);
+
+/// No mailbox protocols, one 16-bit RxPDO on SM2 at 0x1100 and one 16-bit TxPDO on SM3 at
+/// 0x1180; the mailbox SyncManagers exist but carry nothing.
+static DEVICE: DeviceDescription = DeviceDescription {
+    identity: Identity {
+        vendor_id: 0,
+        product_code: PRODUCT_CODE,
+        revision: 1,
+        serial_number: 42,
+    },
+    names: Names {
+        vendor_name: "Test",
+        device_name: "Virtual analog IO (test)",
+        order_code: "Virtual analog IO",
+        group_type: "Test",
+        group_name: "Test",
+        hardware_version: "",
+        software_version: "",
+    },
+    od: &OD,
+    sync_managers: &[
+        SyncManagerDesc::new(SmRole::MailboxOut, 0x1000, 0x80, 0x26),
+        SyncManagerDesc::new(SmRole::MailboxIn, 0x1080, 0x80, 0x22),
+        SyncManagerDesc::new(SmRole::ProcessDataOut, 0x1100, 2, 0x64),
+        SyncManagerDesc::new(SmRole::ProcessDataIn, 0x1180, 2, 0x20),
+    ],
+    fmmus: &[FmmuUsage::Outputs, FmmuUsage::Inputs],
+    mailbox: MailboxDesc {
+        protocols: MailboxProtocols(0),
+        coe: CoeDetails(0),
+        bootstrap: None,
+    },
+    dc: DcDesc {
+        op_modes: &[],
+        min_cycle_ns: 100_000,
+        max_cycle_ns: 100_000_000,
+    },
+    pdi: firmware::device::PDI,
+    eeprom: EepromDesc {
+        size_bytes: 2048,
+        station_alias: 0,
+        version: 1,
+    },
+    process_ram: MemoryWindow::new(0x1000, 0x2000),
+    ports: [PortType::Mii, PortType::Mii, PortType::None, PortType::None],
+    ebus_current_ma: 0,
+};
+
 static STORAGE: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();
 
 #[test]
 fn ethercrab_init_to_op_with_process_data() {
     let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        minimal_io_device(),
+        sii_image(&DEVICE).expect("SII image"),
     ))));
     let shared = Rc::new(RefCell::new(Shared {
         inputs: [0x34, 0x12],
@@ -115,6 +241,9 @@ fn ethercrab_init_to_op_with_process_data() {
         Timeouts {
             wait_loop_delay: Duration::from_micros(100),
             state_transition: Duration::from_secs(2),
+            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); the
+            // in-process rig on a loaded host can need longer for the few frames of a read.
+            eeprom: Duration::from_millis(500),
             ..Default::default()
         },
         MainDeviceConfig {
@@ -131,8 +260,17 @@ fn ethercrab_init_to_op_with_process_data() {
                 .expect("init");
             assert_eq!(group.len(), 1);
             let sd = group.subdevice(&md, 0).unwrap();
-            assert_eq!(sd.name(), "Virtual analog IO");
-            assert_eq!(sd.identity().product_id, 0x1234);
+            // Read from the generated SII: order string, name string, identity.
+            assert_eq!(sd.name(), DEVICE.names.order_code);
+            assert_eq!(
+                sd.description().await.unwrap().as_deref(),
+                Some(DEVICE.names.device_name)
+            );
+            let id = sd.identity();
+            assert_eq!(
+                (id.vendor_id, id.product_id, id.revision, id.serial),
+                (0, PRODUCT_CODE, 1, 42)
+            );
             let group = group.into_op(&md).await.expect("PRE-OP -> OP");
             for i in 0..10u8 {
                 {
@@ -211,7 +349,7 @@ static STORAGE_DC: PduStorage<16, { PduStorage::element_size(1100) }> = PduStora
 #[test]
 fn ethercrab_dc_sync0_reaches_the_board() {
     let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        minimal_io_device(),
+        sii_image(&DEVICE).expect("SII image"),
     ))));
     let shared = Rc::new(RefCell::new(Shared::default()));
     board.borrow_mut().set_cpu(Box::new(MinimalSlaveCpu {
@@ -222,6 +360,9 @@ fn ethercrab_dc_sync0_reaches_the_board() {
         pdu_loop,
         Timeouts {
             wait_loop_delay: Duration::from_micros(100),
+            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); the
+            // in-process rig on a loaded host can need longer for the few frames of a read.
+            eeprom: Duration::from_millis(500),
             ..Default::default()
         },
         MainDeviceConfig {

@@ -281,6 +281,17 @@ fn every_category_reads_back_to_the_description() {
 }
 
 #[test]
+fn no_standard_mailbox_without_protocols() {
+    let mut d = valid();
+    d.mailbox.protocols = crate::device::MailboxProtocols(0);
+    let sii = read_sii(&image_of(&d)).unwrap();
+    assert_eq!(&sii.words[0x18..0x1D], &[0, 0, 0, 0, 0]);
+    assert_eq!(sii.general[5], 0, "no CoE details without CoE");
+    // The SyncManagers themselves are still described.
+    assert_eq!(sii.sms.len(), 4);
+}
+
+#[test]
 fn measuring_and_short_buffers() {
     let d = valid();
     let len = image_of(&d).len();

@@ -12,7 +12,7 @@
 //! What runs on the board's PDI side is a [`Target`]: the firmware's slave application
 //! ([`firmware_target`]) or the transport test responder ([`responder::EchoResponder`]).
 
-pub mod interim_device;
+pub mod firmware_device;
 pub mod responder;
 pub mod tshark;
 
@@ -217,7 +217,7 @@ pub const FIRMWARE_UNAVAILABLE: &str = "firmware application not yet available: 
 
 /// The firmware's own slave application on the board, with the generated SII image.
 pub fn firmware_target() -> Result<Target, String> {
-    let device = interim_device::device();
+    let device = firmware_device::device()?;
     Ok(Target {
         description: device.description.clone(),
         sii: device.sii.clone(),
@@ -573,6 +573,9 @@ pub fn run_in_process(
             wait_loop_delay: Duration::from_micros(100),
             state_transition: Duration::from_secs(5),
             mailbox_response: Duration::from_secs(2),
+            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); the
+            // in-process rig on a loaded host can need longer for the few frames of a read.
+            eeprom: Duration::from_millis(500),
             ..Default::default()
         },
         MainDeviceConfig {
