@@ -104,6 +104,9 @@ fn run_in_namespace() -> Result<Option<Outcome>, String> {
         Timeouts {
             wait_loop_delay: Duration::from_millis(1),
             state_transition: Duration::from_secs(5),
+            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); a
+            // loaded host can need longer for the few frames of a read.
+            eeprom: Duration::from_millis(500),
             ..Default::default()
         },
         MainDeviceConfig {
