@@ -24,6 +24,10 @@ const MBX_LEN: u16 = 128;
 const PD_OUT: u16 = 0x1100;
 const PD_IN: u16 = 0x1180;
 
+/// An object longer than the mailbox data area (the module description string of
+/// `firmware::od`), uploaded in segments.
+const SEGMENTED_UPLOAD_INDEX: u16 = 0x2001;
+
 /// Address bytes of one access (2-byte addressing).
 pub const ADDRESS_BYTES: u64 = 2;
 /// Wait-state bytes of one read (command 3, read with wait state).
@@ -57,6 +61,8 @@ pub struct BusReport {
     pub process_data_bytes: (u16, u16),
     /// DC cycle time of the process-data run (ns).
     pub cycle_ns: u64,
+    /// What could not be measured on this device, and why.
+    pub not_measured: Vec<String>,
 }
 
 impl BusReport {
@@ -304,6 +310,60 @@ pub fn measure(target: Target, cycle_ns: u64, cycles: u64) -> Result<BusReport, 
         ..c
     });
 
+    // Segmented upload: the module description string (longer than the mailbox), when the
+    // device has it.
+    let probe = rig.exchange(&sdo(0x40, SEGMENTED_UPLOAD_INDEX, 0, &[]))?;
+    if probe.get(8) == Some(&0x41) {
+        let total = u32::from_le_bytes([probe[12], probe[13], probe[14], probe[15]]) as u64;
+        let mut exchanges = 0u64;
+        let c = rig.measure(
+            "SDO upload, segmented (0x2001 string), per exchange",
+            1,
+            0,
+            |r| {
+                let reply = r.exchange(&sdo(0x40, SEGMENTED_UPLOAD_INDEX, 0, &[]))?;
+                expect_command(&reply, 0x41, "initiate segmented upload")?;
+                exchanges = 1;
+                let mut toggle = 0u8;
+                loop {
+                    let reply =
+                        r.exchange(&[0x00, 0x20, 0x60 | toggle << 4, 0, 0, 0, 0, 0, 0, 0])?;
+                    let cmd = reply.get(8).copied().unwrap_or(0xFF);
+                    if cmd & 0xF0 != toggle << 4 {
+                        return Err(format!("upload segment: reply command {cmd:#04x}"));
+                    }
+                    exchanges += 1;
+                    toggle ^= 1;
+                    if cmd & 0x01 != 0 {
+                        return Ok(());
+                    }
+                    if exchanges > 64 {
+                        return Err("upload segments never ended".into());
+                    }
+                }
+            },
+        )?;
+        let n = exchanges.max(1) as f64;
+        let one = c.accesses.len() / exchanges.max(1) as usize;
+        report.costs.push(BusCost {
+            name: format!(
+                "SDO upload, segmented (0x2001, {total} B in {exchanges} exchanges), per exchange"
+            ),
+            accesses: c.accesses[c.accesses.len() - one..].to_vec(),
+            transactions: c.transactions / n,
+            bytes: c.bytes / n,
+            minimum_bytes: mbx,
+            split: (c.split.0 / n, c.split.1 / n, c.split.2 / n, c.split.3 / n),
+            runs: exchanges,
+        });
+    } else {
+        report.not_measured.push(format!(
+            "SDO upload, segmented: the board's device has no object {SEGMENTED_UPLOAD_INDEX:#06x} \
+             longer than the mailbox (SDO reply command {:#04x})",
+            probe.get(8).copied().unwrap_or(0)
+        ));
+    }
+
     let (out_len, in_len) = (4u16, 16u16);
     report.process_data_bytes = (out_len, in_len);
     rig.sm(2, PD_OUT, out_len, 0x64);
@@ -367,6 +427,15 @@ mod tests {
     fn firmware_costs_are_counted_and_consistent() {
         let target = crate::sim::firmware_target().unwrap();
         let r = measure(target, 100_000, 20).unwrap();
+        // The stand-in device has no object longer than the mailbox: said, not skipped silently.
+        assert!(
+            r.costs
+                .iter()
+                .any(|c| c.name.starts_with("SDO upload, segmented"))
+                || r.not_measured.len() == 1,
+            "{:?}",
+            r.not_measured
+        );
         for c in &r.costs {
             assert!(c.transactions >= 1.0, "{}: no SPI traffic", c.name);
             let (a, w, rd, wr) = c.split;
@@ -393,5 +462,39 @@ mod tests {
         // Reruns count the same bytes.
         let again = measure(crate::sim::firmware_target().unwrap(), 100_000, 20).unwrap();
         assert_eq!(r, again);
+    }
+
+    /// The firmware's own device description (with 0x2001, longer than the mailbox) on the
+    /// board: the segmented upload is measured, one mailbox frame per exchange.
+    #[test]
+    fn segmented_upload_with_the_firmware_device() {
+        use crate::firmware_cpu::{Device, FirmwareCpu};
+        let mut sii = vec![0u8; 4096];
+        let n = coe_core::sii::generate(&firmware::device::DEVICE, &mut sii).unwrap();
+        sii.truncate(n);
+        let device = Device {
+            description: "firmware::device".into(),
+            od: &firmware::od::OD,
+            config: firmware::device::app_config(),
+            process_data: firmware::device::process_data(),
+            sii: sii.clone(),
+        };
+        let target = Target {
+            description: device.description.clone(),
+            sii,
+            make_cpu: Box::new(move |io| {
+                Box::new(FirmwareCpu::new(io, &device, crate::adc::T_CYC_NS))
+            }),
+        };
+        let r = measure(target, 100_000, 10).unwrap();
+        assert!(r.not_measured.is_empty(), "{:?}", r.not_measured);
+        let seg = r
+            .costs
+            .iter()
+            .find(|c| c.name.starts_with("SDO upload, segmented"))
+            .unwrap();
+        assert!(seg.runs >= 3, "{}: {} exchanges", seg.name, seg.runs);
+        assert!(seg.accesses.contains(&("read", MBX_OUT, MBX_LEN as usize)));
+        assert!(seg.accesses.contains(&("write", MBX_IN, MBX_LEN as usize)));
     }
 }

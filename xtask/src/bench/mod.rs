@@ -186,6 +186,17 @@ fn bus_value(c: &BusCost) -> String {
 
 fn bus_rows(bus: &BusReport) -> Vec<Row> {
     let mut rows = Vec::new();
+    for why in &bus.not_measured {
+        let (what, reason) = why.split_once(": ").unwrap_or((why, ""));
+        rows.push(Row::new(
+            Group::Bus,
+            format!("PDI per {what}"),
+            "-".into(),
+            "-".into(),
+            "BRIEF 6: per SDO exchange, expedited and segmented".into(),
+            Verdict::NotMeasured(reason.into()),
+        ));
+    }
     for c in &bus.costs {
         let pd = c.name.starts_with("process-data");
         let min_us = model::spi_wire_us(c.minimum_bytes as f64);

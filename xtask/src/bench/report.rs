@@ -34,6 +34,8 @@ pub enum Verdict {
     Missed(String),
     /// No target: a measured figure (with an optional note).
     Info(String),
+    /// Could not be measured here, with the reason.
+    NotMeasured(String),
 }
 
 impl Verdict {
@@ -49,6 +51,7 @@ impl Verdict {
             Self::Met(n) => with("met", n),
             Self::Missed(c) => with("**missed**", c),
             Self::Info(n) => with("measured", n),
+            Self::NotMeasured(n) => with("**not measured**", n),
         }
     }
 
@@ -57,12 +60,13 @@ impl Verdict {
             Self::Met(_) => "met",
             Self::Missed(_) => "missed",
             Self::Info(_) => "measured",
+            Self::NotMeasured(_) => "not_measured",
         }
     }
 
     fn note(&self) -> &str {
         match self {
-            Self::Met(n) | Self::Missed(n) | Self::Info(n) => n,
+            Self::Met(n) | Self::Missed(n) | Self::Info(n) | Self::NotMeasured(n) => n,
         }
     }
 }
