@@ -250,6 +250,14 @@ mod tests {
                 "y".into(),
                 Verdict::Missed("too \"slow\"".into()),
             ),
+            Row::new(
+                Group::Bus,
+                "d".into(),
+                "-".into(),
+                "-".into(),
+                "z".into(),
+                Verdict::NotMeasured("no object".into()),
+            ),
         ]
     }
 
@@ -257,9 +265,10 @@ mod tests {
     fn markdown_has_one_row_per_figure_and_says_missed() {
         let md = markdown(&rows(), &["note".into()], true, "QEMU 7.2");
         let table: Vec<&str> = md.lines().filter(|l| l.starts_with("| ")).collect();
-        assert_eq!(table.len(), 3); // header + 2
+        assert_eq!(table.len(), 4); // header + 3
         assert!(table[1].contains("a\\|b"));
         assert!(table[2].contains("**missed** (too \"slow\")"));
+        assert!(table[3].contains("**not measured** (no object)"));
         assert!(md.contains("- note"));
     }
 
@@ -269,7 +278,8 @@ mod tests {
         assert!(j.contains("\"status\": \"missed\""));
         assert!(j.contains("too \\\"slow\\\""));
         assert!(j.contains("\"number\": 1, \"unit\": \"B\""));
-        assert_eq!(j.matches("\"group\":").count(), 2);
+        assert_eq!(j.matches("\"group\":").count(), 3);
+        assert!(j.contains("\"status\": \"not_measured\""));
         assert!(json_num(f64::NAN) == "null");
     }
 }
