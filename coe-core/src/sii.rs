@@ -373,6 +373,27 @@ pub fn generate(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiEr
     Ok(needed)
 }
 
+/// The whole EEPROM content of `desc`: the image, then the rest of the EEPROM erased (0xFF)
+/// up to [`EepromDesc::size_bytes`](crate::device::EepromDesc); returns that size. `out`
+/// must hold the whole EEPROM.
+pub fn generate_eeprom(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiError> {
+    let size = desc.eeprom.size_bytes as usize;
+    let Some(eeprom) = out.get_mut(..size) else {
+        // Report a bad description or an image too large for the EEPROM first.
+        return match generate(desc, &mut []) {
+            Ok(_) | Err(SiiError::BufferTooSmall { .. }) => {
+                Err(SiiError::BufferTooSmall { needed: size })
+            }
+            Err(e) => Err(e),
+        };
+    };
+    let len = generate(desc, eeprom)?;
+    if let Some(rest) = eeprom.get_mut(len..) {
+        rest.fill(0xFF);
+    }
+    Ok(size)
+}
+
 fn write_fixed_area(desc: &DeviceDescription, w: &mut Writer<'_>) {
     let pdi = &desc.pdi;
     let config = [

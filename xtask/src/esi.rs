@@ -1,7 +1,9 @@
 //! `cargo xtask esi [--out DIR]`: the files a configuration tool needs, generated from the
 //! firmware's one device description (`firmware::device::DEVICE`): the ESI XML
 //! (`<order code>.xml`, ETG.2000), validated against the ETG.2000 schema when the schema and
-//! `xmllint` are at hand.
+//! `xmllint` are at hand, and the SII EEPROM image (`<order code>.bin`, the whole EEPROM:
+//! the generated image, then erased bytes 0xFF) for an EEPROM programmer or a master's
+//! EEPROM write.
 
 use crate::util::{display, have, root, Result};
 use coe_core::device::DeviceDescription;
@@ -27,6 +29,7 @@ pub fn run(args: &Args) -> Result {
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let desc = &firmware::device::DEVICE;
     let xml = write_xml(desc, &dir)?;
+    write_sii(desc, &dir)?;
     validate(&xml)
 }
 
@@ -53,6 +56,16 @@ fn write_xml(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
     let path = dir.join(format!("{}.xml", file_stem(desc)));
     std::fs::write(&path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("ESI: {} ({} bytes)", path.display(), xml.len());
+    Ok(path)
+}
+
+/// Writes `<stem>.bin`, the whole SII EEPROM, into `dir`; returns its path.
+fn write_sii(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
+    let mut eeprom = vec![0u8; desc.eeprom.size_bytes as usize];
+    coe_core::sii::generate_eeprom(desc, &mut eeprom).map_err(|e| e.to_string())?;
+    let path = dir.join(format!("{}.bin", file_stem(desc)));
+    std::fs::write(&path, &eeprom).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    println!("SII: {} ({} bytes)", path.display(), eeprom.len());
     Ok(path)
 }
 
@@ -113,5 +126,28 @@ mod tests {
         let product = firmware::device::DEVICE.identity.product_code;
         assert!(text.contains(&format!("<Type ProductCode=\"#x{product:08X}\"")));
         assert!(text.trim_end().ends_with("</EtherCATInfo>"));
+    }
+
+    #[test]
+    fn the_module_sii_is_written() {
+        let dir = std::env::temp_dir().join(format!("xtask-sii-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let desc = &firmware::device::DEVICE;
+        let path = write_sii(desc, &dir).unwrap();
+        let bin = std::fs::read(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(path.file_name().unwrap(), "AIO-8AI2AO.bin");
+        assert_eq!(bin.len(), desc.eeprom.size_bytes as usize);
+        let mut image = vec![0u8; bin.len()];
+        let len = coe_core::sii::generate(desc, &mut image).unwrap();
+        assert_eq!(&bin[..len], &image[..len]);
+        assert!(bin[len..].iter().all(|b| *b == 0xFF));
+        // Checksum word 7 over words 0..6, identity at words 8..
+        assert_eq!(
+            u16::from_le_bytes([bin[14], bin[15]]),
+            u16::from(coe_core::sii::crc8(&bin[..14]))
+        );
+        let product = u32::from_le_bytes([bin[20], bin[21], bin[22], bin[23]]);
+        assert_eq!(product, desc.identity.product_code);
     }
 }

@@ -309,6 +309,30 @@ fn measuring_and_short_buffers() {
 }
 
 #[test]
+fn whole_eeprom_is_the_image_then_erased() {
+    let d = valid();
+    let image = image_of(&d);
+    let mut eeprom = vec![0u8; 4096];
+    assert_eq!(generate_eeprom(&d, &mut eeprom), Ok(2048));
+    assert_eq!(&eeprom[..image.len()], &image[..]);
+    assert!(eeprom[image.len()..2048].iter().all(|b| *b == 0xFF));
+    assert!(
+        eeprom[2048..].iter().all(|b| *b == 0),
+        "nothing past the EEPROM size"
+    );
+    assert_eq!(
+        generate_eeprom(&d, &mut [0u8; 2047]),
+        Err(SiiError::BufferTooSmall { needed: 2048 })
+    );
+    let mut bad = valid();
+    bad.dc.min_cycle_ns = 0;
+    assert!(matches!(
+        generate_eeprom(&bad, &mut [0u8; 16]),
+        Err(SiiError::Description(_))
+    ));
+}
+
+#[test]
 fn rejects_what_does_not_fit() {
     let mut d = valid();
     d.eeprom.size_bytes = 256;

@@ -11,7 +11,7 @@ use firmware::device::{app_config, process_data, DEVICE};
 /// (0xFF) as on a programmed part.
 pub fn sii_image(desc: &DeviceDescription) -> Result<Vec<u8>, coe_core::sii::SiiError> {
     let mut image = vec![0xFF; desc.eeprom.size_bytes as usize];
-    coe_core::sii::generate(desc, &mut image)?;
+    coe_core::sii::generate_eeprom(desc, &mut image)?;
     Ok(image)
 }
 
