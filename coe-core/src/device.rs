@@ -799,11 +799,11 @@ impl DeviceDescription {
             let (index, text) = strings[i];
             if let Some(object) = find_object(self.od, index) {
                 let same = match find_entry(object, 0) {
-                    Some(EntryDesc {
-                        default: Value::Str(s),
-                        ..
-                    }) => str_eq(s, text),
-                    _ => false,
+                    Some(entry) => match entry.default() {
+                        Value::Str(s) => str_eq(s, text),
+                        _ => false,
+                    },
+                    None => false,
                 };
                 if !same {
                     return Err(DescError::new(DescErrorKind::StringMismatch, index, 0));
@@ -1055,7 +1055,7 @@ const fn default_u32(object: Option<&'static ObjectDesc>, subindex: u8) -> Optio
         None => return None,
     };
     match find_entry(object, subindex) {
-        Some(entry) => match entry.default.as_i128() {
+        Some(entry) => match entry.default().as_i128() {
             Some(v) if v >= 0 && v <= u32::MAX as i128 => Some(v as u32),
             _ => None,
         },

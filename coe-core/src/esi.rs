@@ -453,7 +453,7 @@ impl<W: Write> Xml<'_, W> {
             .od
             .entry(DEVICE_TYPE_INDEX, 0)
             .ok()
-            .and_then(|(_, e)| e.default.as_i128())
+            .and_then(|(_, e)| e.default().as_i128())
             .and_then(|v| u32::try_from(v).ok());
         if let Some(device_type) = device_type {
             self.leaf("ProfileNo", device_type & 0xFFFF)?;
@@ -576,12 +576,12 @@ impl<W: Write> Xml<'_, W> {
 
     /// The content of an ObjectInfoType: default/minimum/maximum, unit.
     fn info(&mut self, entry: &EntryDesc) -> fmt::Result {
-        match ValueText::of(entry, &entry.default) {
+        match ValueText::of(entry, &entry.default()) {
             Some(ValueText::Text(s)) => self.leaf_text("DefaultString", s)?,
             default => {
                 for (tag, value) in [
-                    ("MinData", ValueText::of(entry, &entry.min)),
-                    ("MaxData", ValueText::of(entry, &entry.max)),
+                    ("MinData", ValueText::of(entry, &entry.min())),
+                    ("MaxData", ValueText::of(entry, &entry.max())),
                     ("DefaultData", default),
                 ] {
                     match value {
@@ -595,7 +595,7 @@ impl<W: Write> Xml<'_, W> {
                 }
             }
         }
-        if let Some(unit) = entry.unit {
+        if let Some(unit) = entry.unit() {
             self.leaf("Unit", Hex(u32::from(unit), 4))?;
         }
         Ok(())
@@ -747,7 +747,10 @@ impl<W: Write> Xml<'_, W> {
 
 /// True if an entry has anything for an `Info` element.
 fn has_info(entry: &EntryDesc) -> bool {
-    entry.default.is_some() || entry.min.is_some() || entry.max.is_some() || entry.unit.is_some()
+    entry.default().is_some()
+        || entry.min().is_some()
+        || entry.max().is_some()
+        || entry.unit().is_some()
 }
 
 /// An xs:boolean as vendor files write it.

@@ -19,7 +19,7 @@ use crate::app::sync::{
     OUTPUT_DELAY_NS, SUPPORTED_MODES,
 };
 use crate::device::{IDENTITY, NAMES, SYNC_MANAGERS};
-use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value};
+use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange};
 use coe_core::pdo::PdoEntry;
 
 const BOOL: DataType = DataType::Boolean;
@@ -157,7 +157,10 @@ const fn sync_parameters(inputs: bool) -> [EntryDesc; 20] {
         EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(MIN_CYCLE_TIME_NS)),
         EntryDesc::new(6, "Calc and copy time", U32, RO).with_default(ns(calc_copy)),
         EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
-        EntryDesc::new(8, "Get cycle time", U16, RW).with_range(Value::Uint(0), Value::Uint(2)),
+        EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
+            min: Value::Uint(0),
+            max: Value::Uint(2),
+        }),
         EntryDesc::new(9, "Delay time", U32, RO).with_default(ns(delay)),
         EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
         EntryDesc::new(0x0B, "SM event missed", U16, RO),
@@ -193,7 +196,10 @@ static AO_ERROR_MODE: [EntryDesc; AO_CHANNELS + 1] = {
     let mut out = entries(AO_CHANNELS as u8, &AO_NAMES, U8, RW, &[1, 1]);
     let mut i = 1;
     while i <= AO_CHANNELS {
-        out[i] = out[i].with_range(Value::Uint(0), Value::Uint(1));
+        out[i] = out[i].with_range(&ValueRange {
+            min: Value::Uint(0),
+            max: Value::Uint(1),
+        });
         i += 1;
     }
     out
@@ -203,7 +209,10 @@ static AO_ERROR_VALUE: [EntryDesc; AO_CHANNELS + 1] = {
     let mut out = entries(AO_CHANNELS as u8, &AO_NAMES, I32, RW, &[0, 0]);
     let mut i = 1;
     while i <= AO_CHANNELS {
-        out[i] = out[i].with_range(Value::Int(0), Value::Int(i16::MAX as i64));
+        out[i] = out[i].with_range(&ValueRange {
+            min: Value::Int(0),
+            max: Value::Int(i16::MAX as i64),
+        });
         i += 1;
     }
     out
@@ -300,7 +309,10 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             EntryDesc::count(2),
             EntryDesc::new(1, "AI filter", U8, RW)
                 .with_default(Value::Uint(PublishMode::Latest.setting() as u64))
-                .with_range(Value::Uint(0), Value::Uint(1)),
+                .with_range(&ValueRange {
+                    min: Value::Uint(0),
+                    max: Value::Uint(1),
+                }),
             EntryDesc::new(2, "Full scale (uV)", U32, RO)
                 .with_default(Value::Uint(FULL_SCALE_UV as u64)),
         ],
@@ -370,7 +382,7 @@ mod tests {
             .unwrap()
             .entries
             .iter()
-            .map(|e| e.default)
+            .map(|e| e.default())
             .collect();
         assert_eq!(
             types,

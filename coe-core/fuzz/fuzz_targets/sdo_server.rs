@@ -10,7 +10,9 @@
 #![no_main]
 
 use coe_core::esm::AlState;
-use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, OdStore, Value};
+use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, OdStore, Value,
+    ValueRange,
+};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
 use coe_core::wire::{Mailbox, MailboxRepr, MailboxType};
 use libfuzzer_sys::fuzz_target;
@@ -37,7 +39,10 @@ static OD: ObjectDictionary = ObjectDictionary::new(&[
         0x2000,
         "U16",
         &[EntryDesc::new(0, "U16", DataType::Unsigned16, Access::RW)
-            .with_range(Value::Int(1), Value::Int(999))
+            .with_range(&ValueRange {
+ min: Value::Int(1),
+ max: Value::Int(999),
+ })
             .with_default(Value::Int(5))],
     ),
     ObjectDesc::var(

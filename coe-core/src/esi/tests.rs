@@ -8,7 +8,7 @@ use crate::device::{
     CoeDetails, DcDesc, DcOpMode, DescErrorKind, EepromDesc, FmmuUsage, Identity, MailboxDesc,
     MemoryWindow, Names, PortType, SmRole, SyncManagerDesc,
 };
-use crate::od::{ObjectDictionary, OdErrorKind};
+use crate::od::{ObjectDictionary, OdErrorKind, ValueRange};
 use roxmltree::{Document, Node};
 use std::boxed::Box;
 use std::path::PathBuf;
@@ -171,13 +171,19 @@ fn objects() -> Vec<ObjectDesc> {
                 EntryDesc::count(3),
                 EntryDesc::new(1, "Filter", U8, RW.backup().settings())
                     .with_default(Value::Uint(1))
-                    .with_range(Value::Uint(0), Value::Uint(3)),
+                    .with_range(&ValueRange {
+                        min: Value::Uint(0),
+                        max: Value::Uint(3),
+                    }),
                 EntryDesc::new(2, "Full scale", U32, RO)
                     .with_default(Value::Uint(10_000_000))
                     .with_unit(0x0026),
                 EntryDesc::new(3, "Offset", DataType::Integer16, Access::RW_PREOP_SAFEOP)
                     .with_default(Value::Int(-2))
-                    .with_range(Value::Int(-100), Value::Int(100)),
+                    .with_range(&ValueRange {
+                        min: Value::Int(-100),
+                        max: Value::Int(100),
+                    }),
             ]),
         ),
         ObjectDesc::var(
@@ -206,7 +212,10 @@ fn objects() -> Vec<ObjectDesc> {
             "Gain",
             leak(vec![EntryDesc::new(0, "Gain", DataType::Real32, RW)
                 .with_default(Value::Real(1.5))
-                .with_range(Value::Real(0.0), Value::Real(4.0))]),
+                .with_range(&ValueRange {
+                    min: Value::Real(0.0),
+                    max: Value::Real(4.0),
+                })]),
         ),
         ObjectDesc::var(
             0x2004,
@@ -489,7 +498,7 @@ fn raw_default(object: &ObjectDesc, sub: u8) -> Option<u32> {
         .entries
         .iter()
         .find(|e| e.subindex == sub)
-        .and_then(|e| e.default.as_i128())
+        .and_then(|e| e.default().as_i128())
         .map(|v| v as u32)
 }
 
@@ -515,7 +524,7 @@ fn check_info(info: Option<Node<'_, '_>>, e: &EntryDesc, what: &str) {
         info.and_then(|i| opt_child(i, name))
             .map(|n| text(n).to_string())
     };
-    match (e.data_type, e.default) {
+    match (e.data_type, e.default()) {
         (DataType::VisibleString, Value::Str(s)) => {
             assert_eq!(
                 find("DefaultString").as_deref(),
@@ -526,9 +535,9 @@ fn check_info(info: Option<Node<'_, '_>>, e: &EntryDesc, what: &str) {
         }
         _ => {
             for (tag, value) in [
-                ("DefaultData", &e.default),
-                ("MinData", &e.min),
-                ("MaxData", &e.max),
+                ("DefaultData", &e.default()),
+                ("MinData", &e.min()),
+                ("MaxData", &e.max()),
             ] {
                 assert_eq!(
                     find(tag).map(|t| hex_bytes(&t)),
@@ -540,7 +549,7 @@ fn check_info(info: Option<Node<'_, '_>>, e: &EntryDesc, what: &str) {
     }
     assert_eq!(
         find("Unit").map(|u| hexdec(&u) as u16),
-        e.unit,
+        e.unit(),
         "{what} Unit"
     );
 }

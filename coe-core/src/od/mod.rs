@@ -40,6 +40,12 @@ use core::fmt;
 
 /// One entry (subindex) of an object: type, length, access, limits and the name the SDO
 /// Information service and the ESI file show.
+///
+/// The layout is kept small because the firmware's dictionary lives in a 32 KB flash: the
+/// default is stored in a 4-byte-aligned packed form and minimum/maximum sit behind one
+/// optional reference (most entries have none), so an entry takes 40 bytes on a 32-bit
+/// target instead of 72. Read them through [`EntryDesc::default`], [`EntryDesc::min`],
+/// [`EntryDesc::max`] and [`EntryDesc::unit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EntryDesc {
@@ -54,15 +60,89 @@ pub struct EntryDesc {
     pub bit_len: u16,
     /// Access rights and PDO/backup/settings flags.
     pub access: Access,
-    /// Unit type, if any: the UNSIGNED16 the SDO Information entry description carries
-    /// with value info 0x08 (see [`crate::wire::sdo_info::UNIT_TYPE_LEN`] for the size).
-    pub unit: Option<u16>,
-    /// Default value (ESI `DefaultValue`, SDO Information value info 0x10).
-    pub default: Value,
-    /// Minimum value (ESI `MinValue`, value info 0x20); writes below it are refused.
+    /// Unit type, if any (see [`EntryDesc::unit`]).
+    unit: Option<u16>,
+    /// Default value (see [`EntryDesc::default`]).
+    default: PackedValue,
+    /// Minimum and maximum, if limited (see [`EntryDesc::range`]).
+    range: Option<&'static ValueRange>,
+}
+
+// The firmware's dictionary sits in a 32 KB flash: an entry stays at 40 bytes on a 32-bit
+// target (checked when building for one).
+#[cfg(target_pointer_width = "32")]
+const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 40);
+
+/// The minimum and maximum of an entry (ESI `MinValue`/`MaxValue`, SDO Information value
+/// info 0x20/0x40); writes outside them are refused. Given by reference so that entries
+/// without limits (most of them) do not carry two empty values:
+/// `.with_range(&ValueRange { min: Value::Int(0), max: Value::Int(10) })`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ValueRange {
+    /// Minimum value; [`Value::None`] for no lower limit.
     pub min: Value,
-    /// Maximum value (ESI `MaxValue`, value info 0x40); writes above it are refused.
+    /// Maximum value; [`Value::None`] for no upper limit.
     pub max: Value,
+}
+
+impl ValueRange {
+    /// A range from `min` to `max` (both inclusive).
+    pub const fn new(min: Value, max: Value) -> Self {
+        Self { min, max }
+    }
+}
+
+/// A [`Value`] as stored in an [`EntryDesc`]: 64-bit numbers as two 32-bit halves, so the
+/// entry needs only 4-byte alignment (an `i64`/`f64` payload forces 8-byte alignment and
+/// padding on Cortex-M). Converted losslessly both ways.
+#[derive(Debug, Clone, Copy)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum PackedValue {
+    None,
+    Int([u32; 2]),
+    Uint([u32; 2]),
+    Real([u32; 2]),
+    Str(&'static str),
+    Bytes(&'static [u8]),
+}
+
+impl PackedValue {
+    const fn split(bits: u64) -> [u32; 2] {
+        [bits as u32, (bits >> 32) as u32]
+    }
+
+    const fn join(halves: [u32; 2]) -> u64 {
+        halves[0] as u64 | (halves[1] as u64) << 32
+    }
+
+    const fn pack(value: Value) -> Self {
+        match value {
+            Value::None => Self::None,
+            Value::Int(v) => Self::Int(Self::split(v as u64)),
+            Value::Uint(v) => Self::Uint(Self::split(v)),
+            Value::Real(v) => Self::Real(Self::split(v.to_bits())),
+            Value::Str(s) => Self::Str(s),
+            Value::Bytes(b) => Self::Bytes(b),
+        }
+    }
+
+    const fn unpack(self) -> Value {
+        match self {
+            Self::None => Value::None,
+            Self::Int(h) => Value::Int(Self::join(h) as i64),
+            Self::Uint(h) => Value::Uint(Self::join(h)),
+            Self::Real(h) => Value::Real(f64::from_bits(Self::join(h))),
+            Self::Str(s) => Value::Str(s),
+            Self::Bytes(b) => Value::Bytes(b),
+        }
+    }
+}
+
+impl PartialEq for PackedValue {
+    fn eq(&self, other: &Self) -> bool {
+        self.unpack() == other.unpack()
+    }
 }
 
 impl EntryDesc {
@@ -84,9 +164,8 @@ impl EntryDesc {
             bit_len,
             access,
             unit: None,
-            default: Value::None,
-            min: Value::None,
-            max: Value::None,
+            default: PackedValue::None,
+            range: None,
         }
     }
 
@@ -123,15 +202,47 @@ impl EntryDesc {
 
     /// Sets the default value.
     pub const fn with_default(mut self, default: Value) -> Self {
-        self.default = default;
+        self.default = PackedValue::pack(default);
         self
     }
 
-    /// Sets minimum and maximum.
-    pub const fn with_range(mut self, min: Value, max: Value) -> Self {
-        self.min = min;
-        self.max = max;
+    /// Sets minimum and maximum (a `&ValueRange { .. }` literal is promoted to a constant).
+    pub const fn with_range(mut self, range: &'static ValueRange) -> Self {
+        self.range = Some(range);
         self
+    }
+
+    /// Default value (ESI `DefaultValue`, SDO Information value info 0x10), or
+    /// [`Value::None`].
+    pub const fn default(&self) -> Value {
+        self.default.unpack()
+    }
+
+    /// Minimum and maximum, if the entry has limits.
+    pub const fn range(&self) -> Option<&'static ValueRange> {
+        self.range
+    }
+
+    /// Minimum value (ESI `MinValue`, value info 0x20), or [`Value::None`].
+    pub const fn min(&self) -> Value {
+        match self.range {
+            Some(r) => r.min,
+            None => Value::None,
+        }
+    }
+
+    /// Maximum value (ESI `MaxValue`, value info 0x40), or [`Value::None`].
+    pub const fn max(&self) -> Value {
+        match self.range {
+            Some(r) => r.max,
+            None => Value::None,
+        }
+    }
+
+    /// Unit type, if any: the UNSIGNED16 the SDO Information entry description carries
+    /// with value info 0x08 (see [`crate::wire::sdo_info::UNIT_TYPE_LEN`] for the size).
+    pub const fn unit(&self) -> Option<u16> {
+        self.unit
     }
 
     /// Sets the unit type.
@@ -149,7 +260,10 @@ impl EntryDesc {
     /// Checks `bytes` (a value to be written) against `min`/`max`
     /// (0x06090031 ValueTooHigh / 0x06090032 ValueTooLow).
     pub fn check_range(&self, bytes: &[u8]) -> Result<(), SdoAbortCode> {
-        value::check_range(self.data_type, self.bit_len, &self.min, &self.max, bytes)
+        match self.range {
+            Some(r) => value::check_range(self.data_type, self.bit_len, &r.min, &r.max, bytes),
+            None => Ok(()),
+        }
     }
 
     /// Value info bits of the SDO Information entry description this entry can fill:
@@ -159,13 +273,13 @@ impl EntryDesc {
         if self.unit.is_some() {
             info |= ValueInfo::UNIT_TYPE;
         }
-        if self.default.is_some() {
+        if self.default().is_some() {
             info |= ValueInfo::DEFAULT;
         }
-        if self.min.is_some() {
+        if self.min().is_some() {
             info |= ValueInfo::MINIMUM;
         }
-        if self.max.is_some() {
+        if self.max().is_some() {
             info |= ValueInfo::MAXIMUM;
         }
         info
@@ -454,46 +568,44 @@ const fn validate_entry(entry: &EntryDesc) -> Result<(), OdErrorKind> {
     if (entry.access.is_rx_mappable() || entry.access.is_tx_mappable()) && !t.is_pdo_mappable() {
         return Err(OdErrorKind::NotMappableType);
     }
-    if !value_fits(entry, &entry.default)
-        || !value_fits(entry, &entry.min)
-        || !value_fits(entry, &entry.max)
-    {
+    let (default, min, max) = (entry.default(), entry.min(), entry.max());
+    if !value_fits(entry, &default) || !value_fits(entry, &min) || !value_fits(entry, &max) {
         return Err(OdErrorKind::ValueDoesNotFitType);
     }
     // Order of min, default, max.
-    match (entry.min, entry.max) {
+    match (min, max) {
         (Value::Real(lo), Value::Real(hi)) => {
             if lo > hi {
                 return Err(OdErrorKind::MinGreaterThanMax);
             }
         }
         _ => {
-            if let (Some(lo), Some(hi)) = (entry.min.as_i128(), entry.max.as_i128()) {
+            if let (Some(lo), Some(hi)) = (min.as_i128(), max.as_i128()) {
                 if lo > hi {
                     return Err(OdErrorKind::MinGreaterThanMax);
                 }
             }
         }
     }
-    if let Some(d) = entry.default.as_i128() {
-        if let Some(lo) = entry.min.as_i128() {
+    if let Some(d) = default.as_i128() {
+        if let Some(lo) = min.as_i128() {
             if d < lo {
                 return Err(OdErrorKind::DefaultOutOfRange);
             }
         }
-        if let Some(hi) = entry.max.as_i128() {
+        if let Some(hi) = max.as_i128() {
             if d > hi {
                 return Err(OdErrorKind::DefaultOutOfRange);
             }
         }
     }
-    if let Value::Real(d) = entry.default {
-        if let Value::Real(lo) = entry.min {
+    if let Value::Real(d) = default {
+        if let Value::Real(lo) = min {
             if d < lo {
                 return Err(OdErrorKind::DefaultOutOfRange);
             }
         }
-        if let Value::Real(hi) = entry.max {
+        if let Value::Real(hi) = max {
             if d > hi {
                 return Err(OdErrorKind::DefaultOutOfRange);
             }

@@ -78,12 +78,12 @@ impl<const N: usize> OdStore<N> {
                     if entry.data_type.is_variable_length() {
                         let (head, body) = slot.split_at_mut(2);
                         let n = entry
-                            .default
+                            .default()
                             .encode(entry.data_type, entry.bit_len, body)
                             .unwrap_or(0);
                         head.copy_from_slice(&(n as u16).to_le_bytes());
                     } else {
-                        let _ = entry.default.encode(entry.data_type, entry.bit_len, slot);
+                        let _ = entry.default().encode(entry.data_type, entry.bit_len, slot);
                     }
                 }
                 offset += len;

@@ -36,7 +36,10 @@ static OD: ObjectDictionary = ObjectDictionary::new(&[
                 DataType::Integer16,
                 Access::RW.rx_mappable(),
             )
-            .with_range(Value::Int(-1000), Value::Int(1000)),
+            .with_range(&ValueRange {
+                min: Value::Int(-1000),
+                max: Value::Int(1000),
+            }),
             EntryDesc::new(
                 2,
                 "Channel 2",
@@ -178,7 +181,10 @@ fn validate_rejects_bad_tables() {
         check!(&[ObjectDesc::var(
             2,
             "a",
-            &[U8.with_range(Value::Int(10), Value::Int(5))]
+            &[U8.with_range(&ValueRange {
+                min: Value::Int(10),
+                max: Value::Int(5),
+            })]
         )]),
         Err(OdErrorKind::MinGreaterThanMax)
     );
@@ -186,8 +192,11 @@ fn validate_rejects_bad_tables() {
         check!(&[ObjectDesc::var(
             2,
             "a",
-            &[U8.with_range(Value::Int(1), Value::Int(5))
-                .with_default(Value::Int(6))]
+            &[U8.with_range(&ValueRange {
+                min: Value::Int(1),
+                max: Value::Int(5),
+            })
+            .with_default(Value::Int(6))]
         )]),
         Err(OdErrorKind::DefaultOutOfRange)
     );
@@ -252,4 +261,38 @@ fn store_defaults_and_writes() {
         OdStore::<8>::new(OD).err(),
         Some(StoreError::TooSmall { needed: 23 })
     );
+}
+
+#[test]
+fn default_and_range_read_back_unchanged() {
+    let values = [
+        Value::None,
+        Value::Int(i64::MIN),
+        Value::Int(-2),
+        Value::Uint(u64::MAX),
+        Value::Uint(0x1234_5678_9ABC_DEF0),
+        Value::Real(-1.5e300),
+        Value::Real(f64::MIN_POSITIVE),
+        Value::Str("DAC"),
+        Value::Bytes(&[1, 2, 3]),
+    ];
+    let base = EntryDesc::new(1, "x", DataType::Unsigned64, Access::RW);
+    for v in values {
+        assert_eq!(base.with_default(v).default(), v, "{v:?}");
+    }
+    assert_eq!(
+        (base.min(), base.max(), base.range()),
+        (Value::None, Value::None, None)
+    );
+    static RANGE: ValueRange = ValueRange::new(Value::Int(-3), Value::Uint(7));
+    let limited = base.with_range(&RANGE);
+    assert_eq!(
+        (limited.min(), limited.max()),
+        (Value::Int(-3), Value::Uint(7))
+    );
+    assert_eq!(
+        limited.value_info(),
+        ValueInfo::MINIMUM | ValueInfo::MAXIMUM
+    );
+    assert_eq!(base.with_unit(0x26).unit(), Some(0x26));
 }

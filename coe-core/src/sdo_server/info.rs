@@ -171,17 +171,17 @@ fn generate(
                 data_type: entry.data_type,
                 bit_length: entry.bit_len,
                 access: entry.access,
-                unit_type: entry.unit.unwrap_or(0),
+                unit_type: entry.unit().unwrap_or(0),
             }
             .write(
                 w,
                 |which, w| {
                     let value = match which {
-                        EntryValue::Default => &entry.default,
-                        EntryValue::Minimum => &entry.min,
-                        EntryValue::Maximum => &entry.max,
+                        EntryValue::Default => entry.default(),
+                        EntryValue::Minimum => entry.min(),
+                        EntryValue::Maximum => entry.max(),
                     };
-                    push_value(w, entry, value);
+                    push_value(w, entry, &value);
                 },
                 entry.name.as_bytes(),
             );

@@ -5,6 +5,7 @@
 use coe_core::esm::AlState;
 use coe_core::od::{
     Access, DataType, EntryDesc, ObjectAccess, ObjectDesc, ObjectDictionary, OdStore, Value,
+    ValueRange,
 };
 use coe_core::pdo::{PdoAssignment, PdoEntry, PdoMapping};
 use coe_core::sdo_server::{Reply, SdoServer};
@@ -81,7 +82,10 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         "U16 ranged",
         &[
             EntryDesc::new(0, "U16 ranged", DataType::Unsigned16, Access::RW.backup())
-                .with_range(Value::Int(10), Value::Int(1000))
+                .with_range(&ValueRange {
+                    min: Value::Int(10),
+                    max: Value::Int(1000),
+                })
                 .with_default(Value::Int(100))
                 .with_unit(0x0026),
         ],
@@ -100,8 +104,12 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         0x2003,
         "I16 ranged",
         &[
-            EntryDesc::new(0, "I16 ranged", DataType::Integer16, Access::RW)
-                .with_range(Value::Int(-100), Value::Int(100)),
+            EntryDesc::new(0, "I16 ranged", DataType::Integer16, Access::RW).with_range(
+                &ValueRange {
+                    min: Value::Int(-100),
+                    max: Value::Int(100),
+                },
+            ),
         ],
     ),
     ObjectDesc::var(

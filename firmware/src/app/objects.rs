@@ -90,7 +90,7 @@ impl AppData {
         let (_, entry) = self.od.entry(index, sub)?;
         let len = entry.byte_len();
         let written = entry
-            .default
+            .default()
             .encode(entry.data_type, entry.bit_len, buf)
             .ok_or(SdoAbortCode::OutOfMemory)?;
         if written == 0 && !entry.data_type.is_variable_length() {

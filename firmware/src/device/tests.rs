@@ -5,7 +5,7 @@ use coe_core::od::{ObjectDictionary, Value};
 use std::vec::Vec;
 
 fn default_of(od: &ObjectDictionary, index: u16, sub: u8) -> Value {
-    od.entry(index, sub).expect("entry exists").1.default
+    od.entry(index, sub).expect("entry exists").1.default()
 }
 
 #[test]
