@@ -38,6 +38,7 @@
 pub mod adc_scan;
 pub mod dac;
 pub mod diagnostics;
+pub mod div;
 pub mod esc;
 pub mod mailbox;
 pub mod objects;
@@ -495,7 +496,8 @@ impl SlaveApp {
     ) -> Result<(), E::Error> {
         let state = self.esm.state();
         let od = self.data.od();
-        let now_ms = (now_ns / 1_000_000) as u32;
+        // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
+        let now_ms = div::div_u64_u32(now_ns >> 6, 15_625) as u32;
         self.mailbox
             .service(esc, state, od, &mut self.data, now_ms, check_repeat)?;
         if let Some(values) = self.data.take_ao_written() {

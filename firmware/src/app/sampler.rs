@@ -21,6 +21,7 @@
 //! cycle). A channel without a new sample keeps its previous value. Scaling to INTEGER16 and
 //! volts: [`crate::app::scaling`].
 
+use super::div::div_u64_u32;
 use super::scaling::adc_code_to_ai;
 use core::sync::atomic::{AtomicU32, Ordering};
 use heapless::spsc::{Consumer, Producer, Queue};
@@ -244,9 +245,9 @@ impl Sampler {
             ch.published = match mode {
                 PublishMode::Latest => ch.latest,
                 PublishMode::Average => {
-                    let n = u64::from(ch.count);
-                    let mean = (ch.sum + n / 2) / n;
-                    u16::try_from(mean).unwrap_or(u16::MAX)
+                    let n = ch.count;
+                    let rounded = ch.sum.saturating_add(u64::from(n / 2));
+                    u16::try_from(div_u64_u32(rounded, n)).unwrap_or(u16::MAX)
                 }
             };
             ch.sum = 0;

@@ -9,6 +9,7 @@
 //! from the 4 MHz IRC (M = 75, N = 2, FCCO = 300 MHz, CCLKCFG = 2 -> 100 MHz, +-1 %); without
 //! lock the CPU stays on the IRC and the error is returned.
 
+use firmware::app::div::div_u64_u32;
 use lpc17xx_pac as pac;
 
 /// The CPU clock this module configures.
@@ -38,9 +39,10 @@ const CCLKCFG_IRC: u32 = 2; // 300 / 3 = 100 MHz
 /// N - 1 in bits 23:16) and a CCLKCFG value: FCCO = 2 * M * Fin / N, CCLK = FCCO / (CCLKCFG + 1).
 const fn pll0_cclk_hz(fin_hz: u32, cfg: u32, cclkcfg: u32) -> u32 {
     let m = (cfg & 0x7FFF) as u64 + 1;
-    let n = ((cfg >> 16) & 0xFF) as u64 + 1;
-    let div = (cclkcfg & 0xFF) as u64 + 1;
-    (2 * m * fin_hz as u64 / n / div) as u32
+    let n = ((cfg >> 16) & 0xFF) + 1;
+    let div = (cclkcfg & 0xFF) + 1;
+    // floor(floor(x / n) / div) == floor(x / (n * div)); n * div <= 2^16.
+    div_u64_u32(2 * m * fin_hz as u64, n * div) as u32
 }
 
 /// FCCO of a configuration (must be 275..=550 MHz, UM10360 4.5.10).
