@@ -1,105 +1,37 @@
 //! The firmware's own slave application ([`firmware::app::SlaveApp`]) running on the
-//! board's models, with its interrupts in priority order on virtual time:
+//! board's models through the real driver crates, with its interrupts in priority order on
+//! virtual time:
 //!
 //! | board event        | firmware task (priority)  | here                                         |
 //! |--------------------|---------------------------|----------------------------------------------|
-//! | SYNC0 edge         | DAC task (highest)        | [`DacLatch::on_sync0`] -> AD5663 frames / LDAC |
+//! | SYNC0 edge         | DAC task (highest)        | [`DacLatch::on_sync0`] -> `ad5663` (LDAC pulse or two frames) |
 //! | ESC IRQ line       | PDI task (middle)         | [`SlaveApp::on_pdi_irq`], then the DAC task if pended |
 //! | after every event  | PDI task background       | [`SlaveApp::poll`]                           |
-//! | ADC timer (4 us)   | CNV timer + DMA (hardware)| one AD7689 frame, the sample queued for the PDI task |
+//! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
 //!
-//! The application talks to the ESC through [`SpiEscPort`], which speaks the ET1100 SPI
-//! protocol to the byte-exact SPI model ([`EscSpi`]); the DAC task writes 24-bit AD5663
-//! frames and pulses LDAC; the sampler clocks 16-bit AD7689 frames. (These three adapters
-//! stand in for the `et1100`, `ad5663` and `ad7689` driver crates until those land; they
-//! are deliberately thin and byte-exact so swapping the real drivers in changes no
-//! behaviour the master can see.)
+//! The drivers are the ones the board runs:
+//! - ESC: `et1100::Et1100<SpiPdi<EscSpi>>`, the application's `EscPort` through the
+//!   firmware's own impl (`firmware/src/app/esc/driver.rs`), over the byte-exact SPI model.
+//! - DAC: `ad5663::Ad5663` on the DAC model's SPI port with the LDAC pin model.
+//! - ADC: `ad7689::Ad7689` (read after conversion, CNV = chip select) on the ADC model; the
+//!   driver tracks the CFG pipeline and tags every sample with its channel.
 //!
-//! DC mode uses the fast path of the brief: when new outputs arrive, the DAC task preloads
+//! DC mode uses the fast path of the brief: when new outputs arrive, the DAC task stages
 //! both input registers (LDAC register 0: nothing changes), and the SYNC0 task only
 //! pulses LDAC, so both channels change together at the edge.
 
+use crate::adc::AdcSpi;
 use crate::board::{BoardIo, PdiCpu};
+use crate::dac::{DacSpi, LdacPin};
 use crate::esc::SyncEdge;
 use crate::spi::EscSpi;
-use embedded_hal::digital::OutputPin;
-use embedded_hal::spi::{Operation, SpiDevice};
-use firmware::app::esc::EscPort;
-use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
+use ad5663::{Ad5663, Channel, LdacMask, PowerMode};
+use ad7689::{Ad7689, Config, Reference, Sequencer};
+use et1100::{Et1100, SpiPdi};
+use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
 use firmware::app::process_data::ProcessData;
 use firmware::app::sampler::Sample;
 use firmware::app::{AppConfig, PdiOutcome, SlaveApp};
-use std::convert::Infallible;
-
-/// ET1100 SPI commands (hardware-facts 1.2).
-mod cmd {
-    pub const READ_WAIT: u8 = 0b011;
-    pub const WRITE: u8 = 0b100;
-    pub const ADDR_EXT: u8 = 0b110;
-}
-
-/// The application's [`EscPort`] over the ET1100 SPI protocol: read with a wait state and
-/// 0xFF termination, write; 2-byte addressing below 0x2000, 3-byte above. Every access
-/// returns the AL event bits shifted out during its address phase.
-pub struct SpiEscPort {
-    spi: EscSpi,
-}
-
-impl SpiEscPort {
-    /// A port on the board's ESC SPI.
-    pub fn new(spi: EscSpi) -> Self {
-        Self { spi }
-    }
-
-    fn header(addr: u16, command: u8) -> Vec<u8> {
-        if addr < 0x2000 {
-            vec![(addr >> 5) as u8, ((addr & 0x1F) << 3) as u8 | command]
-        } else {
-            vec![
-                (addr >> 5) as u8,
-                ((addr & 0x1F) << 3) as u8 | cmd::ADDR_EXT,
-                ((addr >> 13) << 5) as u8 | command << 2,
-            ]
-        }
-    }
-
-    fn events(miso: &[u8]) -> u32 {
-        miso.iter()
-            .enumerate()
-            .fold(0u32, |acc, (i, &b)| acc | (b as u32) << (8 * i))
-    }
-}
-
-impl EscPort for SpiEscPort {
-    type Error = Infallible;
-
-    fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<u32, Infallible> {
-        let mut hdr = Self::header(addr, cmd::READ_WAIT);
-        hdr.push(0xFF); // wait state
-        let mut ev = vec![0u8; hdr.len()];
-        if buf.is_empty() {
-            self.spi
-                .transaction(&mut [Operation::Transfer(&mut ev, &hdr)])?;
-        } else {
-            let mut mosi = vec![0u8; buf.len()];
-            *mosi.last_mut().unwrap_or(&mut 0) = 0xFF;
-            self.spi.transaction(&mut [
-                Operation::Transfer(&mut ev, &hdr),
-                Operation::Transfer(buf, &mosi),
-            ])?;
-        }
-        let n = ev.len() - 1;
-        Ok(Self::events(&ev[..n]))
-    }
-
-    fn write(&mut self, addr: u16, data: &[u8]) -> Result<u32, Infallible> {
-        let hdr = Self::header(addr, cmd::WRITE);
-        let mut ev = vec![0u8; hdr.len()];
-        self.spi
-            .transaction(&mut [Operation::Transfer(&mut ev, &hdr), Operation::Write(data)])?;
-        Ok(Self::events(&ev))
-    }
-}
 
 /// What the device description gives the firmware: the object dictionary, the SyncManager
 /// expectations, the default PDO configuration and the SII image.
@@ -118,8 +50,21 @@ pub struct Device {
 }
 
 /// AD7689 CFG: overwrite, unipolar to GND (INCC 111), scan IN0..IN7 (INx 7, SEQ 11: no
-/// temperature), full bandwidth, external reference, no readback.
-pub const ADC_SCAN_CFG: u16 = 0x3FFF;
+/// temperature), full bandwidth, external reference with buffer, no readback: CFG 0x3FFF,
+/// the firmware's `ADC_SCAN_CFG` (firmware/src/hw/timers.rs).
+pub const ADC_SCAN: Config = Config::new()
+    .channel(7)
+    .reference(Reference::ExternalBuffer)
+    .sequencer(Sequencer::Scan);
+
+/// Frames after power-up whose results are discarded: two carry the CFG, the third may
+/// still hold a conversion under the power-up CFG (as `Ad7689::start` does it).
+const ADC_START_FRAMES: u64 = 3;
+
+/// The ESC as the application sees it.
+type Esc = Et1100<SpiPdi<EscSpi>>;
+/// The DAC with its LDAC pin.
+type Dac = Ad5663<DacSpi, ad5663::ic::Ad5663, LdacPin>;
 
 /// Counters of the harness.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -128,20 +73,23 @@ pub struct FirmwareStats {
     pub adc_frames: u64,
     /// Samples handed to the application.
     pub samples: u64,
-    /// AD5663 frames written.
+    /// AD5663 commands sent (one 24-bit frame each).
     pub dac_frames: u64,
     /// LDAC pulses.
     pub ldac_pulses: u64,
-    /// DAC actions by kind: (keep, pulse LDAC, write and update, apply now).
+    /// SYNC0 edges that changed the outputs.
     pub sync0_pulses: u64,
     /// SYNC0 edges that kept the outputs (no fresh pair).
     pub sync0_keep: u64,
+    /// Driver errors (ESC, DAC or ADC); none are expected on the models.
+    pub driver_errors: u64,
 }
 
 /// The firmware's slave application as the board's PDI-side CPU.
 pub struct FirmwareCpu {
-    esc: SpiEscPort,
-    io: BoardIo,
+    esc: Esc,
+    dac: Dac,
+    adc: Ad7689<AdcSpi>,
     app: SlaveApp,
     stage: OutputStage,
     latch: DacLatch,
@@ -153,27 +101,35 @@ pub struct FirmwareCpu {
 }
 
 impl FirmwareCpu {
-    /// Power-up: the application starts (AL status INIT, event mask), the DAC's LDAC
-    /// register is cleared (LDAC pin controls both channels), the ADC gets its scan CFG
-    /// and its conversion timer runs at `adc_period_ns` (4000 = 250 kSPS).
+    /// Power-up: the application starts (AL status INIT, event mask), the DAC gets both
+    /// channels powered and LDAC register 0 (the LDAC pin controls both channels), and the
+    /// ADC's conversion timer runs at `adc_period_ns` (4000 = 250 kSPS); its first two
+    /// frames write the scan CFG.
     pub fn new(io: BoardIo, device: &Device, adc_period_ns: u64) -> Self {
-        let mut esc = SpiEscPort::new(io.esc.clone());
+        let mut esc = Et1100::new(SpiPdi::new(io.esc.clone()));
         let mut app = SlaveApp::new(device.od, device.config, device.process_data.clone());
-        let _ = app.start(&mut esc);
+        let started = app.start(&mut esc).is_ok();
+        let Ok(dac) = Ad5663::new_ad5663(io.dac.clone()).with_ldac(io.ldac.clone());
         let mut cpu = Self {
             esc,
-            io,
+            dac,
+            adc: Ad7689::new(io.adc.clone()),
             app,
             stage: OutputStage::new(),
             latch: DacLatch::new(),
             pending: Vec::new(),
             adc_period_ns: adc_period_ns.max(1),
-            next_cnv_ns: 0,
+            next_cnv_ns: io.now_ns() + adc_period_ns.max(1),
             stats: FirmwareStats::default(),
         };
-        cpu.dac_frame(0b110, 0b000, 0x0000);
-        cpu.next_cnv_ns = cpu.io.now_ns() + cpu.adc_period_ns;
-        cpu.adc_frame(Some(ADC_SCAN_CFG));
+        cpu.count(started);
+        let ok = cpu
+            .dac
+            .set_power_mode(Channel::Both, PowerMode::Normal)
+            .is_ok()
+            && cpu.dac.set_ldac_mask(LdacMask::None).is_ok();
+        cpu.stats.dac_frames += 2;
+        cpu.count(ok);
         cpu
     }
 
@@ -187,30 +143,26 @@ impl FirmwareCpu {
         &self.stage
     }
 
-    fn dac_frame(&mut self, command: u8, address: u8, data: u16) {
-        let b = [command << 3 | address, (data >> 8) as u8, data as u8];
-        let _ = self.io.dac.transaction(&mut [Operation::Write(&b)]);
-        self.stats.dac_frames += 1;
-    }
-
-    fn execute(&mut self, action: DacAction) {
-        match action {
-            DacAction::Keep => {}
-            DacAction::PulseLdac(_) => {
-                let _ = self.io.ldac.set_low();
-                let _ = self.io.ldac.set_high();
-                self.stats.ldac_pulses += 1;
-            }
-            DacAction::WriteAndUpdate(p) => {
-                self.write_inputs(p, true);
-            }
+    fn count(&mut self, ok: bool) {
+        if !ok {
+            self.stats.driver_errors += 1;
         }
     }
 
-    /// Writes both input registers; `update`: the second write updates all (command 010).
-    fn write_inputs(&mut self, p: DacPair, update: bool) {
-        self.dac_frame(0b000, 0b000, p.a);
-        self.dac_frame(if update { 0b010 } else { 0b000 }, 0b001, p.b);
+    /// Carries out the DAC task's action with the driver.
+    fn execute(&mut self, action: DacAction) {
+        let ok = match action {
+            DacAction::Keep => true,
+            DacAction::PulseLdac(_) => {
+                self.stats.ldac_pulses += 1;
+                self.dac.pulse_ldac().is_ok()
+            }
+            DacAction::WriteAndUpdate(p) => {
+                self.stats.dac_frames += 2;
+                self.dac.write_both_simultaneous(p.a, p.b).is_ok()
+            }
+        };
+        self.count(ok);
     }
 
     /// The DAC task, pended by the PDI task.
@@ -221,22 +173,11 @@ impl FirmwareCpu {
         }
         if self.stage.dc_mode() {
             if let Some(p) = self.latch.preload(&self.stage) {
-                self.write_inputs(p, false);
+                self.stats.dac_frames += 2;
+                let ok = self.dac.stage_both(p.a, p.b).is_ok();
+                self.count(ok);
             }
         }
-    }
-
-    /// One AD7689 frame (CNV low period); `cfg` is written when given. Returns the code.
-    fn adc_frame(&mut self, cfg: Option<u16>) -> u16 {
-        let w = cfg.map_or(0, |c| c << 2);
-        let mosi = [(w >> 8) as u8, w as u8];
-        let mut miso = [0u8; 2];
-        let _ = self
-            .io
-            .adc
-            .transaction(&mut [Operation::Transfer(&mut miso, &mosi)]);
-        self.stats.adc_frames += 1;
-        u16::from_be_bytes(miso)
     }
 
     fn drain_samples(&mut self) {
@@ -249,8 +190,7 @@ impl FirmwareCpu {
 }
 
 impl PdiCpu for FirmwareCpu {
-    fn on_sync0(&mut self, io: &mut BoardIo, edge: &SyncEdge) {
-        let _ = io;
+    fn on_sync0(&mut self, _io: &mut BoardIo, edge: &SyncEdge) {
         let a = self.latch.on_sync0(&self.stage, edge.time_ns);
         match a {
             DacAction::Keep => self.stats.sync0_keep += 1,
@@ -261,28 +201,54 @@ impl PdiCpu for FirmwareCpu {
 
     fn on_irq(&mut self, io: &mut BoardIo) {
         self.drain_samples();
-        let Ok(out) = self.app.on_pdi_irq(&mut self.esc, &self.stage, io.now_ns());
-        self.dac_task(out);
+        match self.app.on_pdi_irq(&mut self.esc, &self.stage, io.now_ns()) {
+            Ok(out) => self.dac_task(out),
+            Err(_) => self.stats.driver_errors += 1,
+        }
     }
 
     fn poll(&mut self, io: &mut BoardIo) {
         self.drain_samples();
-        let Ok(out) = self.app.poll(&mut self.esc, &self.stage, io.now_ns());
-        self.dac_task(out);
+        match self.app.poll(&mut self.esc, &self.stage, io.now_ns()) {
+            Ok(out) => self.dac_task(out),
+            Err(_) => self.stats.driver_errors += 1,
+        }
     }
 
     fn next_timer_ns(&self) -> Option<u64> {
         Some(self.next_cnv_ns)
     }
 
+    /// One CNV period: one AD7689 frame (the timer paces them at `adc_period_ns`, so the
+    /// driver's own `wait_ready` is not needed). The first frames run the driver's
+    /// start-up sequence; after that every result comes tagged with its input.
     fn on_timer(&mut self, io: &mut BoardIo) {
-        // Read-after-conversion: frame k >= 2 after the CFG frame (k = 0) returns the
-        // conversion of IN(k - 2) mod 8 (two power-up dummies first).
         let k = self.stats.adc_frames;
-        let code = self.adc_frame(None);
-        if k >= 2 {
-            self.pending.push(Sample::new(((k - 2) % 8) as u8, code));
+        self.stats.adc_frames += 1;
+        let result = if k < ADC_START_FRAMES - 1 {
+            self.adc.read_and_configure(ADC_SCAN)
+        } else {
+            self.adc.read()
+        };
+        match result {
+            Ok(Some(s)) if k >= ADC_START_FRAMES => {
+                if let Some(ch) = s.channel.input() {
+                    self.pending.push(Sample::new(ch, s.code));
+                }
+            }
+            Ok(_) => {}
+            Err(_) => self.stats.driver_errors += 1,
         }
         self.next_cnv_ns = io.now_ns().max(self.next_cnv_ns) + self.adc_period_ns;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scan_cfg_is_the_firmware_word() {
+        assert_eq!(ADC_SCAN.bits(), 0x3FFF);
     }
 }
