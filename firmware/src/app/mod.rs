@@ -181,7 +181,7 @@ impl SlaveApp {
         Ok(out)
     }
 
-    /// Background work: the cycle monitor (SYNC0 edges, SM-synchronous timeouts), the
+    /// Background work: the cycle monitor (missed SM events at the SYNC0 edges), the
     /// inputs outside SM-synchronous cycles, and the mailbox (waiting reply, SDO
     /// Information fragments, Emergencies, segmented-transfer timeouts).
     pub fn poll<E: EscPort + ?Sized>(
@@ -195,11 +195,7 @@ impl SlaveApp {
         let counts = stage.sync0_counts();
         let new_edge = counts.edges != self.sync0_seen;
         self.sync0_seen = counts.edges;
-        let mut verdict = self.data.sync.on_sync0_counts(counts);
-        if verdict == SyncVerdict::Ok {
-            verdict = self.data.sync.poll(now_ns);
-        }
-        if verdict == SyncVerdict::SyncError {
+        if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
             self.sync_error(esc, stage, &mut out)?;
         }
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {

@@ -21,11 +21,18 @@
 //! DC mode: a SYNC0 edge without fresh outputs since the previous edge is a missed SM event
 //! (0x1C32:0B); two SM2 events between edges count "cycle time too small" (0x0C); an SM2
 //! event later than the next SYNC0 minus the calc+copy time counts "shift too short" (0x0D).
-//! SM-synchronous mode: no SM2 event for more than 1.5 cycle times (0x1C32:02, if set) is a
-//! missed event; SM2 events closer than the minimum cycle time count "cycle time too
-//! small". The sync error counter (ETG.1020) goes up by 3 per missed event and down by 1 per
-//! good cycle; above 0x10F1:02 it raises the sync error (0x1C32:20 = TRUE), which the
-//! application answers with an Emergency, the error register and SAFEOP + 0x001A.
+//! The sync error counter (ETG.1020) goes up by 3 per missed event and down by 1 per good
+//! cycle; above 0x10F1:02 it raises the sync error (0x1C32:20 = TRUE), which the application
+//! answers with an Emergency, the error register and SAFEOP + 0x001A. So in DC mode a
+//! master that stops sending gives 0x001A a few cycles later, before the SM watchdog.
+//!
+//! SM-synchronous mode counts no missed events: there is no local time base to miss an
+//! event against, and 0x1C32:0B is "number of missed SM events in OPERATIONAL (DC mode
+//! only)" (Beckhoff's 0x1C32 object description after ETG.1020); the Beckhoff SSC likewise
+//! counts missed SM events only in its SYNC0 interrupt (ecatappl.c `Sync0_Isr`). A master
+//! that stops is caught by the ESC's SM watchdog: SAFEOP + 0x001B (ecatslv.c
+//! `CheckIfEcatError`, which also checks the watchdog before the sync error). SM2 events
+//! closer than the minimum cycle time count "cycle time too small".
 
 use super::outputs::Sync0Counts;
 use coe_core::{AlStatusCode, SdoAbortCode};
@@ -216,7 +223,6 @@ pub struct SyncMonitor {
     edges_at_sm2: Option<u32>,
     baseline: Sync0Counts,
     arm_edges: u32,
-    timeout_reported_ns: u64,
 }
 
 impl Default for SyncMonitor {
@@ -249,7 +255,6 @@ impl SyncMonitor {
                 last_edge_lo: 0,
             },
             arm_edges: 0,
-            timeout_reported_ns: 0,
         }
     }
 
@@ -463,23 +468,6 @@ impl SyncMonitor {
         }
         self.good(edges - without);
         self.missed(without)
-    }
-
-    /// Background check at `now_ns` (SM-synchronous mode: missing SM2 events).
-    pub fn poll(&mut self, now_ns: u64) -> SyncVerdict {
-        if self.mode != SyncMode::SmSync || !self.armed || self.cycle_time_ns == 0 {
-            return SyncVerdict::Ok;
-        }
-        let Some(last) = self.last_sm2_ns else {
-            return SyncVerdict::Ok;
-        };
-        let cycle = u64::from(self.cycle_time_ns);
-        let since = last.max(self.timeout_reported_ns);
-        if now_ns.saturating_sub(since) > cycle + cycle / 2 {
-            self.timeout_reported_ns = since.saturating_add(cycle);
-            return self.missed(1);
-        }
-        SyncVerdict::Ok
     }
 
     /// SDO upload of 0x1C32 (`inputs == false`) or 0x1C33 subindex `sub`.
@@ -773,23 +761,23 @@ mod tests {
     }
 
     #[test]
-    fn sm_sync_timeout_counts_missed_events() {
+    fn sm_sync_counts_no_missed_events() {
         let mut m = SyncMonitor::new();
         m.set_cycle_time_ns(1_000_000).unwrap();
         m.start(SyncMode::SmSync, 0);
         let c = Sync0Counts::default();
         m.on_sm2_event(0, true, c);
         m.on_sm2_event(1_000_000, true, c);
-        assert_eq!(m.poll(2_000_000), SyncVerdict::Ok);
-        assert_eq!(m.poll(2_600_000), SyncVerdict::Ok);
-        assert_eq!(m.sm_event_missed(), 1);
-        assert_eq!(m.poll(2_700_000), SyncVerdict::Ok, "one miss per cycle");
-        assert_eq!(m.sm_event_missed(), 1);
-        assert_eq!(m.poll(3_600_000), SyncVerdict::SyncError);
+        // A long gap (the master stopped for a while) is no missed event and no sync error:
+        // the SM watchdog reports a stopped master in this mode.
+        assert_eq!(m.on_sm2_event(900_000_000, true, c), SyncVerdict::Ok);
+        assert_eq!(m.on_sync0_counts(c), SyncVerdict::Ok);
+        assert_eq!((m.sm_event_missed(), m.error_counter()), (0, 0));
+        assert!(!m.sync_error());
         // Events too close together.
-        m.on_sm2_event(3_610_000, true, c);
-        m.on_sm2_event(3_620_000, true, c);
-        assert_eq!(m.cycle_too_small(), 1);
+        m.on_sm2_event(900_010_000, true, c);
+        m.on_sm2_event(900_020_000, true, c);
+        assert_eq!(m.cycle_too_small(), 2);
     }
 
     #[test]

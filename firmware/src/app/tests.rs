@@ -526,6 +526,28 @@ fn watchdog_faults_outputs_and_goes_to_safeop() {
     );
 }
 
+/// SM-synchronous mode with a cycle time set by the master (TwinCAT writes 0x1C32:02): a
+/// master that stops is no sync error; the SM watchdog reports it (0x001B), as in the SSC.
+#[test]
+fn sm_sync_stopped_master_is_a_watchdog_not_a_sync_error() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(4, 4);
+    assert_eq!(r.download(0x1C32, 2, &1_000_000u32.to_le_bytes()), Ok(()));
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(r.request(0x08), (0x08, 0));
+    r.outputs(0x100, 0x200);
+    // 20 ms without outputs: 20 cycles.
+    for _ in 0..2_000 {
+        r.poll();
+    }
+    assert_eq!(r.esc.al_status(), (0x08, 0));
+    assert_eq!(r.upload(0x1C32, 0x0B), Ok(vec![0, 0]));
+    r.esc.expire_watchdog();
+    r.irq();
+    assert_eq!(r.esc.al_status(), (0x14, 0x001B));
+}
+
 #[test]
 fn op_to_safeop_applies_fault_values() {
     let mut r = Rig::new();
