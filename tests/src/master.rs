@@ -13,14 +13,34 @@
 //! ```
 
 use crate::board::VirtualBoard;
-use ethercrab::{PduRx, PduTx};
+use ethercrab::{PduRx, PduTx, Timeouts};
 use std::cell::RefCell;
 use std::future::Future;
 use std::rc::Rc;
 use std::task::Poll;
+use std::time::Duration;
 
 /// A board shared between the rig and the test.
 pub type SharedBoard = Rc<RefCell<VirtualBoard>>;
+
+/// ethercrab's timeouts for a master driving a board in process.
+///
+/// ethercrab measures its timeouts on the wall clock, while the board runs on virtual time
+/// and answers every frame at once: a timeout can only fire when the test thread is not
+/// scheduled, which on a loaded CI machine happens for longer than ethercrab's defaults
+/// (10 ms for an EEPROM read, 30 ms for a PDU: seen as a spurious `Timeout(Eeprom)` in
+/// about 1 of 30 runs). Here they only guard against a hang, so they are generous. Nothing
+/// the board does depends on them.
+pub fn in_process_timeouts() -> Timeouts {
+    Timeouts {
+        state_transition: Duration::from_secs(10),
+        pdu: Duration::from_secs(2),
+        eeprom: Duration::from_secs(2),
+        wait_loop_delay: Duration::from_micros(100),
+        mailbox_echo: Duration::from_secs(2),
+        mailbox_response: Duration::from_secs(5),
+    }
+}
 
 /// Moves every sendable frame through the board and hands the reply back to ethercrab.
 /// Never completes: race it against the master's work (`futures_lite::future::or`).

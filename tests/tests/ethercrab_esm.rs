@@ -11,14 +11,14 @@ use coe_core::device::{
     MailboxProtocols, MemoryWindow, Names, PortType, SmRole, SyncManagerDesc,
 };
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value};
-use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage, Timeouts};
+use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage};
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Duration;
 use virtual_board::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
 use virtual_board::esc::regs;
-use virtual_board::master::tx_rx_task;
+use virtual_board::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::sim::firmware_device::sii_image;
 use virtual_board::spi::EscSpi;
 
@@ -238,14 +238,7 @@ fn ethercrab_init_to_op_with_process_data() {
     let (tx, rx, pdu_loop) = STORAGE.try_split().expect("split once");
     let md = MainDevice::new(
         pdu_loop,
-        Timeouts {
-            wait_loop_delay: Duration::from_micros(100),
-            state_transition: Duration::from_secs(2),
-            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); the
-            // in-process rig on a loaded host can need longer for the few frames of a read.
-            eeprom: Duration::from_millis(500),
-            ..Default::default()
-        },
+        in_process_timeouts(),
         MainDeviceConfig {
             dc_static_sync_iterations: 10,
             ..Default::default()
@@ -297,48 +290,7 @@ fn ethercrab_init_to_op_with_process_data() {
     let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("ethercrab-esm.pcap");
     pcap.save(&path).unwrap();
     eprintln!("pcap: {} frames -> {}", pcap.frames(), path.display());
-    check_with_tshark(&path);
-}
-
-/// Independent check: tshark decodes every frame as EtherCAT, none malformed.
-fn check_with_tshark(path: &std::path::Path) {
-    let run = |filter: &str| {
-        std::process::Command::new("tshark")
-            .args([
-                "-r",
-                path.to_str().unwrap(),
-                "-Y",
-                filter,
-                "-T",
-                "fields",
-                "-e",
-                "frame.number",
-            ])
-            .output()
-    };
-    let Ok(ecat) = run("ecat") else {
-        eprintln!("tshark not installed: skipping the pcap decode check");
-        return;
-    };
-    assert!(
-        ecat.status.success(),
-        "tshark failed: {}",
-        String::from_utf8_lossy(&ecat.stderr)
-    );
-    let decoded = String::from_utf8_lossy(&ecat.stdout).lines().count();
-    let malformed = run("_ws.malformed").unwrap();
-    let malformed = String::from_utf8_lossy(&malformed.stdout).lines().count();
-    eprintln!("tshark: {decoded} EtherCAT frames, {malformed} malformed");
-    assert!(
-        decoded > 100,
-        "tshark decoded only {decoded} EtherCAT frames"
-    );
-    assert_eq!(
-        malformed,
-        0,
-        "tshark found malformed frames in {}",
-        path.display()
-    );
+    virtual_board::sim::tshark::assert_clean(&path);
 }
 
 static STORAGE_DC: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();
@@ -358,13 +310,7 @@ fn ethercrab_dc_sync0_reaches_the_board() {
     let (tx, rx, pdu_loop) = STORAGE_DC.try_split().expect("split once");
     let md = MainDevice::new(
         pdu_loop,
-        Timeouts {
-            wait_loop_delay: Duration::from_micros(100),
-            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); the
-            // in-process rig on a loaded host can need longer for the few frames of a read.
-            eeprom: Duration::from_millis(500),
-            ..Default::default()
-        },
+        in_process_timeouts(),
         MainDeviceConfig {
             dc_static_sync_iterations: 20,
             ..Default::default()
@@ -415,5 +361,5 @@ fn ethercrab_dc_sync0_reaches_the_board() {
     let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("ethercrab-dc.pcap");
     b.pcap().unwrap().save(&path).unwrap();
     eprintln!("{} SYNC0 edges; pcap -> {}", edges.len(), path.display());
-    check_with_tshark(&path);
+    virtual_board::sim::tshark::assert_clean(&path);
 }

@@ -56,9 +56,11 @@ fn runner_walks_the_esm_with_the_echo_responder() {
 /// figures (a short run: 10 periods of 500 Hz at a 100 us cycle).
 #[test]
 fn runner_loops_back_through_the_firmware() {
+    let pcap = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("system-sim-firmware.pcap");
     let cfg = SimConfig {
         seconds: Some(0.02),
         freqs_hz: vec![500.0],
+        pcap: Some(pcap.clone()),
         ..Default::default()
     };
     let mut lines = Vec::new();
@@ -83,4 +85,5 @@ fn runner_loops_back_through_the_firmware() {
         (100_000.0..500_000.0).contains(&a.latency_ns),
         "latency {a}"
     );
+    virtual_board::sim::tshark::assert_clean(&pcap);
 }

@@ -25,7 +25,7 @@ use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{
     DcSync, MainDevice, MainDeviceConfig, ObjectDescriptionListQuery, PduStorage, SubDeviceRef,
-    SubDeviceState, Timeouts,
+    SubDeviceState,
 };
 use std::cell::RefCell;
 use std::fmt;
@@ -569,15 +569,7 @@ pub fn run_in_process(
         .map_err(|_| SimError("PDU storage already split".into()))?;
     let md = MainDevice::new(
         pdu_loop,
-        Timeouts {
-            wait_loop_delay: Duration::from_micros(100),
-            state_transition: Duration::from_secs(5),
-            mailbox_response: Duration::from_secs(2),
-            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); the
-            // in-process rig on a loaded host can need longer for the few frames of a read.
-            eeprom: Duration::from_millis(500),
-            ..Default::default()
-        },
+        crate::master::in_process_timeouts(),
         MainDeviceConfig {
             dc_static_sync_iterations: 100,
             ..Default::default()
