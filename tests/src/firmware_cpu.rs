@@ -1,20 +1,25 @@
-//! The firmware's own slave application ([`firmware::app::SlaveApp`]) running on the
-//! board's models through the real driver crates, with its interrupts in priority order on
+//! The firmware's own PDI task ([`firmware::app::pdi_task::PdiTask`] around the
+//! [`firmware::app::SlaveApp`]), DAC task ([`firmware::app::dac::OutputDac`] with the
+//! [`DacLatch`]) and ADC scan ([`firmware::app::adc_scan::SCAN_CONFIG`]) running on the
+//! board's models through the real driver crates, with the interrupts in priority order on
 //! virtual time:
 //!
 //! | board event        | firmware task (priority)  | here                                         |
 //! |--------------------|---------------------------|----------------------------------------------|
-//! | SYNC0 edge         | DAC task (highest)        | [`DacLatch::on_sync0`] -> `ad5663` (LDAC pulse or two frames) |
-//! | ESC IRQ line       | PDI task (middle)         | [`SlaveApp::on_pdi_irq`], then the DAC task if pended |
-//! | after every event  | PDI task background       | [`SlaveApp::poll`]                           |
+//! | SYNC0 edge         | DAC task (highest)        | [`DacLatch::on_sync0`] -> `OutputDac` (LDAC pulse or two frames) |
+//! | ESC IRQ line       | PDI task (middle)         | `PdiTask::run` (edge), then the DAC task if pended |
+//! | after every event  | PDI task background       | `PdiTask::run` (poll)                        |
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
 //!
 //! The drivers are the ones the board runs:
 //! - ESC: `et1100::Et1100<SpiPdi<EscSpi>>`, the application's `EscPort` through the
 //!   firmware's own impl (`firmware/src/app/esc/driver.rs`), over the byte-exact SPI model.
-//! - DAC: `ad5663::Ad5663` on the DAC model's SPI port with the LDAC pin model.
+//! - DAC: `ad5663::Ad5663` inside the firmware's `OutputDac`, on the DAC model's SPI port
+//!   with the LDAC pin model.
 //! - ADC: `ad7689::Ad7689` (read after conversion, CNV = chip select) on the ADC model; the
-//!   driver tracks the CFG pipeline and tags every sample with its channel.
+//!   driver tracks the CFG pipeline and tags every sample with its channel. (The board's
+//!   sampler pushes the same frames from a timer interrupt without the driver's
+//!   `SpiDevice` path; the CFG word is the same constant.)
 //!
 //! DC mode uses the fast path of the brief: when new outputs arrive, the DAC task stages
 //! both input registers (LDAC register 0: nothing changes), and the SYNC0 task only
@@ -25,13 +30,15 @@ use crate::board::{BoardIo, PdiCpu};
 use crate::dac::{DacSpi, LdacPin};
 use crate::esc::SyncEdge;
 use crate::spi::EscSpi;
-use ad5663::{Ad5663, Channel, LdacMask, PowerMode};
-use ad7689::{Ad7689, Config, Reference, Sequencer};
+use ad7689::Ad7689;
 use et1100::{Et1100, SpiPdi};
+use firmware::app::adc_scan::SCAN_CONFIG;
+use firmware::app::dac::OutputDac;
 use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
+use firmware::app::pdi_task::{Done, PdiTask, Wake};
 use firmware::app::process_data::ProcessData;
 use firmware::app::sampler::Sample;
-use firmware::app::{AppConfig, PdiOutcome, SlaveApp};
+use firmware::app::{AppConfig, SlaveApp};
 
 /// What the device description gives the firmware: the object dictionary, the SyncManager
 /// expectations, the default PDO configuration and the SII image.
@@ -49,22 +56,12 @@ pub struct Device {
     pub sii: Vec<u8>,
 }
 
-/// AD7689 CFG: overwrite, unipolar to GND (INCC 111), scan IN0..IN7 (INx 7, SEQ 11: no
-/// temperature), full bandwidth, external reference with buffer, no readback: CFG 0x3FFF,
-/// the firmware's `ADC_SCAN_CFG` (firmware/src/hw/timers.rs).
-pub const ADC_SCAN: Config = Config::new()
-    .channel(7)
-    .reference(Reference::ExternalBuffer)
-    .sequencer(Sequencer::Scan);
-
 /// Frames after power-up whose results are discarded: two carry the CFG, the third may
 /// still hold a conversion under the power-up CFG (as `Ad7689::start` does it).
 const ADC_START_FRAMES: u64 = 3;
 
 /// The ESC as the application sees it.
 type Esc = Et1100<SpiPdi<EscSpi>>;
-/// The DAC with its LDAC pin.
-type Dac = Ad5663<DacSpi, ad5663::ic::Ad5663, LdacPin>;
 
 /// Counters of the harness.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -73,24 +70,21 @@ pub struct FirmwareStats {
     pub adc_frames: u64,
     /// Samples handed to the application.
     pub samples: u64,
-    /// AD5663 commands sent (one 24-bit frame each).
-    pub dac_frames: u64,
-    /// LDAC pulses.
-    pub ldac_pulses: u64,
     /// SYNC0 edges that changed the outputs.
     pub sync0_pulses: u64,
     /// SYNC0 edges that kept the outputs (no fresh pair).
     pub sync0_keep: u64,
-    /// Driver errors (ESC, DAC or ADC); none are expected on the models.
+    /// DAC or ADC driver errors; none are expected on the models (ESC errors:
+    /// [`FirmwareCpu::esc_bus_errors`]).
     pub driver_errors: u64,
 }
 
-/// The firmware's slave application as the board's PDI-side CPU.
+/// The firmware's tasks as the board's PDI-side CPU.
 pub struct FirmwareCpu {
     esc: Esc,
-    dac: Dac,
+    dac: OutputDac<DacSpi, LdacPin>,
     adc: Ad7689<AdcSpi>,
-    app: SlaveApp,
+    task: PdiTask,
     stage: OutputStage,
     latch: DacLatch,
     pending: Vec<Sample>,
@@ -101,20 +95,18 @@ pub struct FirmwareCpu {
 }
 
 impl FirmwareCpu {
-    /// Power-up: the application starts (AL status INIT, event mask), the DAC gets both
-    /// channels powered and LDAC register 0 (the LDAC pin controls both channels), and the
-    /// ADC's conversion timer runs at `adc_period_ns` (4000 = 250 kSPS); its first two
-    /// frames write the scan CFG.
+    /// Power-up: the DAC gets the firmware's init sequence (reset, both channels powered,
+    /// LDAC register 0), the ADC's conversion timer runs at `adc_period_ns` (4000 = 250
+    /// kSPS) and its first two frames write the scan CFG; the PDI task starts the
+    /// application (AL status INIT, event mask) once the ESC's PDI is operational.
     pub fn new(io: BoardIo, device: &Device, adc_period_ns: u64) -> Self {
-        let mut esc = Et1100::new(SpiPdi::new(io.esc.clone()));
-        let mut app = SlaveApp::new(device.od, device.config, device.process_data.clone());
-        let started = app.start(&mut esc).is_ok();
-        let Ok(dac) = Ad5663::new_ad5663(io.dac.clone()).with_ldac(io.ldac.clone());
+        let app = SlaveApp::new(device.od, device.config, device.process_data.clone());
+        let Ok(dac) = OutputDac::new(io.dac.clone(), io.ldac.clone());
         let mut cpu = Self {
-            esc,
+            esc: Et1100::new(SpiPdi::new(io.esc.clone())),
             dac,
             adc: Ad7689::new(io.adc.clone()),
-            app,
+            task: PdiTask::new(app),
             stage: OutputStage::new(),
             latch: DacLatch::new(),
             pending: Vec::new(),
@@ -122,25 +114,26 @@ impl FirmwareCpu {
             next_cnv_ns: io.now_ns() + adc_period_ns.max(1),
             stats: FirmwareStats::default(),
         };
-        cpu.count(started);
-        let ok = cpu
-            .dac
-            .set_power_mode(Channel::Both, PowerMode::Normal)
-            .is_ok()
-            && cpu.dac.set_ldac_mask(LdacMask::None).is_ok();
-        cpu.stats.dac_frames += 2;
+        let ok = cpu.dac.init().is_ok();
         cpu.count(ok);
+        let ready = pdi_ready(&io);
+        cpu.task.start(&mut cpu.esc, ready);
         cpu
     }
 
     /// The application (state, data, mailbox).
     pub fn app(&self) -> &SlaveApp {
-        &self.app
+        self.task.app()
     }
 
     /// The output stage shared by the PDI and DAC tasks.
     pub fn stage(&self) -> &OutputStage {
         &self.stage
+    }
+
+    /// ESC accesses that failed in the PDI task.
+    pub fn esc_bus_errors(&self) -> u32 {
+        self.task.bus_errors()
     }
 
     fn count(&mut self, ok: bool) {
@@ -149,44 +142,49 @@ impl FirmwareCpu {
         }
     }
 
-    /// Carries out the DAC task's action with the driver.
-    fn execute(&mut self, action: DacAction) {
-        let ok = match action {
-            DacAction::Keep => true,
-            DacAction::PulseLdac(_) => {
-                self.stats.ldac_pulses += 1;
-                self.dac.pulse_ldac().is_ok()
+    /// The DAC task pended by the PDI task: apply the staged pair now, or (DC mode) write
+    /// a freshly staged pair into the input registers for the next SYNC0 edge.
+    fn dac_task(&mut self, done: Done) {
+        let ok = if done.apply_outputs {
+            let a = self.latch.apply_now(&self.stage);
+            self.dac.execute(a).is_ok()
+        } else if done.preload_outputs {
+            match self.latch.preload(&self.stage) {
+                Some(pair) => self.dac.preload(pair).is_ok(),
+                None => true,
             }
-            DacAction::WriteAndUpdate(p) => {
-                self.stats.dac_frames += 2;
-                self.dac.write_both_simultaneous(p.a, p.b).is_ok()
-            }
+        } else {
+            true
         };
         self.count(ok);
     }
 
-    /// The DAC task, pended by the PDI task.
-    fn dac_task(&mut self, out: PdiOutcome) {
-        if out.apply_outputs {
-            let a = self.latch.apply_now(&self.stage);
-            self.execute(a);
-        }
-        if self.stage.dc_mode() {
-            if let Some(p) = self.latch.preload(&self.stage) {
-                self.stats.dac_frames += 2;
-                let ok = self.dac.stage_both(p.a, p.b).is_ok();
-                self.count(ok);
-            }
-        }
-    }
-
-    fn drain_samples(&mut self) {
+    /// One activation of the PDI task.
+    fn pdi_task(&mut self, io: &BoardIo, edge: bool) {
         if !self.pending.is_empty() {
             self.stats.samples += self.pending.len() as u64;
-            self.app.on_samples(&self.pending);
+            self.task.app_mut().on_samples(&self.pending);
             self.pending.clear();
         }
+        let wake = Wake {
+            edge,
+            line_asserted: edge,
+            poll: !edge,
+            pdi_ready: pdi_ready(io),
+        };
+        let line = io.esc.clone();
+        let done = self
+            .task
+            .run(&mut self.esc, &self.stage, io.now_ns(), wake, || line.irq());
+        // The board calls `on_irq` again while the line stays asserted (bounded), which
+        // is what `pend_again` asks for.
+        self.dac_task(done);
     }
+}
+
+/// EEPROM_LOADED: the ESC's PDI works once it has loaded a good SII.
+fn pdi_ready(io: &BoardIo) -> bool {
+    io.esc.esc().borrow().pdi_operational()
 }
 
 impl PdiCpu for FirmwareCpu {
@@ -196,23 +194,16 @@ impl PdiCpu for FirmwareCpu {
             DacAction::Keep => self.stats.sync0_keep += 1,
             _ => self.stats.sync0_pulses += 1,
         }
-        self.execute(a);
+        let ok = self.dac.execute(a).is_ok();
+        self.count(ok);
     }
 
     fn on_irq(&mut self, io: &mut BoardIo) {
-        self.drain_samples();
-        match self.app.on_pdi_irq(&mut self.esc, &self.stage, io.now_ns()) {
-            Ok(out) => self.dac_task(out),
-            Err(_) => self.stats.driver_errors += 1,
-        }
+        self.pdi_task(io, true);
     }
 
     fn poll(&mut self, io: &mut BoardIo) {
-        self.drain_samples();
-        match self.app.poll(&mut self.esc, &self.stage, io.now_ns()) {
-            Ok(out) => self.dac_task(out),
-            Err(_) => self.stats.driver_errors += 1,
-        }
+        self.pdi_task(io, false);
     }
 
     fn next_timer_ns(&self) -> Option<u64> {
@@ -226,7 +217,7 @@ impl PdiCpu for FirmwareCpu {
         let k = self.stats.adc_frames;
         self.stats.adc_frames += 1;
         let result = if k < ADC_START_FRAMES - 1 {
-            self.adc.read_and_configure(ADC_SCAN)
+            self.adc.read_and_configure(SCAN_CONFIG)
         } else {
             self.adc.read()
         };
@@ -240,15 +231,5 @@ impl PdiCpu for FirmwareCpu {
             Err(_) => self.stats.driver_errors += 1,
         }
         self.next_cnv_ns = io.now_ns().max(self.next_cnv_ns) + self.adc_period_ns;
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn scan_cfg_is_the_firmware_word() {
-        assert_eq!(ADC_SCAN.bits(), 0x3FFF);
     }
 }
