@@ -698,7 +698,10 @@ async fn master(
             DcConfiguration {
                 start_delay: Duration::from_millis(1),
                 sync0_period: cycle,
-                sync0_shift: Duration::ZERO,
+                // The master sends each frame half a cycle after a SYNC0 edge (below:
+                // `next_cycle_wait`), so the outputs reach SM2 half a cycle before the edge
+                // that latches them, whatever phase ethercrab's wall-clock DC start gave.
+                sync0_shift: cycle / 2,
             },
         )
         .await
@@ -751,9 +754,9 @@ async fn master(
                 cfg.ao_channel + 1
             )));
             for _ in 0..100 {
-                group.tx_rx_dc(md).await.map_err(|e| fail("cycle", e))?;
-                let t = board.borrow().now_ns() + cycle_ns;
-                sync(board, t);
+                let t0 = board.borrow().now_ns();
+                let resp = group.tx_rx_dc(md).await.map_err(|e| fail("cycle", e))?;
+                sync(board, t0 + resp.extra.next_cycle_wait.as_nanos() as u64);
                 report.cycles += 1;
             }
         }
@@ -775,6 +778,8 @@ async fn master(
                 let t_start = board.borrow().now_ns();
                 let mut next_progress = 0;
                 for i in 0..n_cycles {
+                    // The frame passes the ESC at this virtual time (its DC time stamp).
+                    let t0 = board.borrow().now_ns();
                     let resp = group.tx_rx_dc(md).await.map_err(|e| fail("cycle", e))?;
                     if !resp.all_op() {
                         return Err(SimError(format!(
@@ -787,7 +792,7 @@ async fn master(
                         set_i16(&mut sd.outputs_raw_mut(), ao.bit_offset, v);
                     }
                     report.cycles += 1;
-                    sync(board, t_start + (i + 1) * cycle_ns);
+                    sync(board, t0 + resp.extra.next_cycle_wait.as_nanos() as u64);
                     let pct = (i + 1) * 100 / n_cycles;
                     if pct >= next_progress {
                         out(Line::Progress(format!(
