@@ -5,10 +5,12 @@
 mod bench;
 mod build;
 mod esi;
+mod flash;
 mod image;
 mod setup;
 mod sim;
 mod size;
+mod target_desc;
 mod test;
 mod util;
 
@@ -44,6 +46,11 @@ enum Command {
     /// Performance figures against the targets (PDI bytes, Cortex-M3 instructions under
     /// QEMU, cycle time, footprint, ADC, thesis loop-back) as one table.
     Bench(bench::Args),
+    /// Flash and verify the release image on an LPC1754 (probe-rs with our own flash
+    /// algorithm, or OpenOCD); refuses CRP lock values; --dry-run prints the commands.
+    Flash(flash::Args),
+    /// Flash with probe-rs and show the firmware's defmt log over RTT.
+    Run(flash::RunArgs),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +63,8 @@ fn main() -> ExitCode {
         Command::Size(args) => size::run(&args),
         Command::Esi(args) => esi::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Flash(args) => flash::run(&args),
+        Command::Run(args) => flash::run_and_monitor(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,7 +1,7 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, Result};
-use crate::{bench, build, esi, setup};
+use crate::{bench, build, esi, flash, setup};
 
 /// The `no_std` crates that must build for every embedded target.
 const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
@@ -46,5 +46,8 @@ pub fn run(args: &Args) -> Result {
         quick: true,
         ..Default::default()
     })?;
+    // The flash algorithm for thumbv7m-none-eabi, its target description loaded the way
+    // probe-rs loads it, and the exact flashing commands, without a probe.
+    flash::run(&flash::Args::dry_run())?;
     Ok(())
 }
