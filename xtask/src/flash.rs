@@ -221,7 +221,9 @@ fn prepare(elf: Option<&Path>, allow_crp_lock: bool) -> Result<Prepared> {
             allow_crp: allow_crp_lock,
         })?,
     };
-    let description = write_description(allow_crp_lock)?;
+    // The algorithm that may write a lock value only for an image that carries one (and was
+    // allowed to by xtask build); every other image gets the refusing one.
+    let description = write_description(image.crp.protects())?;
     Ok(Prepared { image, description })
 }
 
