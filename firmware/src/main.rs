@@ -4,7 +4,8 @@
 //! |-----------------|-----------------------|------|------------------------------------------|
 //! | `sync0_dac`     | TIMER1 (CAP1.0, pend) | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch` |
 //! | `pdi`           | EINT3 (P0.22 falling) | 2    | ET1100 (legacy SPI), sample consumer     |
-//! | `sampler`       | TIMER2 (MR1)          | 1    | CNV timer, SSP1, sample producer         |
+//! | `adc_dma`       | DMA (TC per half ring)| 1    | - (GPDMA path: counts ring halves)       |
+//! | `sampler`       | TIMER2 (MR1)          | 1    | ADC front (`adc-irq`: sample producer)   |
 //! | `feed_watchdog` | async, SysTick        | 1    | the MCU watchdog                         |
 //! | `idle`          | -                     | 0    | `wfi`                                    |
 //!
@@ -24,17 +25,17 @@ use {defmt_rtt as _, panic_probe as _};
 #[rtic::app(device = lpc17xx_pac, dispatchers = [UART2, UART3])]
 mod rtic_app {
     use crate::hw;
+    use crate::hw::adc::{AdcFront, AdcSource};
     use crate::hw::dac::Dac;
     use crate::hw::esc::EscPdi;
     use crate::hw::gpio_irq::EscIrq;
-    use crate::hw::mem::SAMPLE_RING_LEN;
-    use crate::hw::timers::{AdcSampler, Sync0Capture, Timer1Event};
+    use crate::hw::timers::{Sync0Capture, Timer1Event};
     use crate::hw::wdt::Watchdog;
     use core::sync::atomic::{AtomicBool, Ordering};
     use firmware::app::esc::{reg, EscPort};
     use firmware::app::outputs::{DacLatch, OutputStage};
     use firmware::app::pdi_task::LevelIrq;
-    use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
+    use firmware::app::sampler::{PublishMode, Sampler};
     use lpc17xx_pac::Interrupt;
     use rtic_monotonics::systick::prelude::*;
 
@@ -57,8 +58,7 @@ mod rtic_app {
         esc_irq: EscIrq,
         pdi: PdiSide,
         stage_pdi: &'static OutputStage,
-        adc: AdcSampler,
-        samples_in: SampleProducer<'static, SAMPLE_RING_LEN>,
+        adc: AdcFront,
         wdt: Watchdog,
     }
 
@@ -71,7 +71,7 @@ mod rtic_app {
     /// `app.poll(esc, stage, now)` (pended), calling [`request_dac_apply`] when the outcome's
     /// `apply_outputs` is set.
     pub struct PdiSide {
-        samples_out: SampleConsumer<'static, SAMPLE_RING_LEN>,
+        samples_out: AdcSource,
         sampler: Sampler,
         line: LevelIrq,
         bus_errors: u32,
@@ -119,7 +119,7 @@ mod rtic_app {
             esc_eeprom_loaded,
             sync0,
             mut dac,
-            mut adc,
+            adc,
             mut wdt,
         } = board;
 
@@ -128,8 +128,7 @@ mod rtic_app {
             defmt::error!("AD5663 init failed");
         }
 
-        let ring = hw::mem::sample_ring().expect("sample ring is taken only here");
-        let (samples_in, samples_out) = ring.split();
+        let (mut adc, samples_out) = hw::adc::split(adc);
         let mut pdi = PdiSide {
             samples_out,
             sampler: Sampler::new(PublishMode::Latest),
@@ -165,7 +164,6 @@ mod rtic_app {
                 pdi,
                 stage_pdi: stage,
                 adc,
-                samples_in,
                 wdt,
             },
         )
@@ -223,12 +221,16 @@ mod rtic_app {
         }
     }
 
-    /// AD7689: CNV low, previous result to the ring, next frame started.
-    #[task(binds = TIMER2, priority = 1, local = [adc, samples_in])]
+    /// AD7689, interrupt path (`adc-irq`): CNV low, previous result to the ring, next frame.
+    #[task(binds = TIMER2, priority = 1, local = [adc])]
     fn sampler(cx: sampler::Context) {
-        if let Some((channel, code)) = cx.local.adc.on_interrupt() {
-            cx.local.samples_in.push(Sample::new(channel, code));
-        }
+        cx.local.adc.on_timer_interrupt();
+    }
+
+    /// AD7689, GPDMA path: one terminal-count interrupt per half ring.
+    #[task(binds = DMA, priority = 1)]
+    fn adc_dma(_: adc_dma::Context) {
+        hw::adc::on_dma_interrupt();
     }
 
     /// Feeds the MCU watchdog from the lowest priority: a lock-up above starves it.

@@ -8,11 +8,14 @@
 //! | SYNC0 / DAC task (highest) | [`DacLatch::on_sync0`], [`DacLatch::apply_now`], [`DacLatch::preload`] | its `DacLatch` (local), `&OutputStage` (atomics) |
 //! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`]               | `SlaveApp` (local), the ESC, `&OutputStage` |
 //! | background / idle          | [`SlaveApp::poll`]                     | same as the PDI task (call it from that task, or lock) |
-//! | sampler task (lowest)      | [`sampler::SampleProducer::push`]      | its producer half (local)       |
+//! | GPDMA interrupt (lowest)   | [`adc_dma::HalfCounter::on_terminal_count`] | the half count (atomic)    |
+//! | sampler task (`adc-irq`)   | [`sampler::SampleProducer::push`]      | its producer half (local)       |
 //!
-//! The three tasks share only `&OutputStage` (lock-free atomics) and the two halves of a
-//! [`sampler::SampleRing`] (heapless SPSC); nothing needs a lock. The PDI task drains the
-//! sample consumer into [`SlaveApp::sampler_mut`] before calling in (or the harness calls
+//! The tasks share only `&OutputStage` (lock-free atomics) and the ADC samples: by default
+//! the GPDMA's ring (the PDI task's [`adc_dma::ScanReader`] drains whole scans from it), with
+//! the `adc-irq` build the two halves of a [`sampler::SampleRing`] (heapless SPSC); nothing
+//! needs a lock. The PDI task drains the samples into [`SlaveApp::sampler_mut`] before
+//! calling in (or the harness calls
 //! [`SlaveApp::on_samples`]). When [`PdiOutcome::apply_outputs`] is set, the PDI task pends
 //! the DAC task, which calls [`DacLatch::apply_now`] (free run, SM-synchronous, faults). In
 //! DC mode the DAC task may [`DacLatch::preload`] the input registers when pended and only
@@ -35,6 +38,7 @@
 //! app.poll(&mut esc, &stage, now_ns)?;
 //! ```
 
+pub mod adc_dma;
 pub mod adc_scan;
 pub mod dac;
 pub mod diagnostics;

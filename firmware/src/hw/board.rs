@@ -31,6 +31,7 @@
 //! SYNC1/LATCH1), P0.10/P0.11 (I2C2 to the CAT1025 supervisor; needs open-drain PINMODE_OD
 //! when used).
 
+use super::adc::AdcHw;
 use super::clocks::{self, ClockError, Clocks};
 use super::dac::{Dac, LdacPin};
 use super::delay::CycleDelay;
@@ -39,7 +40,7 @@ use super::gpio::{InPin, OutPin};
 use super::gpio_irq::EscIrq;
 use super::spi::LegacySpi;
 use super::ssp::{Ssp, SspConfig};
-use super::timers::{AdcSampler, Sync0Capture};
+use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
 use super::CCLK_HZ;
 use embedded_hal_bus::spi::ExclusiveDevice;
@@ -247,7 +248,7 @@ pub struct Board {
     /// The AD5663 with its LDAC pin (SYNC0/DAC task).
     pub dac: Dac,
     /// The AD7689 conversion engine: CNV timer + SSP1 (sampler task).
-    pub adc: AdcSampler,
+    pub adc: AdcHw,
     /// The MCU watchdog (feeder task).
     pub wdt: Watchdog,
 }
@@ -289,7 +290,7 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     )
     .unwrap_or_else(|e| match e {});
     let ssp1 = Ssp::new(dp.SSP1, SspConfig::AD7689);
-    let adc = AdcSampler::new(dp.TIMER2, ssp1);
+    let adc = AdcHw::new(dp.TIMER2, ssp1, dp.GPDMA);
     let sync0 = Sync0Capture::new(dp.TIMER1);
     let wdt = Watchdog::new(dp.WDT);
 

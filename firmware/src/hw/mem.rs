@@ -1,3 +1,4 @@
+//! (Interrupt path, feature `adc-irq`; the GPDMA path keeps its ring in `adc_dma`.)
 //! Big buffers in the AHB SRAM bank (0x2007_C000, 16 KB), section `.ahbsram` (NOLOAD in
 //! `memory.x`: not zeroed by the runtime). Each buffer is handed out once, initialised, as a
 //! `&'static mut`. They do not count against the 6 KB static RAM budget of the local SRAM;

@@ -9,7 +9,9 @@
 //! | [`gpio`]     | GPIO output/input pins (chip selects, LDAC)                           |
 //! | [`spi`]      | legacy SPI (ET1100 PDI) as `SpiBus`, the ESC's `SpiDevice`            |
 //! | [`ssp`]      | SSP0 (AD5663) and SSP1 (AD7689) as `SpiBus` with FIFO use             |
-//! | [`timers`]   | Timer1 SYNC0 capture (timestamp), Timer2 CNV generation + ADC frames  |
+//! | [`timers`]   | Timer1 SYNC0 capture (timestamp), Timer2 CNV + ADC frames (`adc-irq`) |
+//! | [`adc_dma`]  | Timer2 CNV + SSP1 frames + ring moved by the GPDMA (default)          |
+//! | [`adc`]      | the ADC path chosen at build time (GPDMA or `adc-irq`)                |
 //! | [`gpio_irq`] | ESC IRQ on P0.22 (falling edge, EINT3 vector)                         |
 //! | [`wdt`]      | the MCU watchdog                                                      |
 //! | [`esc`]      | the application's `EscPort` over the `et1100` driver                  |
@@ -17,6 +19,9 @@
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
 
+pub mod adc;
+#[cfg(not(feature = "adc-irq"))]
+pub mod adc_dma;
 pub mod board;
 pub mod clocks;
 pub mod crp;
@@ -25,6 +30,7 @@ pub mod delay;
 pub mod esc;
 pub mod gpio;
 pub mod gpio_irq;
+#[cfg(feature = "adc-irq")]
 pub mod mem;
 pub mod spi;
 pub mod ssp;

@@ -114,6 +114,18 @@ impl<S: SspInstance> Ssp<S> {
         true
     }
 
+    /// Lets the GPDMA empty the RX FIFO (DMACR RXDMAE, b0; TX stays CPU/timer driven).
+    pub fn enable_rx_dma(&mut self) {
+        self.drain_rx();
+        // SAFETY: DMACR bit 0 = RX DMA request enable (UM10360 18.6.9, hardware-facts 7).
+        self.ssp.dmacr.write(|w| unsafe { w.bits(1) });
+    }
+
+    /// Address of the data register (the GPDMA's source/destination).
+    pub fn dr_address(&self) -> u32 {
+        core::ptr::addr_of!(self.ssp.dr) as u32
+    }
+
     /// Takes one received frame if there is one.
     #[inline(always)]
     pub fn try_pop(&mut self) -> Option<u16> {

@@ -12,14 +12,13 @@
 //!   after conversion, CPOL = CPHA = 0). The frame runs in hardware while the CPU returns; the
 //!   next MR1 interrupt collects it from the RX FIFO, so no interrupt waits on the bus.
 //!
-//! What GPDMA would add (hardware-facts 10.B, not done here): DMA channels on T2MR0/T2MR1
-//! (DMAREQSEL lines 12/13) writing MR0 (toggle CNV) and the SSP1 DR, and one on SSP1 RX into a
-//! ring in AHB SRAM. That removes the per-sample interrupt (about 60-80 cycles per 4 us at
-//! 250 kSPS, i.e. ~20 % CPU here); the CPU would only drain the ring. The pure logic (the scan
-//! pipeline, `firmware::app::adc_scan`) stays the same.
+//! Timer2 here is the interrupt path (feature `adc-irq`); the default GPDMA path, which
+//! drives Timer2 without any timer interrupt, is `hw::adc_dma` (see `hw::adc`).
 
+#[cfg(feature = "adc-irq")]
 use super::ssp::Ssp;
 use core::sync::atomic::{AtomicU32, Ordering};
+#[cfg(feature = "adc-irq")]
 use firmware::app::adc_scan::ScanPipeline;
 use firmware::app::timebase;
 use lpc17xx_pac as pac;
@@ -28,6 +27,7 @@ use lpc17xx_pac as pac;
 pub const TICK_NS: u64 = 1_000_000_000 / super::PCLK_HZ as u64;
 
 const IR_MR0: u32 = 1 << 0;
+#[cfg(feature = "adc-irq")]
 const IR_MR1: u32 = 1 << 1;
 const IR_CR0: u32 = 1 << 4;
 const TCR_ENABLE: u32 = 1;
@@ -102,12 +102,15 @@ impl Sync0Capture {
     }
 }
 
+#[cfg(feature = "adc-irq")]
 /// The sample period (MR3 + 1 ticks): 4 us = 250 kSPS aggregate, 31.25 kSPS per channel.
 pub const ADC_PERIOD_TICKS: u32 = 400;
+#[cfg(feature = "adc-irq")]
 /// CNV high from MR0 (tick 1) to MR1: 2.3 us > tCONV max 2.2 us; the 16-bit frame (0.96 us
 /// at 16.7 MHz) then ends ~3.3 us into the 4 us period, before the next CNV edge.
 pub const ADC_CNV_HIGH_TICKS: u32 = 230;
 
+#[cfg(feature = "adc-irq")]
 /// Timer2 CNV generation + SSP1 frames (owner: the sampler task, TIMER2 handler).
 ///
 /// The frames go straight into the SSP1 FIFO instead of through the `ad7689` driver's
@@ -124,6 +127,7 @@ pub struct AdcSampler {
     missed: u32,
 }
 
+#[cfg(feature = "adc-irq")]
 impl AdcSampler {
     /// Configures Timer2 (stopped): MR0 sets MAT2.0 (EMC0 = 10), MR1 interrupts, MR3 resets.
     pub fn new(t: pac::TIMER2, ssp: Ssp<pac::SSP1>) -> Self {
