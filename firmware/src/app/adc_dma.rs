@@ -259,7 +259,7 @@ pub struct TxAddresses {
 /// CFG while the sequencer runs: bit 13 = 0, hardware-facts 6).
 pub const TX_WORDS: [u16; 2] = [SCAN_CFG_WORD, 0];
 
-/// TX: the CFG in the first [`CFG_FRAMES`] frames, then the NOP for ever (one item that
+/// TX: the CFG in the first two frames (`adc_scan`'s start-up), then the NOP for ever (one item that
 /// links to itself; no interrupt).
 pub const fn tx_chain(a: TxAddresses) -> Chain<1> {
     Chain {
