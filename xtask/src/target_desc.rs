@@ -23,7 +23,8 @@ pub const CHIP: &str = "LPC1754";
 pub const ALGORITHM: &str = "lpc1754-iap";
 /// probe-rs programs the flash in pages of this size (a count the IAP copy accepts).
 pub const PAGE_SIZE: u32 = 1024;
-/// Stack probe-rs gives the algorithm (the IAP ROM needs up to ~150 bytes of it on top).
+/// Stack probe-rs gives the algorithm. The IAP ROM runs on it too; its need on the LPC17xx is
+/// UNCONFIRMED (NXP gives 148 bytes for a related part), 2 KB leaves ample room.
 pub const STACK_SIZE: u32 = 2048;
 /// ms probe-rs waits for ProgramPage (1 KB at 4 MHz CCLK takes a few ms).
 pub const PROGRAM_PAGE_TIMEOUT_MS: u32 = 1000;

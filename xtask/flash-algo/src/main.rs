@@ -12,12 +12,14 @@
 //! tells the ROM 4000 kHz. That is the reset state, so after probe-rs' reset-and-halt nothing
 //! changes; when probe-rs attaches to a running firmware (PLL0 at 100 MHz), it makes the clock
 //! the ROM is told true again. probe-rs' `clk` argument is ignored. The IRC is +-1 %
-//! (hardware-facts 7), well within what the ROM's timing tolerates (OpenOCD's LPC17xx driver
-//! passes the same 4000 kHz after reset).
+//! (hardware-facts 7); OpenOCD's LPC17xx driver passes the same 4000 kHz after reset.
+//! UNCONFIRMED (no hardware here): programming and erase results at this clock on a real part.
 //!
 //! **Memory map.** After a reset-and-halt the core stops in the boot ROM with MEMMAP = 0,
 //! where the boot ROM's vectors hide the first 64 bytes of the flash; `Init` sets MEMMAP = 1
-//! (user flash at 0), so reads after programming see the flash.
+//! (user flash at 0), so reads after programming see the flash. `Verify` uses the ROM's
+//! compare (56); UNCONFIRMED (no hardware here): that compare covers the first 64 bytes of
+//! sector 0 like any other once MEMMAP = 1.
 //!
 //! **Interrupts** are masked in `Init` (PRIMASK): the ROM must not be interrupted while the
 //! flash is busy. No reset happens between the entry points, so the mask stays.
