@@ -68,7 +68,7 @@ impl Value {
             Self::Uint(v) => copy_le(&v.to_le_bytes(), out, false),
             Self::Real(v) => {
                 if matches!(data_type, DataType::Real32) {
-                    copy_le(&(v as f32).to_le_bytes(), out, false)
+                    copy_le(&ieee::f64_to_f32(v.to_bits()).to_le_bytes(), out, false)
                 } else {
                     copy_le(&v.to_le_bytes(), out, false)
                 }
@@ -109,15 +109,14 @@ pub fn decode_int(data_type: DataType, bit_len: u16, bytes: &[u8]) -> Option<i12
     for (i, b) in src.iter().enumerate() {
         raw |= u64::from(*b) << (8 * i);
     }
-    if bit_len < 64 {
-        raw &= (1u64 << bit_len) - 1;
-    }
-    if data_type.is_signed() && bit_len < 64 && raw & (1u64 << (bit_len - 1)) != 0 {
-        Some(i128::from(raw) - (1i128 << bit_len))
-    } else if data_type.is_signed() {
-        Some(i128::from(raw as i64))
+    // Bits above `bit_len` shifted out at the top, then back: arithmetic for signed types
+    // (sign extension), logical for unsigned ones.
+    let unused = 64 - u32::from(bit_len);
+    let raw = raw << unused;
+    if data_type.is_signed() {
+        Some(i128::from((raw as i64) >> unused))
     } else {
-        Some(i128::from(raw))
+        Some(i128::from(raw >> unused))
     }
 }
 
@@ -136,16 +135,120 @@ pub const fn int_limits(data_type: DataType, bit_len: u16) -> Option<(i128, i128
 
 /// Decodes a REAL32/REAL64 image.
 pub fn decode_real(data_type: DataType, bytes: &[u8]) -> Option<f64> {
+    decode_real_bits(data_type, bytes).map(f64::from_bits)
+}
+
+/// Decodes a REAL32/REAL64 image into the bit pattern of the same REAL64 value.
+fn decode_real_bits(data_type: DataType, bytes: &[u8]) -> Option<u64> {
     match data_type {
         DataType::Real32 => {
             let b: [u8; 4] = bytes.get(..4)?.try_into().ok()?;
-            Some(f64::from(f32::from_le_bytes(b)))
+            Some(ieee::f32_to_f64(u32::from_le_bytes(b)))
         }
         DataType::Real64 => {
             let b: [u8; 8] = bytes.get(..8)?.try_into().ok()?;
-            Some(f64::from_le_bytes(b))
+            Some(u64::from_le_bytes(b))
         }
         _ => None,
+    }
+}
+
+/// REAL values through their IEEE 754 bit patterns. The firmware's Cortex-M3 has no FPU:
+/// `f64` comparisons and `f32`/`f64` conversions would link about 0.7 KB of soft-float
+/// routines for the few range checks and defaults of REAL entries. These give the same
+/// results as the float operations (tested against them).
+pub(crate) mod ieee {
+    const F64_EXP: u64 = 0x7FF0_0000_0000_0000;
+    const F64_MAN: u64 = (1 << 52) - 1;
+    const F64_SIGN: u64 = 1 << 63;
+
+    /// True if the REAL64 pattern is a NaN.
+    pub const fn is_nan(bits: u64) -> bool {
+        bits & F64_EXP == F64_EXP && bits & F64_MAN != 0
+    }
+
+    /// A key whose unsigned order is the numeric order of REAL64 patterns other than NaN
+    /// (-0 and +0 equal); NaN is unordered: check [`is_nan`] first.
+    #[inline(never)]
+    pub const fn order_key(bits: u64) -> u64 {
+        if bits << 1 == 0 {
+            F64_SIGN // both zeros
+        } else if bits & F64_SIGN != 0 {
+            !bits
+        } else {
+            bits | F64_SIGN
+        }
+    }
+
+    /// REAL32 -> REAL64 (exact, like `f64::from(f32)`).
+    #[inline(never)]
+    pub const fn f32_to_f64(bits: u32) -> u64 {
+        let sign = ((bits >> 31) as u64) << 63;
+        let exp = (bits >> 23) & 0xFF;
+        let man = (bits & 0x7F_FFFF) as u64;
+        if exp == 0xFF {
+            // Infinity or NaN (payload kept in the top mantissa bits).
+            return sign | F64_EXP | man << 29;
+        }
+        if exp == 0 {
+            if man == 0 {
+                return sign;
+            }
+            // Subnormal: value = man * 2^-149, normalised for REAL64.
+            let top = 63 - man.leading_zeros(); // 0..=22
+            let exp64 = top as u64 + 1023 - 149;
+            return sign | exp64 << 52 | (man << (52 - top)) & F64_MAN;
+        }
+        sign | (exp as u64 + 1023 - 127) << 52 | man << 29
+    }
+
+    /// REAL64 -> REAL32 rounded to nearest, ties to even (like `f64 as f32`; a NaN stays a
+    /// quiet NaN).
+    #[inline(never)]
+    pub const fn f64_to_f32(bits: u64) -> u32 {
+        let sign = ((bits >> 63) as u32) << 31;
+        let exp = ((bits >> 52) & 0x7FF) as i32;
+        let man = bits & F64_MAN;
+        if exp == 0x7FF {
+            let nan = if man != 0 {
+                0x40_0000 | (man >> 29) as u32
+            } else {
+                0
+            };
+            return sign | 0x7F80_0000 | nan;
+        }
+        if exp == 0 {
+            // Zero or a REAL64 subnormal: far below the smallest REAL32.
+            return sign;
+        }
+        let e = exp - 1023 + 127; // REAL32 biased exponent
+        if e >= 0xFF {
+            return sign | 0x7F80_0000;
+        }
+        let full = man | 1 << 52; // 53 significant bits
+                                  // Bits to drop: 29 for a normal result, more for a subnormal one.
+        let shift = if e >= 1 { 29 } else { 29 + (1 - e) as u32 };
+        if shift >= 64 {
+            return sign;
+        }
+        let mut q = full >> shift;
+        let rest = full & ((1u64 << shift) - 1);
+        let half = 1u64 << (shift - 1);
+        if rest > half || (rest == half && q & 1 == 1) {
+            q += 1;
+        }
+        // A normal result: the implicit bit in q adds 1 to the exponent field, a carry out
+        // of the mantissa adds another (up to infinity); a subnormal one is q itself.
+        let magnitude = if e >= 1 {
+            ((e as u64 - 1) << 23) + q
+        } else {
+            q
+        };
+        if magnitude >= 0x7F80_0000 {
+            sign | 0x7F80_0000
+        } else {
+            sign | magnitude as u32
+        }
     }
 }
 
@@ -170,17 +273,25 @@ pub fn check_range(
                 return Err(SdoAbortCode::ValueTooHigh);
             }
         }
-    } else if let Some(v) = decode_real(data_type, bytes) {
-        if v.is_nan() && (min.is_some() || max.is_some()) {
-            return Err(SdoAbortCode::ValueRangeExceeded);
+    } else if let Some(v) = decode_real_bits(data_type, bytes) {
+        // Compared through order keys: no soft-float on the MCU (see `ieee`).
+        if ieee::is_nan(v) {
+            return if min.is_some() || max.is_some() {
+                Err(SdoAbortCode::ValueRangeExceeded)
+            } else {
+                Ok(())
+            };
         }
+        let v = ieee::order_key(v);
         if let Value::Real(lo) = *min {
-            if v < lo {
+            let lo = lo.to_bits();
+            if !ieee::is_nan(lo) && v < ieee::order_key(lo) {
                 return Err(SdoAbortCode::ValueTooLow);
             }
         }
         if let Value::Real(hi) = *max {
-            if v > hi {
+            let hi = hi.to_bits();
+            if !ieee::is_nan(hi) && v > ieee::order_key(hi) {
                 return Err(SdoAbortCode::ValueTooHigh);
             }
         }
@@ -191,6 +302,87 @@ pub fn check_range(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bit patterns around every class boundary plus a deterministic spread.
+    fn f64_patterns() -> std::vec::Vec<u64> {
+        let mut v = std::vec![
+            0,
+            1,
+            (1 << 52) - 1,
+            1 << 52,
+            0x3FF0_0000_0000_0000,
+            0x7FEF_FFFF_FFFF_FFFF,
+            0x7FF0_0000_0000_0000,
+            0x7FF8_0000_0000_0000,
+            0x7FF0_0000_0000_0001,
+        ];
+        for f in [
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            1e-45,
+            1.5e-45,
+            3.4028235e38,
+            0.1,
+            1.0,
+        ] {
+            let d = f64::from(f);
+            v.extend([d.to_bits(), d.to_bits() + 1, d.to_bits() - 1]);
+        }
+        // Halfway cases: exactly between two REAL32 values (ties go to even).
+        v.extend([
+            0x3FF0_0000_1000_0000,
+            0x3FF0_0000_3000_0000,
+            0x47EF_FFFF_F000_0000,
+        ]);
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..50_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            v.push(x);
+            // Mostly near the REAL32 range.
+            v.push((x & 0x800F_FFFF_FFFF_FFFF) | (((x >> 52) % 300 + 1023 - 150) << 52));
+        }
+        let negated: std::vec::Vec<u64> = v.iter().map(|b| b ^ 1 << 63).collect();
+        v.extend(negated);
+        v
+    }
+
+    #[test]
+    fn ieee_conversions_match_the_float_casts() {
+        for bits in f64_patterns() {
+            let d = f64::from_bits(bits);
+            let ours = f32::from_bits(ieee::f64_to_f32(bits));
+            if d.is_nan() {
+                assert!(ours.is_nan(), "{bits:#x}");
+            } else {
+                assert_eq!(ours.to_bits(), (d as f32).to_bits(), "{bits:#x} {d:e}");
+            }
+            let single = (bits >> 32) as u32 ^ bits as u32;
+            let f = f32::from_bits(single);
+            let wide = f64::from_bits(ieee::f32_to_f64(single));
+            if f.is_nan() {
+                assert!(wide.is_nan(), "{single:#x}");
+            } else {
+                assert_eq!(wide.to_bits(), f64::from(f).to_bits(), "{single:#x} {f:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn ieee_order_keys_order_like_floats() {
+        let p = f64_patterns();
+        for pair in p.windows(2) {
+            let (a, b) = (f64::from_bits(pair[0]), f64::from_bits(pair[1]));
+            let nan = ieee::is_nan(pair[0]) || ieee::is_nan(pair[1]);
+            assert_eq!(nan, a.is_nan() || b.is_nan(), "{a:e} {b:e}");
+            if let Some(o) = a.partial_cmp(&b) {
+                let keys = (ieee::order_key(pair[0]), ieee::order_key(pair[1]));
+                assert_eq!(keys.0.cmp(&keys.1), o, "{a:e} {b:e}");
+            }
+        }
+        assert_eq!(ieee::order_key(0), ieee::order_key(1 << 63), "-0 == +0");
+    }
 
     #[test]
     fn encode_integers_little_endian() {
@@ -288,6 +480,37 @@ mod tests {
                 &11.0f32.to_le_bytes()
             ),
             Err(SdoAbortCode::ValueTooHigh)
+        );
+        let (lo, hi) = (Value::Real(-0.5), Value::Real(10.0));
+        let real = |v: f32| check_range(DataType::Real32, 32, &lo, &hi, &v.to_le_bytes());
+        assert_eq!(real(10.0), Ok(()));
+        assert_eq!(real(-0.5), Ok(()));
+        assert_eq!(real(-0.0), Ok(()));
+        assert_eq!(real(10.000001), Err(SdoAbortCode::ValueTooHigh));
+        assert_eq!(real(-0.50001), Err(SdoAbortCode::ValueTooLow));
+        assert_eq!(real(f32::NEG_INFINITY), Err(SdoAbortCode::ValueTooLow));
+        assert_eq!(real(f32::NAN), Err(SdoAbortCode::ValueRangeExceeded));
+        let zero = (Value::Real(0.0), Value::Real(0.0));
+        assert_eq!(
+            check_range(
+                DataType::Real64,
+                64,
+                &zero.0,
+                &zero.1,
+                &(-0.0f64).to_le_bytes()
+            ),
+            Ok(()),
+            "-0.0 is within 0.0..=0.0"
+        );
+        assert_eq!(
+            check_range(
+                DataType::Real64,
+                64,
+                &Value::None,
+                &Value::None,
+                &f64::NAN.to_le_bytes()
+            ),
+            Ok(())
         );
         assert_eq!(int_limits(DataType::Integer8, 8), Some((-128, 127)));
         assert_eq!(int_limits(DataType::Unsigned16, 16), Some((0, 65535)));
