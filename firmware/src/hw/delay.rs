@@ -7,10 +7,14 @@ use super::CCLK_HZ;
 #[derive(Debug, Clone, Copy, Default)]
 pub struct CycleDelay;
 
+/// Nanoseconds per CPU cycle (10 at 100 MHz); a whole number, so the cycle count needs
+/// only a 32-bit division (a 64-bit one would link `__aeabi_uldivmod`).
+const NS_PER_CYCLE: u32 = 1_000_000_000 / CCLK_HZ;
+const _: () = assert!(1_000_000_000 % CCLK_HZ == 0, "CCLK must divide 1 GHz");
+
 impl embedded_hal::delay::DelayNs for CycleDelay {
     fn delay_ns(&mut self, ns: u32) {
-        // cycles = ns * CCLK / 1e9, rounded up; at 100 MHz 10 ns per cycle.
-        let cycles = (u64::from(ns) * u64::from(CCLK_HZ)).div_ceil(1_000_000_000);
-        cortex_m::asm::delay(u32::try_from(cycles).unwrap_or(u32::MAX).max(1));
+        // cycles = ns * CCLK / 1e9 = ns / NS_PER_CYCLE, rounded up.
+        cortex_m::asm::delay(ns.div_ceil(NS_PER_CYCLE).max(1));
     }
 }
