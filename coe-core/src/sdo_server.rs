@@ -753,13 +753,10 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
             Ok(view) => view,
             Err(e) => return self.mailbox.send_error(reply, e.mailbox_error_code()),
         };
-        let query = if InfoQuery::is_request(view.opcode()) {
-            match SdoInfoRepr::parse(&view) {
-                Ok(request) => InfoQuery::from_request(&request),
-                Err(e) => return self.mailbox.send_error(reply, e.mailbox_error_code()),
-            }
-        } else {
-            None
+        let query = match SdoInfoRepr::parse_request(view.opcode(), view.payload()) {
+            Some(Ok(request)) => InfoQuery::from_request(&request),
+            Some(Err(e)) => return self.mailbox.send_error(reply, e.mailbox_error_code()),
+            None => None,
         };
         self.info = None;
         let Some(query) = query else {

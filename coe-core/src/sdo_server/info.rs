@@ -45,16 +45,6 @@ impl InfoQuery {
         }
     }
 
-    /// True for the three request opcodes a server answers.
-    pub(crate) fn is_request(opcode: SdoInfoOpCode) -> bool {
-        matches!(
-            opcode,
-            SdoInfoOpCode::GetOdListRequest
-                | SdoInfoOpCode::GetObjectDescriptionRequest
-                | SdoInfoOpCode::GetEntryDescriptionRequest
-        )
-    }
-
     /// The response opcode.
     pub(crate) fn response_opcode(&self) -> SdoInfoOpCode {
         match self {

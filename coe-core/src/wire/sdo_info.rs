@@ -601,20 +601,48 @@ impl<'a> SdoInfoRepr<'a> {
         Self::parse_service_data(packet.opcode(), packet.payload())
     }
 
+    /// Parses the service data of one of the three requests a server answers (Get OD List,
+    /// Get Object Description, Get Entry Description) like
+    /// [`parse_service_data`](Self::parse_service_data); `None` for any other opcode. A
+    /// server needs only this, so the response parsers stay out of its image.
+    pub fn parse_request(opcode: SdoInfoOpCode, data: &'a [u8]) -> Option<Result<SdoInfoRepr<'a>>> {
+        let at = |offset: usize| offset - field::PAYLOAD;
+        let u16_at = |r: core::ops::Range<usize>| get_u16(data, at(r.start)..at(r.end));
+        let parsed = match opcode {
+            SdoInfoOpCode::GetOdListRequest => {
+                need(data.len(), at(field::LIST_TYPE.end)).map(|()| SdoInfoRepr::OdListRequest {
+                    list_type: OdListType::from(u16_at(field::LIST_TYPE)),
+                })
+            }
+            SdoInfoOpCode::GetObjectDescriptionRequest => need(data.len(), at(field::INDEX.end))
+                .map(|()| SdoInfoRepr::ObjectDescriptionRequest {
+                    index: u16_at(field::INDEX),
+                }),
+            SdoInfoOpCode::GetEntryDescriptionRequest => {
+                need(data.len(), at(field::VALUE_INFO) + 1).map(|()| {
+                    SdoInfoRepr::EntryDescriptionRequest {
+                        index: u16_at(field::INDEX),
+                        sub_index: get_u8(data, at(field::SUB_INDEX)),
+                        value_info: ValueInfo(get_u8(data, at(field::VALUE_INFO))),
+                    }
+                })
+            }
+            _ => return None,
+        };
+        Some(parsed)
+    }
+
     /// Parses the service data of a message with `opcode`. Bytes after a fixed-length
     /// request or error are ignored; `Err(Malformed)` for an unknown opcode or an OD list
     /// of odd length.
     pub fn parse_service_data(opcode: SdoInfoOpCode, data: &'a [u8]) -> Result<SdoInfoRepr<'a>> {
+        if let Some(request) = Self::parse_request(opcode, data) {
+            return request;
+        }
         // The view's getters take frame offsets; rebuild a frame-relative reader.
         let at = |offset: usize| offset - field::PAYLOAD;
         let u16_at = |r: core::ops::Range<usize>| get_u16(data, at(r.start)..at(r.end));
         match opcode {
-            SdoInfoOpCode::GetOdListRequest => {
-                need(data.len(), at(field::LIST_TYPE.end))?;
-                Ok(SdoInfoRepr::OdListRequest {
-                    list_type: OdListType::from(u16_at(field::LIST_TYPE)),
-                })
-            }
             SdoInfoOpCode::GetOdListResponse => {
                 need(data.len(), at(field::LIST))?;
                 let list = tail(data, at(field::LIST));
@@ -626,12 +654,6 @@ impl<'a> SdoInfoRepr<'a> {
                     list,
                 })
             }
-            SdoInfoOpCode::GetObjectDescriptionRequest => {
-                need(data.len(), at(field::INDEX.end))?;
-                Ok(SdoInfoRepr::ObjectDescriptionRequest {
-                    index: u16_at(field::INDEX),
-                })
-            }
             SdoInfoOpCode::GetObjectDescriptionResponse => {
                 need(data.len(), at(field::OBJ_NAME))?;
                 Ok(SdoInfoRepr::ObjectDescriptionResponse {
@@ -640,14 +662,6 @@ impl<'a> SdoInfoRepr<'a> {
                     max_sub_index: get_u8(data, at(field::MAX_SUB_INDEX)),
                     object_code: get_u8(data, at(field::OBJECT_CODE)),
                     name: tail(data, at(field::OBJ_NAME)),
-                })
-            }
-            SdoInfoOpCode::GetEntryDescriptionRequest => {
-                need(data.len(), at(field::VALUE_INFO) + 1)?;
-                Ok(SdoInfoRepr::EntryDescriptionRequest {
-                    index: u16_at(field::INDEX),
-                    sub_index: get_u8(data, at(field::SUB_INDEX)),
-                    value_info: ValueInfo(get_u8(data, at(field::VALUE_INFO))),
                 })
             }
             SdoInfoOpCode::GetEntryDescriptionResponse => {
@@ -690,7 +704,11 @@ impl<'a> SdoInfoRepr<'a> {
                     )),
                 })
             }
-            SdoInfoOpCode::Unknown(_) => Err(Error::Malformed),
+            // The requests were parsed above.
+            SdoInfoOpCode::GetOdListRequest
+            | SdoInfoOpCode::GetObjectDescriptionRequest
+            | SdoInfoOpCode::GetEntryDescriptionRequest
+            | SdoInfoOpCode::Unknown(_) => Err(Error::Malformed),
         }
     }
 
@@ -924,6 +942,44 @@ mod tests {
     static INFO_ERROR: [u8; 8] = [0x07, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x06];
     /// A middle fragment: opcode 2, incomplete, reserved 0, 3 fragments left.
     static FRAGMENT_HEADER: [u8; 4] = [0x82, 0x00, 0x03, 0x00];
+
+    #[test]
+    fn parse_request_only_requests() {
+        let data = [0x34, 0x12, 0x05, 0x70];
+        for opcode in [
+            SdoInfoOpCode::GetOdListRequest,
+            SdoInfoOpCode::GetObjectDescriptionRequest,
+            SdoInfoOpCode::GetEntryDescriptionRequest,
+        ] {
+            assert_eq!(
+                SdoInfoRepr::parse_request(opcode, &data),
+                Some(SdoInfoRepr::parse_service_data(opcode, &data)),
+                "{opcode:?}"
+            );
+            assert_eq!(
+                SdoInfoRepr::parse_request(opcode, &[]),
+                Some(Err(Error::Truncated)),
+                "{opcode:?}"
+            );
+        }
+        assert_eq!(
+            SdoInfoRepr::parse_request(SdoInfoOpCode::GetEntryDescriptionRequest, &data),
+            Some(Ok(SdoInfoRepr::EntryDescriptionRequest {
+                index: 0x1234,
+                sub_index: 5,
+                value_info: ValueInfo(0x70),
+            }))
+        );
+        for opcode in [
+            SdoInfoOpCode::GetOdListResponse,
+            SdoInfoOpCode::GetObjectDescriptionResponse,
+            SdoInfoOpCode::GetEntryDescriptionResponse,
+            SdoInfoOpCode::SdoInfoError,
+            SdoInfoOpCode::Unknown(0x7F),
+        ] {
+            assert_eq!(SdoInfoRepr::parse_request(opcode, &data), None, "{opcode:?}");
+        }
+    }
 
     #[test]
     fn deconstruct() {
