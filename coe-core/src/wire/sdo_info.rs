@@ -735,6 +735,7 @@ impl<'a> SdoInfoRepr<'a> {
 
     /// Checks what the emitter cannot express: an OD list of odd length, optional values
     /// whose length is not ceil(bit_length / 8).
+    #[inline(always)]
     fn check(&self) -> Result<()> {
         match *self {
             SdoInfoRepr::OdListResponse { list, .. } if list.len() % 2 != 0 => {
@@ -771,6 +772,9 @@ impl<'a> SdoInfoRepr<'a> {
 
     /// Generates the service data into `w` (unchecked: [`emit`](Self::emit) and
     /// [`emit_fragment`](Self::emit_fragment) check first).
+    // Inlined: the server writes one known variant (object description, error), so only
+    // that arm lands in its image.
+    #[inline(always)]
     pub(crate) fn write(&self, w: &mut FragmentWriter<'_>) {
         match *self {
             SdoInfoRepr::OdListRequest { list_type } => w.push_u16(list_type.into()),
@@ -835,6 +839,7 @@ impl<'a> SdoInfoRepr<'a> {
     }
 
     /// Length of the whole service data (all fragments together).
+    #[inline(always)]
     pub fn service_data_len(&self) -> usize {
         let mut w = FragmentWriter::new(0, &mut []);
         self.write(&mut w);
@@ -842,11 +847,13 @@ impl<'a> SdoInfoRepr<'a> {
     }
 
     /// Header plus service data of an unfragmented frame.
+    #[inline(always)]
     pub fn buffer_len(&self) -> usize {
         HEADER_LEN + self.service_data_len()
     }
 
     /// Writes the message unfragmented (incomplete 0, fragments left 0).
+    #[inline(always)]
     pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, packet: &mut SdoInfo<T>) -> Result<()> {
         self.check()?;
         need(packet.buffer.as_ref().len(), self.buffer_len())?;
