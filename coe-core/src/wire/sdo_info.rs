@@ -984,7 +984,11 @@ mod tests {
             SdoInfoOpCode::SdoInfoError,
             SdoInfoOpCode::Unknown(0x7F),
         ] {
-            assert_eq!(SdoInfoRepr::parse_request(opcode, &data), None, "{opcode:?}");
+            assert_eq!(
+                SdoInfoRepr::parse_request(opcode, &data),
+                None,
+                "{opcode:?}"
+            );
         }
     }
 

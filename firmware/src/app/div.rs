@@ -12,6 +12,7 @@
 ///   `rem << 16 | digit` fits 32 bits);
 /// - otherwise: the high word by one division, then the low word by restoring binary long
 ///   division (32 steps; only for large divisors of large numbers, not on a hot path).
+#[inline(never)]
 pub const fn div_u64_u32(n: u64, d: u32) -> u64 {
     if d == 0 {
         return u64::MAX;
