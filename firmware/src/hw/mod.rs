@@ -18,10 +18,12 @@
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
+//! | [`aeabi_mem`] | the aligned AEABI memcpy/memclr forwarded to the general ones (flash) |
 
 pub mod adc;
 #[cfg(not(feature = "adc-irq"))]
 pub mod adc_dma;
+pub mod aeabi_mem;
 pub mod board;
 pub mod clocks;
 pub mod crp;
