@@ -190,6 +190,13 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         self.transfer != Transfer::Idle || self.info.is_some()
     }
 
+    /// True if [`SdoServer::poll`] has a frame to send: an SDO Information fragment, or a
+    /// queued Emergency outside a segmented transfer.
+    pub fn has_outgoing(&self) -> bool {
+        self.info.is_some()
+            || (self.transfer == Transfer::Idle && self.mailbox.pending_emergencies() > 0)
+    }
+
     /// Applies an ESM transition: INIT -> PREOP resets the mailbox counters; entering INIT
     /// or BOOT drops everything in progress.
     pub fn on_state_change(&mut self, from: AlState, to: AlState) {

@@ -104,6 +104,8 @@ fn new_request_drops_pending_fragments() {
     });
     b.ask(&info(0x01, &[0x01, 0x00]));
     assert!(b.server.busy());
+    // Fragments wait for the read mailbox.
+    assert!(b.server.has_outgoing());
     // A new request: the old response ends, the new one is served. The object description
     // of 0x1000 is 6 + 11 = 17 bytes: 12 in the first fragment (0x84, 1 left), 5 in the last.
     let mut first = vec![0x00, 0x10, 0x07, 0x00, 0x00, 0x07];

@@ -171,11 +171,13 @@ fn reply_buffer_too_small_gives_nothing() {
 fn emergency_frame() {
     let mut b = Bench::new();
     assert_eq!(b.poll(), None);
+    assert!(!b.server.has_outgoing());
     b.server.queue_emergency(Emergency {
         error_code: 0x8700,
         error_register: 0x11,
         data: [1, 2, 3, 4, 5],
     });
+    assert!(b.server.has_outgoing());
     // Length 10, type CoE, counter 1; CoE header service 1 (0x1000 -> 00 10);
     // error code 0x8700, error register 0x11, 5 data bytes.
     assert_eq!(
@@ -206,6 +208,7 @@ fn no_emergency_during_a_segmented_transfer() {
     let mut b = Bench::with_mailbox(32);
     b.ask(&sdo(0x40, 0x1008, 0, [0; 4]));
     b.server.queue_emergency(Emergency::default());
+    assert!(!b.server.has_outgoing());
     assert_eq!(b.poll(), None);
     // Finish the upload: 87 = 16 + 23 * 3 + 2.
     let mut toggle = 0;
@@ -218,5 +221,7 @@ fn no_emergency_during_a_segmented_transfer() {
             break;
         }
     }
+    assert!(b.server.has_outgoing());
     assert!(b.poll().is_some());
+    assert!(!b.server.has_outgoing());
 }

@@ -16,6 +16,12 @@
 //!   full) and PDI control b1 is set to the request's value.
 //! - INIT -> PREOP resets the counters (the server), any state change to INIT drops a waiting
 //!   reply.
+//! - The SyncManager registers are read only when the AL event bits (which every PDI access
+//!   returns) say the mailbox changed, or work waits ([`MailboxLink::needs_service`]); the
+//!   SM1 event (IntR: the master read the last byte) is the only way SM1 empties, and it
+//!   stays set until the next write, so seeing it means SM1 is free. A periodic safety
+//!   service ([`SAFETY_SERVICE_MS`]) re-reads the registers in case the master reset a
+//!   SyncManager without an event.
 
 use super::esc::{event, EscExt, EscPort, SmConfig};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
@@ -29,6 +35,11 @@ pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait.
 pub const EMERGENCY_QUEUE: usize = 4;
 
+/// Interval of the unconditional mailbox service from the background poll: it re-reads
+/// the SyncManager registers (the master may disable and re-enable a mailbox SyncManager
+/// without any event the application sees).
+pub const SAFETY_SERVICE_MS: u32 = 10;
+
 /// The SDO server of the module.
 pub type Server = SdoServer<MAILBOX_SIZE, TRANSFER_BUFFER, EMERGENCY_QUEUE>;
 
@@ -38,6 +49,7 @@ pub struct MailboxLink {
     buf: [u8; MAILBOX_SIZE],
     pending: usize,
     blocked: bool,
+    sm1_busy: bool,
     replies: u32,
     repeats: u32,
 }
@@ -56,6 +68,7 @@ impl MailboxLink {
             buf: [0; MAILBOX_SIZE],
             pending: 0,
             blocked: false,
+            sm1_busy: false,
             replies: 0,
             repeats: 0,
         }
@@ -87,13 +100,42 @@ impl MailboxLink {
     }
 
     /// The mailbox AL event bits to enable: SM0 while no reply waits, SM1 while one does
-    /// or while a request waits in SM0 for SM1 to be read.
-    pub const fn event_mask(&self) -> u32 {
-        if self.pending != 0 || self.blocked {
+    /// or while a request waits in SM0 for SM1 to be read, or other frames wait for SM1.
+    pub fn event_mask(&self) -> u32 {
+        if self.pending != 0 || self.blocked || (self.sm1_busy && self.has_outgoing()) {
             event::sm(1)
         } else {
             event::sm(0)
         }
+    }
+
+    /// True while the last frame written to SM1 has not been seen read by the master.
+    pub const fn sm1_busy(&self) -> bool {
+        self.sm1_busy
+    }
+
+    /// Frames the server would send once SM1 is free (SDO Information fragments,
+    /// Emergencies).
+    fn has_outgoing(&self) -> bool {
+        self.server.has_outgoing()
+    }
+
+    /// Takes note of the AL event bits of an access and tells whether [`Self::service`]
+    /// has work: a request in SM0 (bit 8) or a frame to send, with SM1 free (bit 9 seen
+    /// since the last write, or never written). A request that must wait for SM1 sets the
+    /// SM1 event mask ([`Self::event_mask`]).
+    pub fn needs_service(&mut self, events: u32) -> bool {
+        if events & event::sm(1) != 0 {
+            self.sm1_busy = false;
+        }
+        let request = events & event::sm(0) != 0;
+        if self.sm1_busy {
+            if request && self.pending == 0 {
+                self.blocked = true;
+            }
+            return false;
+        }
+        request || self.pending != 0 || self.blocked || self.has_outgoing()
     }
 
     /// ESM transition.
@@ -102,6 +144,7 @@ impl MailboxLink {
         if to == AlState::Init {
             self.pending = 0;
             self.blocked = false;
+            self.sm1_busy = false;
         }
     }
 
@@ -126,6 +169,7 @@ impl MailboxLink {
             return Ok(());
         }
         let mut sm1_full = sm1.mailbox_full();
+        self.sm1_busy = sm1_full;
         self.blocked = false;
         if self.pending != 0 {
             if sm1_full {
@@ -180,12 +224,15 @@ impl MailboxLink {
         let frame = self.buf.get(..len).unwrap_or(&[]);
         esc.write(sm1.start, frame)?;
         self.pending = 0;
+        self.sm1_busy = true;
         self.replies = self.replies.wrapping_add(1);
         Ok(())
     }
 
     fn repeat<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
         let ack = sm1.pdi_control & 0x02;
+        // Empty now, or emptied below.
+        self.sm1_busy = false;
         if sm1.mailbox_full() {
             // Empty SM1 by deactivating it from the PDI side, then activate it again.
             esc.set_sm_pdi_control(1, ack | 0x01)?;
@@ -196,6 +243,7 @@ impl MailboxLink {
         let out = frame.get_mut(..len).unwrap_or(&mut []);
         if self.server.repeat(out).frame_len().is_some() {
             esc.write(sm1.start, out)?;
+            self.sm1_busy = true;
             self.replies = self.replies.wrapping_add(1);
         }
         let requested = sm1.activate & 0x02;

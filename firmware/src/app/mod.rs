@@ -64,7 +64,7 @@ use diagnostics::{
     EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
 };
 use esc::{event, reg, EscExt, EscPort, SmConfig, SmExpect};
-use mailbox::MailboxLink;
+use mailbox::{MailboxLink, SAFETY_SERVICE_MS};
 use objects::{AppData, RxSink, TxSource};
 use outputs::OutputStage;
 pub use outputs::{DacAction, DacLatch, DacPair};
@@ -101,6 +101,8 @@ pub struct SlaveApp {
     config: AppConfig,
     mask: Option<u32>,
     sync0_seen: u32,
+    /// Time of the next unconditional mailbox service (ns).
+    mailbox_check_ns: u64,
 }
 
 impl SlaveApp {
@@ -114,6 +116,7 @@ impl SlaveApp {
             config,
             mask: None,
             sync0_seen: 0,
+            mailbox_check_ns: 0,
         }
     }
 
@@ -154,7 +157,8 @@ impl SlaveApp {
     }
 
     /// The ESC IRQ: reads the AL event bits once and serves AL control, watchdog, outputs
-    /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1).
+    /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1) when its
+    /// event bits say it has work ([`MailboxLink::needs_service`]).
     pub fn on_pdi_irq<E: EscPort + ?Sized>(
         &mut self,
         esc: &mut E,
@@ -178,7 +182,8 @@ impl SlaveApp {
             let mut all = [0u8; 32];
             esc.read(reg::SM_BASE, &mut all)?;
         }
-        if activation || events & (event::sm(0) | event::sm(1)) != 0 {
+        let mailbox_work = self.esm.state() != AlState::Init && self.mailbox.needs_service(events);
+        if activation || mailbox_work {
             self.serve_mailbox(esc, stage, now_ns, activation, &mut out)?;
         }
         self.update_mask(esc)?;
@@ -187,7 +192,8 @@ impl SlaveApp {
 
     /// Background work: the cycle monitor (missed SM events at the SYNC0 edges), the
     /// inputs outside SM-synchronous cycles, and the mailbox (waiting reply, SDO
-    /// Information fragments, Emergencies, segmented-transfer timeouts).
+    /// Information fragments, Emergencies) when the event bits of the inputs write or the
+    /// waiting work call for it, else every [`SAFETY_SERVICE_MS`].
     pub fn poll<E: EscPort + ?Sized>(
         &mut self,
         esc: &mut E,
@@ -202,15 +208,19 @@ impl SlaveApp {
         if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
             self.sync_error(esc, stage, &mut out)?;
         }
+        let mut events = 0;
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
             let mode = self.data.sync.mode();
             let free = mode == SyncMode::FreeRun || !self.data.sync.armed();
             if free || (mode == SyncMode::DcSync0 && new_edge) {
-                self.write_inputs(esc)?;
+                events = self.write_inputs(esc)?;
             }
         }
         if state != AlState::Init {
-            self.serve_mailbox(esc, stage, now_ns, false, &mut out)?;
+            let work = self.mailbox.needs_service(events);
+            if work || now_ns >= self.mailbox_check_ns {
+                self.serve_mailbox(esc, stage, now_ns, false, &mut out)?;
+            }
         }
         self.update_mask(esc)?;
         Ok(out)
@@ -467,8 +477,9 @@ impl SlaveApp {
         Ok(())
     }
 
-    /// Publishes the samples of the cycle and writes them to SM3.
-    fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+    /// Publishes the samples of the cycle and writes them to SM3; returns the AL event bits
+    /// of the write (0 if nothing was written).
+    fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<u32, E::Error> {
         self.data.sampler.publish();
         let mut source = TxSource {
             ai: self.data.sampler.values(),
@@ -478,10 +489,10 @@ impl SlaveApp {
         let start = self.config.sm[3].start;
         if let Ok(image) = self.data.pd.pack(&mut source) {
             if !image.is_empty() {
-                esc.write(start, image)?;
+                return esc.write(start, image);
             }
         }
-        Ok(())
+        Ok(0)
     }
 
     // ------------------------------------------------------------ mailbox
@@ -496,6 +507,7 @@ impl SlaveApp {
     ) -> Result<(), E::Error> {
         let state = self.esm.state();
         let od = self.data.od();
+        self.mailbox_check_ns = now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
         // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
         let now_ms = div::div_u64_u32(now_ns >> 6, 15_625) as u32;
         self.mailbox

@@ -659,3 +659,40 @@ fn bus_errors_are_reported_not_panics() {
     assert_eq!(r.esc.al_status(), (0x02, 0));
     let _ = event::AL_CONTROL;
 }
+
+/// DC OP: a cycle is the event bits, the SM2 read and the SM3 write; the mailbox registers
+/// are read only on mailbox events, for waiting work, or by the periodic safety service.
+#[test]
+fn dc_cycle_reads_no_mailbox_registers() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(4, 4);
+    assert_eq!(r.download(0x1C32, 1, &2u16.to_le_bytes()), Ok(()));
+    r.esc.master_dc(0x03, 1_000_000);
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(r.request(0x08), (0x08, 0));
+    let (reads, sm_reads, writes) = (r.esc.reads, r.esc.sm_register_reads, r.esc.writes);
+    for k in 1..=5i16 {
+        r.outputs(0x100 * k, 0x80 * k);
+        r.sync0();
+    }
+    assert_eq!(r.esc.sm_register_reads, sm_reads);
+    // Per cycle: the event bits (IRQ) and SM2; one write: SM3.
+    assert_eq!(r.esc.reads - reads, 5 * 2);
+    assert_eq!(r.esc.writes - writes, 5);
+    // The mailbox still answers in OP (SM0 event), and the reply leaves SM1 busy until the
+    // master has read it.
+    assert_eq!(r.upload(0x1C32, 0x0B), Ok(vec![0, 0]));
+    assert!(r.app.mailbox().sm1_busy());
+    // The master has read it: the event bits of the next SM3 write tell, without a
+    // register read.
+    let sm_reads = r.esc.sm_register_reads;
+    r.sync0();
+    assert!(!r.app.mailbox().sm1_busy());
+    assert_eq!(r.esc.sm_register_reads, sm_reads);
+    assert_eq!(r.esc.al_status(), (0x08, 0));
+    // The periodic safety service reads the registers even without events.
+    r.now += u64::from(super::mailbox::SAFETY_SERVICE_MS) * 1_000_000;
+    r.poll();
+    assert!(r.esc.sm_register_reads > sm_reads);
+}

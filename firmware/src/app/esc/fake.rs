@@ -15,6 +15,10 @@ pub struct FakeEsc {
     pub fail_next: bool,
     /// PDI writes so far.
     pub writes: usize,
+    /// PDI reads so far (any address).
+    pub reads: usize,
+    /// PDI reads touching the SyncManager registers (0x0800..0x0880).
+    pub sm_register_reads: usize,
 }
 
 /// A PDI access outside the register file or to a register the PDI cannot write.
@@ -34,6 +38,8 @@ impl FakeEsc {
             mem: [0; 0x2000],
             fail_next: false,
             writes: 0,
+            reads: 0,
+            sm_register_reads: 0,
         };
         esc.set_u16(reg::AL_STATUS, 1);
         esc.set_u16(reg::WD_STATUS_PD, 1);
@@ -256,6 +262,10 @@ impl EscPort for FakeEsc {
         let a = usize::from(addr);
         let src = self.mem.get(a..a + buf.len()).ok_or(BusError)?;
         buf.copy_from_slice(src);
+        self.reads += 1;
+        if a < 0x0880 && a + buf.len() > 0x0800 {
+            self.sm_register_reads += 1;
+        }
         self.after_read(a, buf.len());
         Ok(events)
     }
