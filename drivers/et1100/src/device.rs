@@ -87,6 +87,11 @@ impl<P: Pdi> Et1100<P> {
         self.pdi.events()
     }
 
+    /// AL event bits 0..15 alone (SPI: a 2-byte NOP access); see [`Pdi::low_events`].
+    pub fn low_events(&mut self) -> Result<AlEvents, Error<P::BusError>> {
+        self.pdi.low_events()
+    }
+
     fn read_array<const N: usize>(&mut self, addr: u16) -> Result<[u8; N], Error<P::BusError>> {
         let mut b = [0u8; N];
         self.pdi.read(addr, &mut b)?;

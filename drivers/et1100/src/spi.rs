@@ -140,6 +140,16 @@ impl<SPI: SpiDevice> Pdi for SpiPdi<SPI> {
             .map_err(Error::Bus)?;
         Ok(events_from(&rx))
     }
+
+    /// A 2-byte NOP (address 0, command 000): two bytes on the bus instead of three.
+    fn low_events(&mut self) -> Result<AlEvents, Error<SPI::Error>> {
+        let tx = [0x00, Command::Nop.bits()];
+        let mut rx = [0u8; 2];
+        self.spi
+            .transaction(&mut [Operation::Transfer(&mut rx, &tx)])
+            .map_err(Error::Bus)?;
+        Ok(events_from(&rx))
+    }
 }
 
 #[cfg(test)]

@@ -139,3 +139,12 @@ fn range_and_bus_errors() {
     assert_eq!(pdi.events(), Err(Error::Bus("bus fault")));
     assert_eq!(pdi.write(0x1000, &[1]), Err(Error::Bus("bus fault")));
 }
+
+#[test]
+fn low_events_default_masks_the_upper_event_bytes() {
+    let mut bus = FakeBus::new();
+    bus.mem[0x0220..0x0224].copy_from_slice(&[0x01, 0x04, 0x01, 0x00]);
+    let mut pdi = MemoryPdi::new(bus, BusWidth::Bits16);
+    assert_eq!(pdi.events().unwrap().bits(), 0x0001_0401);
+    assert_eq!(pdi.low_events().unwrap().bits(), 0x0401);
+}

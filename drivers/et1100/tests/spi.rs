@@ -112,6 +112,19 @@ fn nop_returns_all_event_bytes() {
 }
 
 #[test]
+fn low_events_is_a_two_byte_nop() {
+    let mut e = esc(&[vec![
+        T::transaction_start(),
+        T::transfer(vec![0x00, 0x00], vec![0x05, 0x01]),
+        T::transaction_end(),
+    ]]);
+    let ev = e.low_events().unwrap();
+    assert_eq!(ev, AlEvents::from_bits(0x0105));
+    assert!(ev.al_control() && ev.sync0() && ev.sm(0));
+    done(e);
+}
+
+#[test]
 fn out_of_range_touches_no_bus() {
     let mut e = esc(&[rd(&[0xFF, 0xFE, 0xEC], &[0, 0, 0], &[0x99])]);
     let mut empty: [u8; 0] = [];
@@ -417,6 +430,7 @@ fn bus_errors_are_passed_through() {
     assert_eq!(e.read(0x0120, &mut buf), bus);
     assert_eq!(e.write(0x0120, &buf), bus);
     assert_eq!(e.events(), bus);
+    assert_eq!(e.low_events(), bus);
     assert_eq!(e.read_sm(0), Err(Error::Bus(ErrorKind::ModeFault)));
     assert_eq!(
         e.eeprom_read_chunk(0, 10),
@@ -431,11 +445,18 @@ fn pdi_through_mut_reference() {
     fn nop<P: Pdi>(mut p: P) -> AlEvents {
         p.events().ok().unwrap_or_default()
     }
+    fn low<P: Pdi>(mut p: P) -> AlEvents {
+        p.low_events().ok().unwrap_or_default()
+    }
     let mut pdi = SpiPdi::new(Mock::new(&[
         T::transaction_start(),
         T::transfer(vec![0x00, 0x06, 0x00], vec![0x00, 0x00, 0x01]),
         T::transaction_end(),
+        T::transaction_start(),
+        T::transfer(vec![0x00, 0x00], vec![0x00, 0x02]),
+        T::transaction_end(),
     ]));
     assert!(nop(&mut pdi).sm(8));
+    assert!(low(&mut pdi).sm(1));
     pdi.destroy().done();
 }

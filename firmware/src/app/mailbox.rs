@@ -35,10 +35,10 @@ pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait.
 pub const EMERGENCY_QUEUE: usize = 4;
 
-/// Interval of the unconditional mailbox service from the background poll: it re-reads
-/// the SyncManager registers (the master may disable and re-enable a mailbox SyncManager
-/// without any event the application sees).
-pub const SAFETY_SERVICE_MS: u32 = 10;
+/// Interval of the unconditional mailbox service from the background poll: a backstop that
+/// re-reads the SyncManager registers (a master that re-enables a mailbox SyncManager
+/// raises the SM activation event, which the IRQ serves at once; this catches anything else).
+pub const SAFETY_SERVICE_MS: u32 = 100;
 
 /// The SDO server of the module.
 pub type Server = SdoServer<MAILBOX_SIZE, TRANSFER_BUFFER, EMERGENCY_QUEUE>;

@@ -19,7 +19,8 @@ where
     }
 
     fn events(&mut self) -> Result<u32, Self::Error> {
-        Et1100::events(self).map(u32::from)
+        // The application needs bits 0..11 only: the cheapest event access (SPI: 2 bytes).
+        Et1100::low_events(self).map(u32::from)
     }
 }
 
@@ -67,5 +68,10 @@ mod tests {
             0x0101
         );
         assert_eq!(EscPort::events(&mut esc).unwrap(), 0x0101);
+        // Bits 16.. (SM8..SM15, which the ET1100 does not have) are not read.
+        let mut ram = Ram(std::vec![0; 0x1_0000]);
+        ram.0[0x0220..0x0224].copy_from_slice(&0x0001_0101u32.to_le_bytes());
+        let mut esc2 = Et1100::new(et1100::MemoryPdi::new(ram, et1100::BusWidth::Bits16));
+        assert_eq!(EscPort::events(&mut esc2).unwrap(), 0x0101);
     }
 }

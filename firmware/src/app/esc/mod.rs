@@ -150,7 +150,8 @@ pub trait EscPort {
     /// Writes `data` at `addr`; returns the AL event bits of the access.
     fn write(&mut self, addr: u16, data: &[u8]) -> Result<u32, Self::Error>;
 
-    /// Reads the AL event bits alone (a NOP access).
+    /// Reads the AL event bits alone (a NOP access); at least bits 0..15 (AL control .. SM7),
+    /// the application uses no others.
     fn events(&mut self) -> Result<u32, Self::Error> {
         let mut b = [0u8; 4];
         self.read(reg::AL_EVENT, &mut b)?;
