@@ -65,10 +65,10 @@ use diagnostics::{
 };
 use esc::{event, reg, EscExt, EscPort, SmConfig, SmExpect};
 use mailbox::{MailboxLink, SAFETY_SERVICE_MS};
-use objects::{AppData, RxSink, TxSource};
+use objects::AppData;
 use outputs::OutputStage;
 pub use outputs::{DacAction, DacLatch, DacPair};
-use process_data::ProcessData;
+use process_data::{ProcessData, SlotValues};
 use sampler::{Sample, Sampler};
 use sync::{check_sync, SyncInputs, SyncMode, SyncVerdict};
 
@@ -435,30 +435,26 @@ impl SlaveApp {
             .sync
             .on_sm2_event(now_ns, in_op, stage.sync0_counts());
         if in_op {
-            let mut sink = RxSink {
-                ao: self.data.outputs.values(),
-            };
-            if self.data.pd.unpack(&mut sink, state).is_ok() {
-                let set = self.data.outputs.set_values(sink.ao, true, stage);
+            if let Ok(ao) = self.data.pd.unpack_ao(self.data.outputs.values(), state) {
+                let set = self.data.outputs.set_values(ao, true, stage);
                 if set.newly_out_of_range {
-                    let mask =
-                        sink.ao.iter().enumerate().fold(
-                            0u8,
-                            |m, (i, v)| {
-                                if *v < 0 {
-                                    m | 1 << i
-                                } else {
-                                    m
-                                }
-                            },
-                        );
+                    let mask = ao.iter().enumerate().fold(
+                        0u8,
+                        |m, (i, v)| {
+                            if *v < 0 {
+                                m | 1 << i
+                            } else {
+                                m
+                            }
+                        },
+                    );
                     let e = self.data.diag.raise(
                         ERR_MANUFACTURER,
                         EMCY_AO_OUT_OF_RANGE,
                         [mask, 0, 0, 0, 0],
                     );
                     self.mailbox.queue_emergency(e);
-                } else if sink.ao.iter().all(|v| *v >= 0) {
+                } else if ao.iter().all(|v| *v >= 0) {
                     if let Some(e) = self.data.diag.clear(ERR_MANUFACTURER) {
                         self.mailbox.queue_emergency(e);
                     }
@@ -481,13 +477,13 @@ impl SlaveApp {
     /// of the write (0 if nothing was written).
     fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<u32, E::Error> {
         self.data.sampler.publish();
-        let mut source = TxSource {
+        let values = SlotValues {
             ai: self.data.sampler.values(),
             ao: self.data.outputs.values(),
             error_register: self.data.diag.register(),
         };
         let start = self.config.sm[3].start;
-        if let Ok(image) = self.data.pd.pack(&mut source) {
+        if let Ok(image) = self.data.pd.pack_values(&values) {
             if !image.is_empty() {
                 return esc.write(start, image);
             }

@@ -2,6 +2,12 @@
 //! configurable in PREOP, the process image layouts built from them at PREOP -> SAFEOP, the
 //! SM2/SM3 checks against them, and the per-cycle copy SM2 -> outputs, inputs -> SM3.
 //!
+//! The per-cycle copy has a fast path: when every mapped object is byte-aligned and one
+//! the application holds in a plain variable ([`Slot`]: AI, AO, error register), the plan
+//! ([`FastImage`]) is built once at PREOP -> SAFEOP and a cycle copies the values straight
+//! between the image and the application; any other layout (bit fields, gaps inside a
+//! byte) takes the generic bit-exact path through [`ObjectAccess`].
+//!
 //! Validation and bit-exact packing are coe-core's ([`coe_core::pdo`]); this module owns the
 //! configuration and decides the AL status codes:
 //! - an assignment or mapping that does not validate: 0x0025 invalid output mapping /
@@ -11,6 +17,8 @@
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
 use super::esc::{sm_control, SmConfig, SmExpect};
+use super::objects::{RxSink, TxSource};
+use super::sampler::CHANNELS as AI_CHANNELS;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoMapping};
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
@@ -29,6 +37,83 @@ pub const MAX_FIELDS: usize = 16;
 /// One PDO mapping object.
 pub type Mapping = PdoMapping<ENTRIES>;
 
+/// A process-data object the application holds in a plain variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Slot {
+    /// 0x6401:n (INTEGER16), `n - 1`.
+    Ai(u8),
+    /// 0x6411:n (INTEGER16), `n - 1`.
+    Ao(u8),
+    /// 0x1001 (UNSIGNED8).
+    ErrorRegister,
+}
+
+impl Slot {
+    /// The slot of a mapped object of `bit_len` bits, if it has one.
+    pub fn of(index: u16, subindex: u8, bit_len: u8) -> Option<Self> {
+        let n = subindex.wrapping_sub(1);
+        match (index, bit_len) {
+            (0x6401, 16) if usize::from(n) < AI_CHANNELS => Some(Self::Ai(n)),
+            (0x6411, 16) if n < 2 => Some(Self::Ao(n)),
+            (0x1001, 8) if subindex == 0 => Some(Self::ErrorRegister),
+            _ => None,
+        }
+    }
+
+    /// Bytes in the image.
+    const fn len(self) -> usize {
+        match self {
+            Self::ErrorRegister => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// The fast-path plan of one process image: byte offset and slot of every mapped object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FastImage {
+    fields: [(u8, Slot); MAX_FIELDS],
+    count: usize,
+}
+
+impl FastImage {
+    /// The plan of `layout`, or `None` if an object is not byte-aligned, has no slot, or is
+    /// not allowed in this direction (`allow`).
+    pub fn build(layout: &ImageLayout<MAX_FIELDS>, allow: impl Fn(Slot) -> bool) -> Option<Self> {
+        let mut plan = Self {
+            fields: [(0, Slot::ErrorRegister); MAX_FIELDS],
+            count: 0,
+        };
+        for field in layout.fields() {
+            let slot =
+                Slot::of(field.index, field.subindex, field.bit_len).filter(|s| allow(*s))?;
+            let offset = u8::try_from(field.bit_offset / 8).ok()?;
+            if field.bit_offset % 8 != 0 || usize::from(offset) + slot.len() > MAX_IMAGE {
+                return None;
+            }
+            *plan.fields.get_mut(plan.count)? = (offset, slot);
+            plan.count += 1;
+        }
+        Some(plan)
+    }
+
+    /// Byte offset and slot of each mapped object.
+    pub fn fields(&self) -> &[(u8, Slot)] {
+        self.fields.get(..self.count).unwrap_or(&[])
+    }
+}
+
+/// The values a [`Slot`] names, for one cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SlotValues {
+    /// Published analog inputs.
+    pub ai: [i16; AI_CHANNELS],
+    /// Analog outputs.
+    pub ao: [i16; 2],
+    /// Error register (0x1001).
+    pub error_register: u8,
+}
+
 /// The PDO configuration and the process images.
 #[derive(Debug, Clone)]
 pub struct ProcessData {
@@ -44,6 +129,8 @@ pub struct ProcessData {
     ),
     rx_layout: ImageLayout<MAX_FIELDS>,
     tx_layout: ImageLayout<MAX_FIELDS>,
+    rx_fast: Option<FastImage>,
+    tx_fast: Option<FastImage>,
     outputs: [u8; MAX_IMAGE],
     inputs: [u8; MAX_IMAGE],
 }
@@ -70,6 +157,8 @@ impl ProcessData {
             defaults: (rx, tx, rx_assign, tx_assign),
             rx_layout: ImageLayout::new(),
             tx_layout: ImageLayout::new(),
+            rx_fast: None,
+            tx_fast: None,
             outputs: [0; MAX_IMAGE],
             inputs: [0; MAX_IMAGE],
         }
@@ -86,6 +175,8 @@ impl ProcessData {
             defaults: self.defaults,
             rx_layout: ImageLayout::new(),
             tx_layout: ImageLayout::new(),
+            rx_fast: None,
+            tx_fast: None,
             outputs: [0; MAX_IMAGE],
             inputs: [0; MAX_IMAGE],
         };
@@ -215,10 +306,70 @@ impl ProcessData {
         if !sm_matches(sm3, expect3, tx_layout.byte_len()) {
             return Err(AlStatusCode::InvalidInputConfiguration);
         }
+        self.rx_fast = FastImage::build(&rx_layout, |s| matches!(s, Slot::Ao(_)));
+        self.tx_fast = FastImage::build(&tx_layout, |_| true);
         self.rx_layout = rx_layout;
         self.tx_layout = tx_layout;
         self.inputs = [0; MAX_IMAGE];
         Ok(())
+    }
+
+    /// The fast-path plans in effect (outputs, inputs); `None`: the generic path.
+    pub fn fast_plans(&self) -> (Option<&FastImage>, Option<&FastImage>) {
+        (self.rx_fast.as_ref(), self.tx_fast.as_ref())
+    }
+
+    /// The AO values of the output image: `ao` with every mapped AO replaced. The fast
+    /// plan when there is one, else [`ProcessData::unpack`] through `sink`.
+    pub fn unpack_ao(&self, ao: [i16; 2], state: AlState) -> Result<[i16; 2], SdoAbortCode> {
+        let Some(plan) = &self.rx_fast else {
+            let mut sink = RxSink { ao };
+            self.unpack(&mut sink, state)?;
+            return Ok(sink.ao);
+        };
+        let mut ao = ao;
+        for &(offset, slot) in plan.fields() {
+            let o = usize::from(offset);
+            if let (Slot::Ao(i), Some(&[lo, hi])) = (slot, self.outputs.get(o..o + 2)) {
+                if let Some(v) = ao.get_mut(usize::from(i)) {
+                    *v = i16::from_le_bytes([lo, hi]);
+                }
+            }
+        }
+        Ok(ao)
+    }
+
+    /// Packs the input image from `values` (fast plan, else through [`TxSource`]) and
+    /// returns it (SM3 content).
+    pub fn pack_values(&mut self, values: &SlotValues) -> Result<&[u8], SdoAbortCode> {
+        let n = self.tx_layout.byte_len().min(MAX_IMAGE);
+        let Some(plan) = &self.tx_fast else {
+            let mut source = TxSource {
+                ai: values.ai,
+                ao: values.ao,
+                error_register: values.error_register,
+            };
+            return self.pack(&mut source);
+        };
+        let image = self.inputs.get_mut(..n).unwrap_or(&mut []);
+        for &(offset, slot) in plan.fields() {
+            let o = usize::from(offset);
+            let bytes = match slot {
+                Slot::Ai(i) => values.ai.get(usize::from(i)).copied().unwrap_or(0),
+                Slot::Ao(i) => values.ao.get(usize::from(i)).copied().unwrap_or(0),
+                Slot::ErrorRegister => {
+                    if let Some(b) = image.get_mut(o) {
+                        *b = values.error_register;
+                    }
+                    continue;
+                }
+            }
+            .to_le_bytes();
+            if let Some(dst) = image.get_mut(o..o + 2) {
+                dst.copy_from_slice(&bytes);
+            }
+        }
+        Ok(image)
     }
 
     /// The RxPDO image layout in effect (SAFEOP, OP).
@@ -273,4 +424,120 @@ fn sm_matches(sm: &SmConfig, expect: &SmExpect, len: usize) -> bool {
         && sm.start == expect.start
         && sm.control & mask == expect.control & mask
         && usize::from(sm.len) == len
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use coe_core::pdo::PdoEntry;
+    use std::vec::Vec;
+
+    /// A configuration of one RxPDO and one TxPDO, taken through PREOP -> SAFEOP.
+    fn prepared(rx: &[PdoEntry], tx: &[PdoEntry]) -> ProcessData {
+        let mut pd = ProcessData::new(
+            [Mapping::with_entries(0x1600, rx), Mapping::new(0x1601)],
+            [Mapping::with_entries(0x1A00, tx), Mapping::new(0x1A01)],
+            &[0x1600],
+            &[0x1A00],
+        );
+        let [_, _, e2, e3] = crate::device::app_config().sm;
+        let sm = |e: &SmExpect, len: usize| SmConfig {
+            start: e.start,
+            len: len as u16,
+            control: e.control,
+            activate: 1,
+            ..SmConfig::default()
+        };
+        let (sm2, sm3) = (sm(&e2, pd.output_len()), sm(&e3, pd.input_len()));
+        pd.prepare(&crate::od::OD, &sm2, &sm3, &e2, &e3).unwrap();
+        pd
+    }
+
+    const VALUES: SlotValues = SlotValues {
+        ai: [0x0102, -2, 0x0304, 4, 5, 6, 7, -0x0708],
+        ao: [0x1122, -0x3344],
+        error_register: 0x81,
+    };
+
+    fn generic_pack(pd: &mut ProcessData) -> Vec<u8> {
+        let mut source = TxSource {
+            ai: VALUES.ai,
+            ao: VALUES.ao,
+            error_register: VALUES.error_register,
+        };
+        pd.pack(&mut source).unwrap().to_vec()
+    }
+
+    #[test]
+    fn byte_aligned_layouts_take_the_fast_path_with_the_generic_result() {
+        let rx = [PdoEntry::new(0x6411, 2, 16), PdoEntry::new(0x6411, 1, 16)];
+        let tx = [
+            PdoEntry::new(0x6401, 8, 16),
+            PdoEntry::new(0x1001, 0, 8),
+            PdoEntry::new(0x0000, 0, 8),
+            PdoEntry::new(0x6401, 1, 16),
+        ];
+        let mut pd = prepared(&rx, &tx);
+        let (fast_rx, fast_tx) = pd.fast_plans();
+        assert_eq!(
+            fast_rx.unwrap().fields(),
+            &[(0, Slot::Ao(1)), (2, Slot::Ao(0))]
+        );
+        assert_eq!(
+            fast_tx.unwrap().fields(),
+            &[(0, Slot::Ai(7)), (2, Slot::ErrorRegister), (4, Slot::Ai(0))]
+        );
+        let fast = pd.pack_values(&VALUES).unwrap().to_vec();
+        assert_eq!(fast, [0xF8, 0xF8, 0x81, 0, 0x02, 0x01]);
+        assert_eq!(fast, generic_pack(&mut pd));
+
+        pd.output_image_mut()
+            .copy_from_slice(&[0x34, 0x12, 0xFE, 0xFF]);
+        let ao = pd.unpack_ao([7, 7], AlState::Op).unwrap();
+        assert_eq!(ao, [-2, 0x1234]);
+        let mut sink = RxSink { ao: [7, 7] };
+        pd.unpack(&mut sink, AlState::Op).unwrap();
+        assert_eq!(sink.ao, ao);
+    }
+
+    #[test]
+    fn unaligned_layouts_fall_back_to_bit_packing() {
+        // A 4-bit gap shifts everything after it off the byte grid.
+        let rx = [
+            PdoEntry::new(0x0000, 0, 4),
+            PdoEntry::new(0x6411, 1, 16),
+            PdoEntry::new(0x0000, 0, 4),
+        ];
+        let tx = [
+            PdoEntry::new(0x0000, 0, 4),
+            PdoEntry::new(0x6401, 1, 16),
+            PdoEntry::new(0x0000, 0, 4),
+        ];
+        let mut pd = prepared(&rx, &tx);
+        assert_eq!(pd.fast_plans(), (None, None));
+        // 0x0102 shifted by 4 bits.
+        assert_eq!(pd.pack_values(&VALUES).unwrap(), &[0x20, 0x10, 0x00]);
+        pd.output_image_mut().copy_from_slice(&[0x40, 0x23, 0x01]);
+        assert_eq!(pd.unpack_ao([7, 7], AlState::Op).unwrap(), [0x1234, 7]);
+    }
+
+    #[test]
+    fn objects_without_a_slot_fall_back() {
+        assert_eq!(Slot::of(0x6401, 9, 16), None);
+        assert_eq!(Slot::of(0x6411, 0, 16), None);
+        assert_eq!(Slot::of(0x6401, 1, 8), None);
+        assert_eq!(Slot::of(0x1001, 1, 8), None);
+        assert_eq!(Slot::of(0x1001, 0, 8), Some(Slot::ErrorRegister));
+        // An AI in the outputs has no fast path.
+        let layout = ImageLayout::build(
+            &PdoAssignment::<RX_PDOS>::with_pdos(0x1C12, &[0x1600]),
+            &[Mapping::with_entries(
+                0x1600,
+                &[PdoEntry::new(0x6401, 1, 16)],
+            )],
+        )
+        .unwrap();
+        assert!(FastImage::build(&layout, |s| matches!(s, Slot::Ao(_))).is_none());
+        assert!(FastImage::build(&layout, |_| true).is_some());
+    }
 }
