@@ -2,13 +2,16 @@
 //! master), with the ESC's mailbox handshakes (ESC datasheet section I 8.5/8.6).
 //!
 //! - A request is read when SM0 is full (AL event bit 8, or SM0 status b3 when polled) and
-//!   no reply is waiting: the whole buffer in one access from its start, so reading the last
-//!   byte frees it. While a reply waits, SM0 stays full (the master cannot send another
-//!   request) and its event is masked ([`MailboxLink::event_mask`]).
-//! - A reply is written as the whole SM1 buffer (zero-padded) in one access, so writing the
-//!   last byte marks it full. If SM1 is still full (the master has not read the last one),
-//!   the reply waits and goes out on the SM1 event (bit 9: the master read SM1) or the next
-//!   poll.
+//!   no reply is waiting. The ESC opens a mailbox buffer on the access to its first byte and
+//!   frees it on the access to its last byte, whatever lies between (hardware-facts 1.3/1.5,
+//!   ESC-I 8), so only what carries data crosses the PDI: the header and an expedited SDO
+//!   in one read from the start, the rest of the header's length if longer, then the last
+//!   byte ([`read_request`]). While a reply waits, SM0 stays full (the master cannot send
+//!   another request) and its event is masked ([`MailboxLink::event_mask`]).
+//! - A reply is written the same way: the frame from the start, then the last byte, which
+//!   marks SM1 full ([`write_frame`]); the master reads the length from the header. If SM1
+//!   is still full (the master has not read the last one), the reply waits and goes out on
+//!   the SM1 event (bit 9: the master read SM1) or the next poll.
 //! - With nothing waiting, the server's pending work goes out: SDO Information fragments,
 //!   then queued Emergencies.
 //! - Repeat request: when SM1 activate b1 differs from PDI control b1, the last frame (the
@@ -24,6 +27,7 @@
 //!   SyncManager without an event.
 
 use super::esc::{event, EscExt, EscPort, SmConfig};
+use coe_core::mailbox::MAILBOX_HEADER_LEN;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
 use coe_core::AlState;
@@ -34,6 +38,9 @@ pub const MAILBOX_SIZE: usize = 128;
 pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait.
 pub const EMERGENCY_QUEUE: usize = 4;
+/// Bytes of a request read in the first access: the mailbox header and an expedited SDO
+/// (CoE header, command, index, subindex, 4 data bytes).
+pub const FIRST_READ: usize = MAILBOX_HEADER_LEN + 10;
 
 /// Interval of the unconditional mailbox service from the background poll: a backstop that
 /// re-reads the SyncManager registers (a master that re-enables a mailbox SyncManager
@@ -184,7 +191,7 @@ impl MailboxLink {
                 let len = usize::from(sm0.len).min(MAILBOX_SIZE);
                 let mut request = [0u8; MAILBOX_SIZE];
                 let req = request.get_mut(..len).unwrap_or(&mut []);
-                esc.read(sm0.start, req)?;
+                read_request(esc, sm0.start, req)?;
                 let reply_len = usize::from(sm1.len).min(MAILBOX_SIZE);
                 self.buf = [0; MAILBOX_SIZE];
                 let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
@@ -222,7 +229,7 @@ impl MailboxLink {
     fn flush<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
         let len = usize::from(sm1.len).min(MAILBOX_SIZE);
         let frame = self.buf.get(..len).unwrap_or(&[]);
-        esc.write(sm1.start, frame)?;
+        write_frame(esc, sm1.start, frame, self.pending)?;
         self.pending = 0;
         self.sm1_busy = true;
         self.replies = self.replies.wrapping_add(1);
@@ -241,8 +248,8 @@ impl MailboxLink {
         let len = usize::from(sm1.len).min(MAILBOX_SIZE);
         let mut frame = [0u8; MAILBOX_SIZE];
         let out = frame.get_mut(..len).unwrap_or(&mut []);
-        if self.server.repeat(out).frame_len().is_some() {
-            esc.write(sm1.start, out)?;
+        if let Some(n) = self.server.repeat(out).frame_len() {
+            write_frame(esc, sm1.start, out, n)?;
             self.sm1_busy = true;
             self.replies = self.replies.wrapping_add(1);
         }
@@ -250,5 +257,156 @@ impl MailboxLink {
         esc.set_sm_pdi_control(1, requested)?;
         self.repeats = self.repeats.wrapping_add(1);
         Ok(())
+    }
+}
+
+/// Reads a request from the SM0 buffer `req.len()` long at `start`: [`FIRST_READ`] bytes,
+/// then the rest of the header's length if it is longer, then the last byte, which frees the
+/// buffer. Bytes beyond the header's length (not read) are left as they are in `req`;
+/// whole-buffer reads when the frame fills it anyway.
+pub fn read_request<E: EscPort + ?Sized>(
+    esc: &mut E,
+    start: u16,
+    req: &mut [u8],
+) -> Result<(), E::Error> {
+    let len = req.len();
+    if len <= FIRST_READ + 1 {
+        return esc.read(start, req).map(drop);
+    }
+    let (head, rest) = req.split_at_mut(FIRST_READ);
+    esc.read(start, head)?;
+    let declared = MAILBOX_HEADER_LEN + usize::from(u16::from_le_bytes([head[0], head[1]]));
+    // `rest` is non-empty: len > FIRST_READ + 1.
+    let last = rest.len() - 1;
+    let more = declared.saturating_sub(FIRST_READ);
+    let at = |o: usize| start.wrapping_add((FIRST_READ + o) as u16);
+    if more >= last {
+        return esc.read(at(0), rest).map(drop);
+    }
+    if let Some(middle) = rest.get_mut(..more).filter(|m| !m.is_empty()) {
+        esc.read(at(0), middle)?;
+    }
+    esc.read(at(last), rest.get_mut(last..).unwrap_or(&mut []))
+        .map(drop)
+}
+
+/// Writes the first `n` bytes of `frame` (a whole SM1 buffer) at `start`, then its last
+/// byte, which marks the mailbox full; one access when the frame fills the buffer anyway.
+pub fn write_frame<E: EscPort + ?Sized>(
+    esc: &mut E,
+    start: u16,
+    frame: &[u8],
+    n: usize,
+) -> Result<(), E::Error> {
+    let len = frame.len();
+    let n = n.max(1);
+    if n + 1 >= len {
+        return esc.write(start, frame).map(drop);
+    }
+    esc.write(start, frame.get(..n).unwrap_or(&[]))?;
+    esc.write(
+        start.wrapping_add((len - 1) as u16),
+        frame.get(len - 1..).unwrap_or(&[]),
+    )
+    .map(drop)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::esc::fake::FakeEsc;
+
+    const OUT: u16 = 0x1000;
+    const IN: u16 = 0x1080;
+
+    fn esc() -> FakeEsc {
+        let mut esc = FakeEsc::new();
+        esc.master_sm(0, OUT, 128, 0x26, true);
+        esc.master_sm(1, IN, 128, 0x22, true);
+        esc
+    }
+
+    /// A frame with `payload` bytes 1, 2, 3, ... after the header; the rest of the buffer 0xEE.
+    fn frame(declared: u16, payload: usize) -> [u8; MAILBOX_SIZE] {
+        let mut f = [0xEE; MAILBOX_SIZE];
+        f[..2].copy_from_slice(&declared.to_le_bytes());
+        f[2..6].fill(0);
+        for (i, b) in f[6..6 + payload].iter_mut().enumerate() {
+            *b = i as u8 + 1;
+        }
+        f
+    }
+
+    fn read(esc: &mut FakeEsc, f: &[u8; MAILBOX_SIZE]) -> ([u8; MAILBOX_SIZE], usize) {
+        assert!(esc.master_write_mailbox(f));
+        let reads = esc.reads;
+        let mut req = [0u8; MAILBOX_SIZE];
+        read_request(esc, OUT, &mut req).unwrap();
+        assert!(
+            !FakeEsc::sm(esc, 0).mailbox_full(),
+            "the last byte frees SM0"
+        );
+        (req, esc.reads - reads)
+    }
+
+    #[test]
+    fn requests_read_header_length_and_last_byte_only() {
+        let mut esc = esc();
+        // Expedited SDO: the first read and the last byte.
+        let f = frame(10, 10);
+        let (req, reads) = read(&mut esc, &f);
+        assert_eq!(reads, 2);
+        assert_eq!(req[..16], f[..16]);
+        assert_eq!(req[16..127], [0; 111]);
+        assert_eq!(req[127], 0xEE);
+        // Longer: the rest of the declared length in between.
+        let f = frame(40, 40);
+        let (req, reads) = read(&mut esc, &f);
+        assert_eq!(reads, 3);
+        assert_eq!(req[..46], f[..46]);
+        assert_eq!(req[46..127], [0; 81]);
+        // Filling the buffer (or claiming more): the rest in one access.
+        for declared in [121, 122, 0xFFFF] {
+            let f = frame(declared, 122);
+            let (req, reads) = read(&mut esc, &f);
+            assert_eq!(reads, 2);
+            assert_eq!(req, f);
+        }
+        // Shorter than the header: still header, then last byte.
+        let f = frame(0, 0);
+        let (req, reads) = read(&mut esc, &f);
+        assert_eq!(reads, 2);
+        assert_eq!(req[..16], f[..16]);
+    }
+
+    #[test]
+    fn small_mailboxes_are_read_whole() {
+        let mut esc = esc();
+        esc.master_sm(0, OUT, 17, 0x26, true);
+        assert!(esc.master_write_mailbox(&frame(10, 10)[..17]));
+        let mut req = [0u8; 17];
+        read_request(&mut esc, OUT, &mut req).unwrap();
+        assert_eq!(esc.reads, 1);
+        assert!(!esc.sm(0).mailbox_full());
+        assert_eq!(req[..], frame(10, 10)[..17]);
+    }
+
+    #[test]
+    fn frames_are_written_with_their_length_then_the_last_byte() {
+        let mut esc = esc();
+        let f = frame(10, 10);
+        write_frame(&mut esc, IN, &f, 16).unwrap();
+        assert_eq!(esc.writes, 2);
+        assert!(esc.sm(1).mailbox_full(), "the last byte marks SM1 full");
+        let got = esc.master_read_mailbox().unwrap();
+        assert_eq!(got[..16], f[..16]);
+        assert_eq!(got[127], f[127]);
+        // A frame that fills the buffer: one access.
+        write_frame(&mut esc, IN, &f, 127).unwrap();
+        assert_eq!(esc.writes, 3);
+        assert_eq!(esc.master_read_mailbox().unwrap(), f);
+        // A zero length still marks the buffer full.
+        write_frame(&mut esc, IN, &f, 0).unwrap();
+        assert!(esc.sm(1).mailbox_full());
     }
 }

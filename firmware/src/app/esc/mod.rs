@@ -153,9 +153,10 @@ pub trait EscPort {
     /// Reads the AL event bits alone (a NOP access); at least bits 0..15 (AL control .. SM7),
     /// the application uses no others.
     fn events(&mut self) -> Result<u32, Self::Error> {
-        let mut b = [0u8; 4];
+        // Without a NOP access: the low half of 0x0220 is all the application needs.
+        let mut b = [0u8; 2];
         self.read(reg::AL_EVENT, &mut b)?;
-        Ok(u32::from_le_bytes(b))
+        Ok(u32::from(u16::from_le_bytes(b)))
     }
 }
 
