@@ -341,6 +341,7 @@ impl HalfCounter {
 /// of completed halves and the channel's destination address. Before the ring starts (the
 /// address still at `skip`) that is 0. The interrupt may lag the DMA by less than one half:
 /// an address past the half the counter expects means that half is done but not yet counted.
+#[inline]
 pub fn words_written(halves: u32, dst: u32, ring: u32, skip: u32) -> Result<u32, PositionError> {
     let ring_bytes = RING_WORDS as u32 * Width::Half.bytes();
     if dst == skip && halves == 0 {
@@ -433,11 +434,8 @@ impl ScanReader {
         let first = self.read;
         while end.wrapping_sub(self.read) >= CHANNELS as u32 {
             let at = self.read as usize % RING_WORDS;
-            let mut codes = [0u16; CHANNELS];
-            for (code, word) in codes.iter_mut().zip(&ring[at..at + CHANNELS]) {
-                *code = word.load(Ordering::Relaxed);
-            }
-            sampler.add_scan(&codes);
+            let scan = ring[at..at + CHANNELS].iter();
+            sampler.add_scan(scan.map(|w| w.load(Ordering::Relaxed)));
             self.read = self.read.wrapping_add(CHANNELS as u32);
             report.scans += 1;
         }

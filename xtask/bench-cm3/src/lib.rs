@@ -17,16 +17,22 @@
 //! | `pdi_inputs`    | [`SlaveApp::poll`] after a SYNC0 edge (SM3)     | PDI task, every cycle     |
 //! | `sdo_upload`    | [`SlaveApp::on_pdi_irq`] on SM0: expedited upload 0x1018:02 | per SDO request |
 //! | `sdo_download`  | [`SlaveApp::on_pdi_irq`] on SM0: expedited download 0x6443:01 | per SDO request |
-//! | `sample_push`   | [`SampleProducer::push`] of one sample          | sampler, 250 000 /s       |
-//! | `sampler_drain` | [`SampleConsumer::drain_into`] of one 8-channel scan | PDI task            |
+//! | `dma_scan_drain`| [`ScanReader::drain`] of one scan from the GPDMA ring, incl. both position computations ([`words_written`]) | PDI task (default GPDMA path) |
+//! | `dma_half_irq`  | [`HalfCounter::on_terminal_count`]              | GPDMA interrupt, per half ring |
+//! | `sample_push`   | [`SampleProducer::push`] of one sample          | sampler, 250 000 /s (`adc-irq`) |
+//! | `sampler_drain` | [`SampleConsumer::drain_into`] of one 8-channel scan | PDI task (`adc-irq`) |
 //! | `esc_read4`, `esc_write16` | the register file itself (not firmware): its cost per access | - |
 //! | `driver_read4`, `driver_write16` | the `et1100` SPI driver's work per access ([`driver_port`]) | every ESC access |
 #![no_std]
 #![forbid(unsafe_code)]
 
 use core::convert::Infallible;
+use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 use et1100::{Et1100, SpiPdi};
+use firmware::app::adc_dma::{
+    words_written, HalfCounter, PositionError, ScanReader, HALF_WORDS, RING_WORDS,
+};
 pub use firmware::app::esc::fake::FakeEsc;
 use firmware::app::mailbox::MAILBOX_SIZE;
 use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
@@ -233,6 +239,90 @@ pub fn queue_scan(producer: &mut SampleProducer<'_, RING>) -> Result<(), CheckFa
 /// Moves the queued samples into the sampler.
 pub fn drain(consumer: &mut SampleConsumer<'_, RING>, sampler: &mut Sampler) -> usize {
     consumer.drain_into(sampler)
+}
+
+/// The GPDMA path's PDI-side state: the ring the DMA fills, the half count its interrupt
+/// keeps and a stand-in for the RX channel's destination address register (a plain memory
+/// word here; its bus access is added in the bench's model, not counted).
+pub struct DmaRig {
+    /// The ring (the DMA's destination).
+    pub ring: [AtomicU16; RING_WORDS],
+    /// The interrupt's half count.
+    pub halves: HalfCounter,
+    /// DMACC0DestAddr stand-in.
+    pub dst: AtomicU32,
+    /// The PDI task's reader.
+    pub reader: ScanReader,
+    written: u32,
+}
+
+/// Where the ring "is" for the address arithmetic (any word-aligned AHB SRAM address).
+const RING_ADDR: u32 = 0x2007_C000;
+/// The skip word's address (just after the ring).
+const SKIP_ADDR: u32 = RING_ADDR + 2 * RING_WORDS as u32;
+
+impl Default for DmaRig {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl DmaRig {
+    /// An empty ring, the DMA at its start.
+    pub fn new() -> Self {
+        Self {
+            ring: core::array::from_fn(|_| AtomicU16::new(0)),
+            halves: HalfCounter::new(),
+            dst: AtomicU32::new(RING_ADDR),
+            reader: ScanReader::new(),
+            written: 0,
+        }
+    }
+
+    /// The DMA writes one scan (not measured): words, address, and the half count as the
+    /// interrupt would keep it.
+    pub fn dma_writes_scan(&mut self) {
+        for ch in 0..8u32 {
+            let i = self.written as usize % RING_WORDS;
+            self.ring[i].store((0x1000 * ch + self.written / 8) as u16, Ordering::Relaxed);
+            self.written = self.written.wrapping_add(1);
+            if self.written % HALF_WORDS as u32 == 0 {
+                self.halves.on_terminal_count();
+            }
+        }
+        let at = self.written as usize % RING_WORDS;
+        self.dst.store(RING_ADDR + 2 * at as u32, Ordering::Relaxed);
+    }
+
+    /// The position as `hw::adc_dma` computes it (the register read replaced by a load).
+    pub fn words_written(&self) -> Result<u32, PositionError> {
+        let halves = self.halves.get();
+        let dst = self.dst.load(Ordering::Relaxed);
+        words_written(halves, dst, RING_ADDR, SKIP_ADDR)
+    }
+
+    /// The PDI task's drain; returns the scans added.
+    pub fn drain(&mut self, sampler: &mut Sampler) -> Result<u32, CheckFailed> {
+        let Self {
+            ring,
+            halves,
+            dst,
+            reader,
+            ..
+        } = self;
+        let position = || {
+            words_written(
+                halves.get(),
+                dst.load(Ordering::Relaxed),
+                RING_ADDR,
+                SKIP_ADDR,
+            )
+        };
+        reader
+            .drain(ring, position, sampler)
+            .map(|r| r.scans)
+            .map_err(|_| CheckFailed("DMA position outside the ring"))
+    }
 }
 
 /// An SPI device that clocks nothing: MISO reads as 0. Under the `et1100` driver it leaves

@@ -17,8 +17,9 @@ fn main() {
 
 #[cfg(target_os = "none")]
 mod runner {
-    use bench_cm3::{drain, driver_port, push_one, queue_scan, CheckFailed, Rig, RING};
+    use bench_cm3::{drain, driver_port, push_one, queue_scan, CheckFailed, DmaRig, Rig, RING};
     use core::hint::black_box;
+    use firmware::app::adc_dma::HalfCounter;
     use firmware::app::esc::EscPort;
     use firmware::app::outputs::DacAction;
     use firmware::app::sampler::{PublishMode, SampleRing, Sampler};
@@ -90,6 +91,9 @@ mod runner {
         }
     }
 
+    /// The GPDMA interrupt's counter (a static in `hw::adc_dma` too).
+    static IRQ_HALVES: HalfCounter = HalfCounter::new();
+
     fn run() -> Result<(), CheckFailed> {
         let mut rig = Rig::new(25_000)?;
         for _ in 0..4 {
@@ -99,6 +103,7 @@ mod runner {
         let (mut producer, mut consumer) = ring.split();
         let mut sampler = Sampler::new(PublishMode::Latest);
         let mut driver = driver_port();
+        let mut dma = DmaRig::new();
         for rep in 0..=REPEAT {
             // The warm-up run (rep 0) is not printed as a region: same code, unmeasured.
             let m = rep > 0;
@@ -143,6 +148,17 @@ mod runner {
             queue_scan(&mut producer)?;
             let moved = measure(name("sampler_drain"), || drain(&mut consumer, &mut sampler));
             check(moved == 8, "sampler_drain: not one scan")?;
+
+            // The GPDMA path: one scan in the ring, drained by the PDI task; the interrupt's
+            // work per half ring.
+            dma.dma_writes_scan();
+            let scans = measure(name("dma_scan_drain"), || dma.drain(&mut sampler))?;
+            check(scans == 1, "dma_scan_drain: not one scan")?;
+            // (A counter of its own, a static like the firmware's: the rig's count must keep
+            // matching its ring.)
+            let halves = IRQ_HALVES.get();
+            measure(name("dma_half_irq"), || IRQ_HALVES.on_terminal_count());
+            check(IRQ_HALVES.get() == halves + 1, "dma_half_irq: not counted")?;
 
             // The register-file ESC's own cost per access (a stand-in, not firmware code):
             // a 4-byte register read and a 16-byte SM3 write, as in the cycle.

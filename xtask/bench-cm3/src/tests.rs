@@ -60,6 +60,23 @@ fn sampler_paths_move_samples() {
 }
 
 #[test]
+fn dma_path_drains_whole_scans_across_the_ring_end() {
+    let mut d = DmaRig::new();
+    let mut s = Sampler::new(PublishMode::Latest);
+    assert_eq!(d.drain(&mut s), Ok(0));
+    for k in 0..3 * RING_WORDS as u32 / 8 + 5 {
+        d.dma_writes_scan();
+        assert_eq!(d.words_written(), Ok((k + 1) * 8));
+        assert_eq!(d.drain(&mut s), Ok(1), "scan {k}");
+        s.publish();
+        assert_eq!(s.code(5), Some((0x5000 + k) as u16));
+    }
+    let before = d.halves.get();
+    d.halves.on_terminal_count();
+    assert_eq!(d.halves.get(), before + 1);
+}
+
+#[test]
 fn driver_port_runs_the_et1100_spi_driver() {
     use firmware::app::esc::EscPort;
     let mut port = driver_port();

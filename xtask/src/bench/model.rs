@@ -42,6 +42,22 @@ pub const ADC_RATE_SPS: f64 = 250e3;
 /// 3 cycles each. UNCONFIRMED (estimate from the code in firmware/src/hw/timers.rs).
 pub const SAMPLER_ISR_REGISTER_CYCLES: f64 = 7.0 * 3.0;
 
+/// GPDMA path: the RX channel's destination-address register read in each position
+/// computation (an AHB register; two per drain). UNCONFIRMED: ~3 cycles each, including
+/// arbitration with the DMA's own transfers.
+pub const DMA_POSITION_REGISTER_CYCLES: f64 = 3.0;
+
+/// GPDMA path: the terminal-count interrupt's register accesses (IntTCStat read, IntTCClear
+/// write, IntErrStat read; firmware/src/hw/adc_dma.rs), ~3 cycles each. UNCONFIRMED.
+pub const DMA_IRQ_REGISTER_CYCLES: f64 = 3.0 * 3.0;
+
+/// Channels per AD7689 scan (one whole scan per drain step on the GPDMA path).
+pub const ADC_SCAN_WORDS: f64 = 8.0;
+
+/// Words per half ring of the GPDMA path (one terminal-count interrupt each;
+/// `firmware::app::adc_dma::HALF_WORDS`).
+pub const ADC_DMA_HALF_WORDS: f64 = 512.0;
+
 /// Microseconds of `instructions` at [`CPI`] and [`CPU_HZ`].
 pub fn cpu_us(instructions: f64) -> f64 {
     instructions * CPI / CPU_HZ * 1e6
