@@ -182,6 +182,9 @@ struct Channel {
 #[derive(Debug, Clone, Default)]
 pub struct Sampler {
     channels: [Channel; CHANNELS],
+    /// Whole scans added since the last publish: one count for all channels (each channel's
+    /// own `count` holds only its single samples), which saves a count per code.
+    scans: u32,
     mode: PublishMode,
     rejected: u32,
     received: u32,
@@ -197,6 +200,7 @@ impl Sampler {
                 count: 0,
                 published: 0,
             }; CHANNELS],
+            scans: 0,
             mode,
             rejected: 0,
             received: 0,
@@ -227,20 +231,27 @@ impl Sampler {
         }
     }
 
-    /// Adds one whole scan: the i-th code is input i (at most [`CHANNELS`] codes are taken).
-    /// The DMA path's drain calls this once per scan instead of [`add`](Self::add) eight
-    /// times. The sum wraps instead of saturating (a u64 of 16-bit codes cannot wrap within
-    /// 2^48 samples, ~285 years at 31.25 kSPS), which saves the saturation per code.
+    /// Adds one whole scan: the i-th code is input i (at most [`CHANNELS`] codes are taken;
+    /// a shorter scan counts per channel like [`add`](Self::add)). The DMA path's drain calls
+    /// this once per scan instead of `add` eight times: one scan count for all channels, and
+    /// the sum wraps instead of saturating (a u64 of 16-bit codes cannot wrap within 2^48
+    /// samples, ~285 years at 31.25 kSPS).
     #[inline]
     pub fn add_scan(&mut self, codes: impl IntoIterator<Item = u16>) {
         let mut n = 0;
         for (ch, code) in self.channels.iter_mut().zip(codes) {
             ch.latest = code;
             ch.sum = ch.sum.wrapping_add(u64::from(code));
-            ch.count = ch.count.saturating_add(1);
             n += 1;
         }
-        self.received = self.received.wrapping_add(n);
+        if n == CHANNELS {
+            self.scans = self.scans.saturating_add(1);
+        } else {
+            for ch in self.channels.iter_mut().take(n) {
+                ch.count = ch.count.saturating_add(1);
+            }
+        }
+        self.received = self.received.wrapping_add(n as u32);
     }
 
     /// Adds several samples.
@@ -254,14 +265,15 @@ impl Sampler {
     /// and starts a new accumulation; channels without new samples keep their value.
     pub fn publish(&mut self) {
         let mode = self.mode;
+        let scans = core::mem::take(&mut self.scans);
         for ch in &mut self.channels {
-            if ch.count == 0 {
+            let n = ch.count.saturating_add(scans);
+            if n == 0 {
                 continue;
             }
             ch.published = match mode {
                 PublishMode::Latest => ch.latest,
                 PublishMode::Average => {
-                    let n = ch.count;
                     let rounded = ch.sum.saturating_add(u64::from(n / 2));
                     u16::try_from(div_u64_u32(rounded, n)).unwrap_or(u16::MAX)
                 }
@@ -372,10 +384,17 @@ mod tests {
         assert_eq!(by_scan.values(), by_sample.values());
         assert_eq!(by_scan.code(3), Some(41));
         assert_eq!(by_scan.received(), 24);
+        // Scans and single samples mix in one mean.
+        by_scan.add_scan([100u16; 8]);
+        by_scan.add(Sample::new(0, 200));
+        by_scan.publish();
+        assert_eq!(by_scan.code(0), Some(150));
+        assert_eq!(by_scan.code(1), Some(100));
+        assert_eq!(by_scan.received(), 24 + 8 + 1);
         // A short scan adds only its inputs; extra codes are ignored.
         by_scan.add_scan([5u16, 6]);
         by_scan.add_scan([9u16; 9]);
-        assert_eq!(by_scan.received(), 24 + 2 + 8);
+        assert_eq!(by_scan.received(), 33 + 2 + 8);
         by_scan.publish();
         assert_eq!(by_scan.code(1), Some(8)); // (6 + 9) / 2 rounded
         assert_eq!(by_scan.code(2), Some(9));
