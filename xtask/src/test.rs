@@ -40,6 +40,13 @@ pub fn run(args: &Args) -> Result {
     }
     // The LPC1754 image: release build, checksum, CRP word and budget verified on the BIN.
     build::run(&build::Args::default())?;
+    // The fallback ADC path (one interrupt per sample instead of the GPDMA), so it cannot rot.
+    exec(
+        cargo()
+            .args(["clippy", "--release", "-p", "firmware", "--bin", build::BIN])
+            .args(["--target", build::TARGET, "--features", "adc-irq"])
+            .args(["--", "-D", "warnings"]),
+    )?;
     // The benchmark in its short form, so the command cannot rot (needs qemu-system-arm,
     // which setup installs; it fails, not skips, without it).
     bench::run(&bench::Args {

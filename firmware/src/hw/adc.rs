@@ -127,6 +127,7 @@ mod path {
     pub struct AdcFront {
         adc: AdcSampler,
         samples_in: SampleProducer<'static, SAMPLE_RING_LEN>,
+        missed_seen: u32,
     }
 
     impl AdcFront {
@@ -139,6 +140,12 @@ mod path {
         pub fn on_timer_interrupt(&mut self) {
             if let Some((channel, code)) = self.adc.on_interrupt() {
                 self.samples_in.push(Sample::new(channel, code));
+            }
+            // A frame not back in time (rare: logged per occurrence, not per sample).
+            let missed = self.adc.missed();
+            if missed != self.missed_seen {
+                self.missed_seen = missed;
+                defmt::warn!("AD7689 frames missed: {}", missed);
             }
         }
     }
@@ -161,6 +168,7 @@ mod path {
             AdcFront {
                 adc: hw.0,
                 samples_in,
+                missed_seen: 0,
             },
             AdcSource(samples_out),
         )
