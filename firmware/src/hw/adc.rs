@@ -43,8 +43,12 @@ mod path {
             self.0.start();
         }
 
-        /// TIMER2 is masked on this path; nothing to do.
-        pub fn on_timer_interrupt(&mut self) {}
+        /// TIMER2 is masked on this path; should it fire anyway (match flags raising the
+        /// line without MCR interrupt bits, UNCONFIRMED), it is masked again so it cannot
+        /// storm, without touching the MR0/MR1 flags the DMA requests may depend on.
+        pub fn on_timer_interrupt(&mut self) {
+            self.0.silence_timer_interrupt();
+        }
     }
 
     /// The PDI task's part: whole scans out of the DMA ring.

@@ -251,6 +251,15 @@ impl AdcDma {
         self.t.tcr.write(|w| unsafe { w.bits(TCR_ENABLE) });
     }
 
+    /// Clears Timer2's flags other than MR0/MR1 (clearing those might drop a pending DMA
+    /// request: UNCONFIRMED) and masks TIMER2 again; only called if TIMER2 fires, which this
+    /// path does not expect.
+    pub fn silence_timer_interrupt(&mut self) {
+        // SAFETY: IR is write-1-to-clear; bits 2..5 = MR2, MR3, CR0, CR1.
+        self.t.ir.write(|w| unsafe { w.bits(0x3C) });
+        cortex_m::peripheral::NVIC::mask(pac::Interrupt::TIMER2);
+    }
+
     /// GPDMA errors seen by the interrupt (a channel stops on an error).
     pub fn errors() -> u32 {
         DMA_ERRORS.load(Ordering::Relaxed)
