@@ -21,11 +21,16 @@ use firmware::app::adc_dma::{
 };
 use lpc17xx_pac as pac;
 
-/// UNCONFIRMED (no board here, UM10360 not at hand; hardware-facts 10.B item 8): behaviour
-/// this module relies on that no source at hand states.
-/// * A timer's MR0/MR1 DMA request is set by the match itself (independent of the MCR
-///   interrupt bits and of the EMR pin action), is cleared when the GPDMA services it, and
-///   may be pending from before the setup: writing the IR flag clears a stale one.
+/// Confirmed (UM10360 Rev. 3 p. 500, chapter 21 remark): timer DMA requests are generated
+/// whenever TC equals the match register, so they run as soon as the timer does; hence the
+/// channels are enabled while Timer2 is held in reset (TC = 0 matches neither MR0 nor MR1)
+/// and the timer is started last.
+///
+/// UNCONFIRMED (no board here; hardware-facts 10.B item 8): behaviour this module relies on
+/// that no source at hand states.
+/// * The match's DMA request is independent of the MCR interrupt bits and of the EMR pin
+///   action, is held until the GPDMA services it (TC equals MR for one PCLK only), and a
+///   stale one from before the setup is cleared by writing its IR flag.
 /// * The GPDMA reaches the AHB SRAM and the APB peripherals but not the local SRAM at
 ///   0x1000_0000 (so nothing the DMA reads or writes lives there).
 /// * DMACCxDestAddr, read while the channel runs, is the address of the next write.
