@@ -19,12 +19,15 @@
 //!   full) and PDI control b1 is set to the request's value.
 //! - INIT -> PREOP resets the counters (the server), any state change to INIT drops a waiting
 //!   reply.
-//! - The SyncManager registers are read only when the AL event bits (which every PDI access
-//!   returns) say the mailbox changed, or work waits ([`MailboxLink::needs_service`]); the
-//!   SM1 event (IntR: the master read the last byte) is the only way SM1 empties, and it
-//!   stays set until the next write, so seeing it means SM1 is free. A periodic safety
-//!   service ([`SAFETY_SERVICE_MS`]) re-reads the registers in case the master reset a
-//!   SyncManager without an event.
+//! - The mailbox is served when the AL event bits (which every PDI access returns) say it
+//!   changed, or work waits ([`MailboxLink::needs_service`]); the SM1 event (IntR: the
+//!   master read the last byte) is the only way SM1 empties, and it stays set until the next
+//!   write, so seeing it means SM1 is free; the SM0 event (IntW) means a request is in.
+//!   Served that way ([`Service::Events`]) the SyncManager registers are not read: start,
+//!   length and enable come from their last reading, which happens at INIT -> PREOP, on the
+//!   SM activation event (the master changed a SyncManager; also the repeat request) and in
+//!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
+//!   catches anything the events missed.
 
 use super::esc::{event, EscExt, EscPort, SmConfig};
 use coe_core::mailbox::MAILBOX_HEADER_LEN;
@@ -47,8 +50,27 @@ pub const FIRST_READ: usize = MAILBOX_HEADER_LEN + 10;
 /// raises the SM activation event, which the IRQ serves at once; this catches anything else).
 pub const SAFETY_SERVICE_MS: u32 = 100;
 
+/// Interval of the background poll's own AL event sample (a NOP access) when no inputs
+/// write brought the event bits: a mailbox event whose IRQ the PDI task did not see is
+/// served within this time.
+pub const EVENT_SAMPLE_MS: u32 = 1;
+
 /// The SDO server of the module.
 pub type Server = SdoServer<MAILBOX_SIZE, TRANSFER_BUFFER, EMERGENCY_QUEUE>;
+
+/// How [`MailboxLink::service`] learns the mailbox state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Service {
+    /// From the SyncManager registers (SM activation event, safety service), with the
+    /// repeat-request check if `check_repeat`.
+    Registers {
+        /// Compare SM1's repeat request with its acknowledge.
+        check_repeat: bool,
+    },
+    /// From these AL event bits, just seen, and the registers as last read (falls back to
+    /// [`Service::Registers`] if they were never read).
+    Events(u32),
+}
 
 /// Mailbox service state.
 pub struct MailboxLink {
@@ -57,6 +79,7 @@ pub struct MailboxLink {
     pending: usize,
     blocked: bool,
     sm1_busy: bool,
+    registers: Option<(SmConfig, SmConfig)>,
     replies: u32,
     repeats: u32,
 }
@@ -76,6 +99,7 @@ impl MailboxLink {
             pending: 0,
             blocked: false,
             sm1_busy: false,
+            registers: None,
             replies: 0,
             repeats: 0,
         }
@@ -152,11 +176,17 @@ impl MailboxLink {
             self.pending = 0;
             self.blocked = false;
             self.sm1_busy = false;
+            self.registers = None;
         }
     }
 
-    /// Serves the mailbox: repeat request (if `check_repeat`), waiting reply, a new request
-    /// if SM0 is full, then the server's pending work. At most one request per call.
+    /// The SM0 and SM1 registers as just read and checked (INIT -> PREOP).
+    pub fn use_registers(&mut self, sm0: SmConfig, sm1: SmConfig) {
+        self.registers = Some((sm0, sm1));
+    }
+
+    /// Serves the mailbox: repeat request (if asked), waiting reply, a new request if SM0 is
+    /// full, then the server's pending work. At most one request per call.
     #[allow(clippy::too_many_arguments)]
     pub fn service<E: EscPort + ?Sized, A: ObjectAccess + ?Sized>(
         &mut self,
@@ -165,17 +195,28 @@ impl MailboxLink {
         od: &ObjectDictionary,
         app: &mut A,
         now_ms: u32,
-        check_repeat: bool,
+        how: Service,
     ) -> Result<(), E::Error> {
         if state == AlState::Init {
             return Ok(());
         }
-        let sm1 = esc.sm(1)?;
-        if check_repeat && sm1.repeat_request() != sm1.repeat_ack() {
-            self.repeat(esc, &sm1)?;
-            return Ok(());
-        }
-        let mut sm1_full = sm1.mailbox_full();
+        let (sm0, sm1, mut sm1_full, sm0_full) = match (how, self.registers) {
+            (Service::Events(events), Some((sm0, sm1))) => {
+                let request = events & event::sm(0) != 0 || self.blocked;
+                (sm0, sm1, self.sm1_busy, request)
+            }
+            (how, _) => {
+                let sm1 = esc.sm(1)?;
+                let check_repeat = how == Service::Registers { check_repeat: true };
+                if check_repeat && sm1.repeat_request() != sm1.repeat_ack() {
+                    self.repeat(esc, &sm1)?;
+                    return Ok(());
+                }
+                let sm0 = esc.sm(0)?;
+                self.registers = Some((sm0, sm1));
+                (sm0, sm1, sm1.mailbox_full(), sm0.mailbox_full())
+            }
+        };
         self.sm1_busy = sm1_full;
         self.blocked = false;
         if self.pending != 0 {
@@ -186,8 +227,7 @@ impl MailboxLink {
             sm1_full = true;
         }
         if !sm1_full {
-            let sm0 = esc.sm(0)?;
-            if sm0.mailbox_full() && sm0.enabled() {
+            if sm0_full && sm0.enabled() {
                 let len = usize::from(sm0.len).min(MAILBOX_SIZE);
                 let mut request = [0u8; MAILBOX_SIZE];
                 let req = request.get_mut(..len).unwrap_or(&mut []);
@@ -204,7 +244,7 @@ impl MailboxLink {
             self.send_background(esc, od, &sm1)?;
         } else if self.pending == 0 {
             // A request may wait in SM0 until the master has read SM1.
-            self.blocked = esc.sm(0)?.mailbox_full();
+            self.blocked = sm0_full;
         }
         Ok(())
     }

@@ -64,7 +64,7 @@ use diagnostics::{
     EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
 };
 use esc::{event, reg, EscExt, EscPort, SmConfig, SmExpect};
-use mailbox::{MailboxLink, SAFETY_SERVICE_MS};
+use mailbox::{MailboxLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
 use objects::AppData;
 use outputs::OutputStage;
 pub use outputs::{DacAction, DacLatch, DacPair};
@@ -103,6 +103,8 @@ pub struct SlaveApp {
     sync0_seen: u32,
     /// Time of the next unconditional mailbox service (ns).
     mailbox_check_ns: u64,
+    /// Time of the background poll's next own event sample (ns).
+    event_sample_ns: u64,
 }
 
 impl SlaveApp {
@@ -117,6 +119,7 @@ impl SlaveApp {
             mask: None,
             sync0_seen: 0,
             mailbox_check_ns: 0,
+            event_sample_ns: 0,
         }
     }
 
@@ -168,7 +171,12 @@ impl SlaveApp {
         let events = esc.events()?;
         let mut out = PdiOutcome::default();
         if events & event::AL_CONTROL != 0 {
+            let from = self.esm.state();
             self.al_control(esc, stage, &mut out)?;
+            if from == AlState::Init && self.esm.state() == AlState::PreOp {
+                // INIT -> PREOP has just read the mailbox registers.
+                self.arm_mailbox_check(now_ns);
+            }
         }
         if events & event::WATCHDOG != 0 {
             self.watchdog(esc, stage, &mut out)?;
@@ -183,8 +191,11 @@ impl SlaveApp {
             esc.read(reg::SM_BASE, &mut all)?;
         }
         let mailbox_work = self.esm.state() != AlState::Init && self.mailbox.needs_service(events);
-        if activation || mailbox_work {
-            self.serve_mailbox(esc, stage, now_ns, activation, &mut out)?;
+        if activation {
+            let how = Service::Registers { check_repeat: true };
+            self.serve_mailbox(esc, stage, now_ns, how, &mut out)?;
+        } else if mailbox_work {
+            self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
         }
         self.update_mask(esc)?;
         Ok(out)
@@ -208,7 +219,7 @@ impl SlaveApp {
         if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
             self.sync_error(esc, stage, &mut out)?;
         }
-        let mut events = 0;
+        let mut events = None;
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
             let mode = self.data.sync.mode();
             let free = mode == SyncMode::FreeRun || !self.data.sync.armed();
@@ -217,9 +228,25 @@ impl SlaveApp {
             }
         }
         if state != AlState::Init {
+            // The event bits of the inputs write, else (every EVENT_SAMPLE_MS) a sample of
+            // its own; the IRQ serves the mailbox events as they come.
+            let events = match events {
+                Some(e) => e,
+                None if now_ns >= self.event_sample_ns => {
+                    self.event_sample_ns =
+                        now_ns.saturating_add(u64::from(EVENT_SAMPLE_MS) * 1_000_000);
+                    esc.events()?
+                }
+                None => 0,
+            };
             let work = self.mailbox.needs_service(events);
-            if work || now_ns >= self.mailbox_check_ns {
-                self.serve_mailbox(esc, stage, now_ns, false, &mut out)?;
+            if now_ns >= self.mailbox_check_ns {
+                let how = Service::Registers {
+                    check_repeat: false,
+                };
+                self.serve_mailbox(esc, stage, now_ns, how, &mut out)?;
+            } else if work {
+                self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
             }
         }
         self.update_mask(esc)?;
@@ -290,7 +317,8 @@ impl SlaveApp {
         }
         match (from, to) {
             (AlState::Init, AlState::PreOp) => {
-                for n in 0..2u8 {
+                let mut regs = [SmConfig::default(); 2];
+                for (n, slot) in (0..2u8).zip(regs.iter_mut()) {
                     let sm = esc.sm(n)?;
                     let expect = self.config.sm.get(usize::from(n)).copied();
                     if !expect.is_some_and(|e| mailbox_sm_ok(&sm, &e)) {
@@ -299,7 +327,9 @@ impl SlaveApp {
                             AlStatusCode::InvalidMailboxConfiguration,
                         )));
                     }
+                    *slot = sm;
                 }
+                self.mailbox.use_registers(regs[0], regs[1]);
                 self.data.sync.reset();
             }
             (AlState::PreOp, AlState::SafeOp) => {
@@ -474,8 +504,8 @@ impl SlaveApp {
     }
 
     /// Publishes the samples of the cycle and writes them to SM3; returns the AL event bits
-    /// of the write (0 if nothing was written).
-    fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<u32, E::Error> {
+    /// of the write (`None` if nothing was written).
+    fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<Option<u32>, E::Error> {
         self.data.sampler.publish();
         let values = SlotValues {
             ai: self.data.sampler.values(),
@@ -485,29 +515,37 @@ impl SlaveApp {
         let start = self.config.sm[3].start;
         if let Ok(image) = self.data.pd.pack_values(&values) {
             if !image.is_empty() {
-                return esc.write(start, image);
+                return esc.write(start, image).map(Some);
             }
         }
-        Ok(0)
+        Ok(None)
     }
 
     // ------------------------------------------------------------ mailbox
+
+    /// The next safety service of the mailbox: [`SAFETY_SERVICE_MS`] after the registers were
+    /// read at `now_ns`.
+    fn arm_mailbox_check(&mut self, now_ns: u64) {
+        self.mailbox_check_ns = now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
+    }
 
     fn serve_mailbox<E: EscPort + ?Sized>(
         &mut self,
         esc: &mut E,
         stage: &OutputStage,
         now_ns: u64,
-        check_repeat: bool,
+        how: Service,
         out: &mut PdiOutcome,
     ) -> Result<(), E::Error> {
         let state = self.esm.state();
         let od = self.data.od();
-        self.mailbox_check_ns = now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
+        if matches!(how, Service::Registers { .. }) {
+            self.arm_mailbox_check(now_ns);
+        }
         // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
         let now_ms = div::div_u64_u32(now_ns >> 6, 15_625) as u32;
         self.mailbox
-            .service(esc, state, od, &mut self.data, now_ms, check_repeat)?;
+            .service(esc, state, od, &mut self.data, now_ms, how)?;
         if let Some(values) = self.data.take_ao_written() {
             let set = self
                 .data

@@ -696,3 +696,45 @@ fn dc_cycle_reads_no_mailbox_registers() {
     r.poll();
     assert!(r.esc.sm_register_reads > sm_reads);
 }
+
+/// An SDO exchange on the mailbox events reads no SyncManager registers: SM0 full and SM1
+/// free come from the event bits, start and length from INIT -> PREOP; the SM activation
+/// event (the master changed a SyncManager) reads them again.
+#[test]
+fn sdo_exchanges_read_no_sync_manager_registers() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    let sm_reads = r.esc.sm_register_reads;
+    assert_eq!(r.upload(0x1000, 0), Ok(vec![0x91, 0x01, 0x0C, 0x00]));
+    assert_eq!(r.download(0x6443, 1, &[1]), Ok(()));
+    assert_eq!(r.upload(0x6443, 1), Ok(vec![1]));
+    assert_eq!(r.esc.sm_register_reads, sm_reads);
+    // The master moves SM1 (disabled, new length, enabled: the activation event).
+    r.esc.master_sm(1, MBX_IN, 64, 0x22, true);
+    r.esc.raise(event::SM_ACTIVATION);
+    r.irq();
+    assert!(r.esc.sm_register_reads > sm_reads);
+    let reply = r.sdo(0x40, 0x1000, 0, [0; 4]);
+    assert_eq!(reply.len(), 64);
+    assert_eq!(reply[8], 0x43);
+}
+
+/// Without an IRQ the background poll still finds a request: it samples the event bits
+/// itself every EVENT_SAMPLE_MS when no inputs write brought them.
+#[test]
+fn background_poll_samples_the_events_every_interval() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.poll();
+    let f = [
+        10u8, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x40, 0x00, 0x10, 0, 0, 0, 0, 0,
+    ];
+    assert!(r.esc.master_write_mailbox(&f));
+    let reads = r.esc.reads;
+    r.poll();
+    assert_eq!(r.esc.reads, reads, "no access within the sample interval");
+    assert!(r.esc.master_read_mailbox().is_none());
+    r.now += u64::from(super::mailbox::EVENT_SAMPLE_MS) * 1_000_000;
+    r.poll();
+    assert_eq!(r.esc.master_read_mailbox().unwrap()[8], 0x43);
+}
