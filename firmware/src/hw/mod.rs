@@ -18,7 +18,7 @@
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
-//! | [`aeabi_mem`] | the aligned AEABI memcpy/memclr forwarded to the general ones (flash) |
+//! | [`aeabi_mem`] | small AEABI memcpy/memclr in place of compiler-builtins' (flash)   |
 
 pub mod adc;
 #[cfg(not(feature = "adc-irq"))]
