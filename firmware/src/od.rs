@@ -2,9 +2,11 @@
 //! CiA 401 analog I/O, manufacturer objects).
 //!
 //! The default PDO assignment and mappings live here as the defaults of 0x1C12/0x1C13 and
-//! 0x16xx/0x1Axx, and nowhere else: the firmware's [`ProcessData`](crate::app::process_data::ProcessData),
-//! the SII image and the ESI file all read them from this table through
-//! [`crate::device::DEVICE`]. Identity, names and SyncManager types come from
+//! 0x16xx/0x1Axx, made of the constants [`RX_DEFAULTS`], [`TX_DEFAULTS`] and the assignment
+//! constants, and nowhere else: the SII image and the ESI file read them from this table
+//! through [`crate::device::DEVICE`]; the firmware's
+//! [`ProcessData`](crate::app::process_data::ProcessData) is built from the same constants
+//! (a host test reads it back against the table). Identity, names and SyncManager types come from
 //! [`crate::device`], so each value is written once.
 //!
 //! Which entries the application serves live (and which read as their default) is
@@ -52,21 +54,32 @@ pub const MODULE_DESCRIPTION: &str = concat!(
 );
 
 /// The AI default TxPDO: 0x1A00 -> 0x6401:01..08.
-const TXPDO_DEFAULT: [u32; AI_CHANNELS] = {
-    let mut out = [0u32; AI_CHANNELS];
+const TXPDO_DEFAULT: [PdoEntry; AI_CHANNELS] = {
+    let mut out = [PdoEntry::new(0, 0, 0); AI_CHANNELS];
     let mut i = 0;
     while i < AI_CHANNELS {
-        out[i] = PdoEntry::new(0x6401, i as u8 + 1, 16).to_u32();
+        out[i] = PdoEntry::new(0x6401, i as u8 + 1, 16);
         i += 1;
     }
     out
 };
 
 /// The AO default RxPDO: 0x1600 -> 0x6411:01..02.
-const RXPDO_DEFAULT: [u32; AO_CHANNELS] = [
-    PdoEntry::new(0x6411, 1, 16).to_u32(),
-    PdoEntry::new(0x6411, 2, 16).to_u32(),
-];
+const RXPDO_DEFAULT: [PdoEntry; AO_CHANNELS] =
+    [PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)];
+
+/// The RxPDO mapping objects and their default entries (the second one is empty).
+pub const RX_MAPPINGS: [u16; RX_PDOS] = [0x1600, 0x1601];
+/// Default entries of [`RX_MAPPINGS`].
+pub const RX_DEFAULTS: [&[PdoEntry]; RX_PDOS] = [&RXPDO_DEFAULT, &[]];
+/// The TxPDO mapping objects and their default entries (the second one is empty).
+pub const TX_MAPPINGS: [u16; TX_PDOS] = [0x1A00, 0x1A01];
+/// Default entries of [`TX_MAPPINGS`].
+pub const TX_DEFAULTS: [&[PdoEntry]; TX_PDOS] = [&TXPDO_DEFAULT, &[]];
+/// The default RxPDO assignment (0x1C12).
+pub const RX_ASSIGN_DEFAULT: [u16; 1] = [RX_MAPPINGS[0]];
+/// The default TxPDO assignment (0x1C13).
+pub const TX_ASSIGN_DEFAULT: [u16; 1] = [TX_MAPPINGS[0]];
 
 const SUB_NAMES: [&str; 8] = [
     "SubIndex 001",
@@ -102,25 +115,37 @@ const fn entries<const N: usize>(
 }
 
 /// A PDO mapping object's entries: sub 0 and `ENTRIES` u32 slots, writable in PREOP.
-const fn mapping(defaults: &[u32]) -> [EntryDesc; ENTRIES + 1] {
-    let mut out = entries(defaults.len() as u8, &SUB_NAMES, U32, RWP, defaults);
+const fn mapping(defaults: &[PdoEntry]) -> [EntryDesc; ENTRIES + 1] {
+    let mut words = [0u32; ENTRIES];
+    let mut i = 0;
+    while i < defaults.len() && i < ENTRIES {
+        words[i] = defaults[i].to_u32();
+        i += 1;
+    }
+    let mut out = entries(i as u8, &SUB_NAMES, U32, RWP, words.split_at(i).0);
     out[0] = out[0].with_access(RWP);
     out
 }
 
 /// A PDO assignment object's entries: sub 0 and `N` u16 slots, writable in PREOP.
-const fn assignment<const N: usize>(defaults: &[u32]) -> [EntryDesc; N] {
-    let mut out = entries(defaults.len() as u8, &SUB_NAMES, U16, RWP, defaults);
+const fn assignment<const N: usize>(defaults: &[u16]) -> [EntryDesc; N] {
+    let mut words = [0u32; N];
+    let mut i = 0;
+    while i < defaults.len() && i < N {
+        words[i] = defaults[i] as u32;
+        i += 1;
+    }
+    let mut out = entries(i as u8, &SUB_NAMES, U16, RWP, words.split_at(i).0);
     out[0] = out[0].with_access(RWP);
     out
 }
 
-static RXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(&RXPDO_DEFAULT);
-static RXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(&[]);
-static TXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(&TXPDO_DEFAULT);
-static TXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(&[]);
-static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&[0x1600]);
-static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&[0x1A00]);
+static RXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(RX_DEFAULTS[0]);
+static RXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(RX_DEFAULTS[1]);
+static TXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(TX_DEFAULTS[0]);
+static TXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(TX_DEFAULTS[1]);
+static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&RX_ASSIGN_DEFAULT);
+static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
 
 /// 0x1C00: the communication type of each SyncManager, from the SyncManager layout.
 static SM_TYPES: [EntryDesc; 5] = {
@@ -281,10 +306,10 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
                 .with_default(Value::Uint(DEFAULT_SYNC_ERROR_LIMIT as u64)),
         ],
     ),
-    ObjectDesc::record(0x1600, "RxPDO 1", DataType::PdoMapping, &RXPDO_1),
-    ObjectDesc::record(0x1601, "RxPDO 2", DataType::PdoMapping, &RXPDO_2),
-    ObjectDesc::record(0x1A00, "TxPDO 1", DataType::PdoMapping, &TXPDO_1),
-    ObjectDesc::record(0x1A01, "TxPDO 2", DataType::PdoMapping, &TXPDO_2),
+    ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &RXPDO_1),
+    ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &RXPDO_2),
+    ObjectDesc::record(TX_MAPPINGS[0], "TxPDO 1", DataType::PdoMapping, &TXPDO_1),
+    ObjectDesc::record(TX_MAPPINGS[1], "TxPDO 2", DataType::PdoMapping, &TXPDO_2),
     ObjectDesc::array(0x1C00, "Sync manager type", &SM_TYPES),
     ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGN),
     ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGN),

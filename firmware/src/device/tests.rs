@@ -2,6 +2,7 @@ use super::*;
 use crate::app::sync::SUPPORTED_MODES;
 use crate::od::{DEVICE_TYPE, MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use coe_core::od::{ObjectDictionary, Value};
+use coe_core::pdo::{PdoDirection, PdoEntry};
 use std::vec::Vec;
 
 fn default_of(od: &ObjectDictionary, index: u16, sub: u8) -> Value {
@@ -90,6 +91,21 @@ fn process_data_is_built_from_the_dictionary() {
         for (sub, entry) in (1..).zip(&entries) {
             assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
             assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
+        }
+    }
+    // The assignments: as many PDOs as the dictionary's defaults, the same ones.
+    for (assign, direction) in [(0x1C12, PdoDirection::Rx), (0x1C13, PdoDirection::Tx)] {
+        let pdos: Vec<u32> = DEVICE.assigned_pdos(direction).collect();
+        let mut buf = [0u8; 2];
+        assert_eq!(pd.read(assign, 0, &mut buf), Ok(1));
+        assert_eq!(usize::from(buf[0]), pdos.len(), "{assign:#06x}");
+        for (sub, pdo) in (1..).zip(&pdos) {
+            assert_eq!(pd.read(assign, sub, &mut buf), Ok(2));
+            assert_eq!(
+                u32::from(u16::from_le_bytes(buf)),
+                *pdo,
+                "{assign:#06x}:{sub}"
+            );
         }
     }
     let mut buf = [0u8; 2];
