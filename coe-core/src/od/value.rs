@@ -58,7 +58,8 @@ impl Value {
     }
 
     /// Writes the little-endian image of the value for an entry of `data_type` and `bit_len`
-    /// into `out`; returns the number of bytes, or `None` if `out` is too short.
+    /// into `out`; returns the number of bytes, or `None` if `out` is too short (or for a
+    /// [`Value::Real`] when coe-core is built without its `real` feature).
     pub fn encode(&self, data_type: DataType, bit_len: u16, out: &mut [u8]) -> Option<usize> {
         let len = self.encoded_len(data_type, bit_len);
         let out = out.get_mut(..len)?;
@@ -66,6 +67,7 @@ impl Value {
             Self::None => {}
             Self::Int(v) => copy_le(&v.to_le_bytes(), out, v < 0),
             Self::Uint(v) => copy_le(&v.to_le_bytes(), out, false),
+            #[cfg(feature = "real")]
             Self::Real(v) => {
                 if matches!(data_type, DataType::Real32) {
                     copy_le(&ieee::f64_to_f32(v.to_bits()).to_le_bytes(), out, false)
@@ -73,6 +75,9 @@ impl Value {
                     copy_le(&v.to_le_bytes(), out, false)
                 }
             }
+            // Without the `real` feature no REAL entry passes `ObjectDictionary::validate`.
+            #[cfg(not(feature = "real"))]
+            Self::Real(_) => return None,
             Self::Str(s) => {
                 if matches!(data_type, DataType::UnicodeString) {
                     for (pair, c) in out.chunks_exact_mut(2).zip(s.bytes()) {
@@ -105,18 +110,31 @@ pub fn decode_int(data_type: DataType, bit_len: u16, bytes: &[u8]) -> Option<i12
     }
     let len = usize::from(bit_len).div_ceil(8);
     let src = bytes.get(..len)?;
-    let mut raw = 0u64;
-    for (i, b) in src.iter().enumerate() {
-        raw |= u64::from(*b) << (8 * i);
-    }
-    // Bits above `bit_len` shifted out at the top, then back: arithmetic for signed types
-    // (sign extension), logical for unsigned ones.
-    let unused = 64 - u32::from(bit_len);
-    let raw = raw << unused;
-    if data_type.is_signed() {
-        Some(i128::from((raw as i64) >> unused))
+    // The last byte holds the top 1..=8 bits: masked, sign-extended for signed types; the
+    // bytes above the entry are the fill. Built a byte at a time (constant shifts only:
+    // no 64-bit shift helpers on the MCU).
+    let top = u32::from(bit_len) - 8 * (len as u32 - 1);
+    let mask = ((1u32 << top) - 1) as u8;
+    let last = *src.last()? & mask;
+    let negative = data_type.is_signed() && (last >> (top - 1)) & 1 == 1;
+    let (fill, last) = if negative {
+        (0xFF, last | !mask)
     } else {
-        Some(i128::from(raw >> unused))
+        (0x00, last)
+    };
+    let mut raw = 0u64;
+    for i in (0..8).rev() {
+        let byte = match i.cmp(&(len - 1)) {
+            core::cmp::Ordering::Greater => fill,
+            core::cmp::Ordering::Equal => last,
+            core::cmp::Ordering::Less => src.get(i).copied().unwrap_or(0),
+        };
+        raw = raw << 8 | u64::from(byte);
+    }
+    if data_type.is_signed() {
+        Some(i128::from(raw as i64))
+    } else {
+        Some(i128::from(raw))
     }
 }
 
@@ -157,6 +175,7 @@ fn decode_real_bits(data_type: DataType, bytes: &[u8]) -> Option<u64> {
 /// `f64` comparisons and `f32`/`f64` conversions would link about 0.7 KB of soft-float
 /// routines for the few range checks and defaults of REAL entries. These give the same
 /// results as the float operations (tested against them).
+#[cfg_attr(not(feature = "real"), allow(dead_code))]
 pub(crate) mod ieee {
     const F64_EXP: u64 = 0x7FF0_0000_0000_0000;
     const F64_MAN: u64 = (1 << 52) - 1;
@@ -273,7 +292,9 @@ pub fn check_range(
                 return Err(SdoAbortCode::ValueTooHigh);
             }
         }
-    } else if let Some(v) = decode_real_bits(data_type, bytes) {
+    }
+    #[cfg(feature = "real")]
+    if let Some(v) = decode_real_bits(data_type, bytes) {
         // Compared through order keys: no soft-float on the MCU (see `ieee`).
         if ieee::is_nan(v) {
             return if min.is_some() || max.is_some() {
