@@ -20,31 +20,36 @@ pub const fn div_u64_u32(n: u64, d: u32) -> u64 {
     if n >> 32 == 0 {
         return (n as u32 / d) as u64;
     }
+    let (hi, lo) = ((n >> 32) as u32, n as u32);
     if d <= 1 << 16 {
-        let mut q = 0u64;
+        // Digits 3..0 of 16 bits each (constant shifts: no 64-bit shift helper either).
+        let digits = [hi >> 16, hi & 0xFFFF, lo >> 16, lo & 0xFFFF];
+        let mut q = [0u32; 4];
         let mut rem = 0u32;
-        let mut shift = 64;
-        while shift > 0 {
-            shift -= 16;
-            let part = (rem << 16) | ((n >> shift) as u32 & 0xFFFF);
-            q = (q << 16) | (part / d) as u64;
+        let mut i = 0;
+        while i < 4 {
+            let part = (rem << 16) | digits[i];
+            q[i] = part / d;
             rem = part % d;
+            i += 1;
         }
-        return q;
+        return ((q[0] << 16 | q[1]) as u64) << 32 | (q[2] << 16 | q[3]) as u64;
     }
-    let hi = (n >> 32) as u32;
     let q_hi = hi / d;
     // rem < d < 2^32 throughout; rem * 2 + bit may need 33 bits, hence u64.
     let mut rem = (hi % d) as u64;
+    let mut rest = lo;
     let mut q_lo = 0u32;
-    let mut bit = 32;
-    while bit > 0 {
-        bit -= 1;
-        rem = (rem << 1) | ((n >> bit) & 1);
+    let mut i = 0;
+    while i < 32 {
+        rem = (rem << 1) | (rest >> 31) as u64;
+        rest <<= 1;
+        q_lo <<= 1;
         if rem >= d as u64 {
             rem -= d as u64;
-            q_lo |= 1 << bit;
+            q_lo |= 1;
         }
+        i += 1;
     }
     (q_hi as u64) << 32 | q_lo as u64
 }
