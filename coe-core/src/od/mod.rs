@@ -545,6 +545,10 @@ const fn validate_entry(entry: &EntryDesc) -> Result<(), OdErrorKind> {
     if entry.name.is_empty() {
         return Err(OdErrorKind::EmptyName);
     }
+    #[cfg(not(feature = "real"))]
+    if matches!(t, DataType::Real32 | DataType::Real64) {
+        return Err(OdErrorKind::RealNotEnabled);
+    }
     match t.bit_len() {
         Some(bits) => {
             if entry.bit_len != bits {
@@ -676,6 +680,8 @@ pub enum OdErrorKind {
     MinGreaterThanMax,
     /// The default is outside `min..=max`.
     DefaultOutOfRange,
+    /// A REAL32/REAL64 entry, but coe-core is built without its `real` feature.
+    RealNotEnabled,
 }
 
 impl OdErrorKind {
@@ -698,6 +704,9 @@ impl OdErrorKind {
                 "default/min/max of the wrong kind or out of the type's range"
             }
             Self::MinGreaterThanMax => "minimum greater than maximum",
+            Self::RealNotEnabled => {
+                "REAL32/REAL64 entry, but coe-core is built without the `real` feature"
+            }
             Self::DefaultOutOfRange => "default value outside min..max",
         }
     }
