@@ -49,6 +49,9 @@ macro_rules! open_enum {
         }
 
         impl ::core::convert::From<$name> for $ty {
+            // One copy per enum: a code table compiles to a jump table with a branch per
+            // code, too big to repeat at every call site in a 32 KB firmware.
+            #[inline(never)]
             fn from(value: $name) -> Self {
                 match value {
                     $( $name::$variant => $value ),*,
