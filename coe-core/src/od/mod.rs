@@ -42,8 +42,9 @@ use core::fmt;
 /// Information service and the ESI file show.
 ///
 /// The layout is kept small because the firmware's dictionary lives in a 32 KB flash: the
-/// default is stored in a 4-byte-aligned packed form and minimum/maximum sit behind one
-/// optional reference (most entries have none), so an entry takes 40 bytes on a 32-bit
+/// default is stored in a 4-byte-aligned packed form (carrying the unit flag in its spare
+/// byte) and minimum/maximum sit behind one
+/// optional reference (most entries have none), so an entry takes 36 bytes on a 32-bit
 /// target instead of 72. Read them through [`EntryDesc::default`], [`EntryDesc::min`],
 /// [`EntryDesc::max`] and [`EntryDesc::unit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,18 +61,18 @@ pub struct EntryDesc {
     pub bit_len: u16,
     /// Access rights and PDO/backup/settings flags.
     pub access: Access,
-    /// Unit type, if any (see [`EntryDesc::unit`]).
-    unit: Option<u16>,
+    /// Unit type, valid if the default's unit flag is set (see [`EntryDesc::unit`]).
+    unit: u16,
     /// Default value (see [`EntryDesc::default`]).
     default: PackedValue,
     /// Minimum and maximum, if limited (see [`EntryDesc::range`]).
     range: Option<&'static ValueRange>,
 }
 
-// The firmware's dictionary sits in a 32 KB flash: an entry stays at 40 bytes on a 32-bit
+// The firmware's dictionary sits in a 32 KB flash: an entry stays at 36 bytes on a 32-bit
 // target (checked when building for one).
 #[cfg(target_pointer_width = "32")]
-const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 40);
+const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 36);
 
 /// The minimum and maximum of an entry (ESI `MinValue`/`MaxValue`, SDO Information value
 /// info 0x20/0x40); writes outside them are refused. Given by reference so that entries
@@ -93,18 +94,20 @@ impl ValueRange {
     }
 }
 
-/// A [`Value`] as stored in an [`EntryDesc`]: 64-bit numbers as two 32-bit halves, so the
-/// entry needs only 4-byte alignment (an `i64`/`f64` payload forces 8-byte alignment and
-/// padding on Cortex-M). Converted losslessly both ways.
+/// A [`Value`] as stored in an [`EntryDesc`], with the entry's "has a unit type" flag: 64-bit
+/// numbers as two 32-bit halves, so the entry needs only 4-byte alignment (an `i64`/`f64`
+/// payload forces 8-byte alignment and padding on Cortex-M), and the flag in the byte after
+/// the tag that would otherwise be padding (the unit itself is [`EntryDesc`]'s `unit`).
+/// Converted losslessly both ways.
 #[derive(Debug, Clone, Copy)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 enum PackedValue {
-    None,
-    Int([u32; 2]),
-    Uint([u32; 2]),
-    Real([u32; 2]),
-    Str(&'static str),
-    Bytes(&'static [u8]),
+    None(bool),
+    Int(bool, [u32; 2]),
+    Uint(bool, [u32; 2]),
+    Real(bool, [u32; 2]),
+    Str(bool, &'static str),
+    Bytes(bool, &'static [u8]),
 }
 
 impl PackedValue {
@@ -116,32 +119,43 @@ impl PackedValue {
         halves[0] as u64 | (halves[1] as u64) << 32
     }
 
-    const fn pack(value: Value) -> Self {
+    const fn pack(value: Value, unit: bool) -> Self {
         match value {
-            Value::None => Self::None,
-            Value::Int(v) => Self::Int(Self::split(v as u64)),
-            Value::Uint(v) => Self::Uint(Self::split(v)),
-            Value::Real(v) => Self::Real(Self::split(v.to_bits())),
-            Value::Str(s) => Self::Str(s),
-            Value::Bytes(b) => Self::Bytes(b),
+            Value::None => Self::None(unit),
+            Value::Int(v) => Self::Int(unit, Self::split(v as u64)),
+            Value::Uint(v) => Self::Uint(unit, Self::split(v)),
+            Value::Real(v) => Self::Real(unit, Self::split(v.to_bits())),
+            Value::Str(s) => Self::Str(unit, s),
+            Value::Bytes(b) => Self::Bytes(unit, b),
         }
     }
 
     const fn unpack(self) -> Value {
         match self {
-            Self::None => Value::None,
-            Self::Int(h) => Value::Int(Self::join(h) as i64),
-            Self::Uint(h) => Value::Uint(Self::join(h)),
-            Self::Real(h) => Value::Real(f64::from_bits(Self::join(h))),
-            Self::Str(s) => Value::Str(s),
-            Self::Bytes(b) => Value::Bytes(b),
+            Self::None(_) => Value::None,
+            Self::Int(_, h) => Value::Int(Self::join(h) as i64),
+            Self::Uint(_, h) => Value::Uint(Self::join(h)),
+            Self::Real(_, h) => Value::Real(f64::from_bits(Self::join(h))),
+            Self::Str(_, s) => Value::Str(s),
+            Self::Bytes(_, b) => Value::Bytes(b),
+        }
+    }
+
+    const fn has_unit(self) -> bool {
+        match self {
+            Self::None(u)
+            | Self::Int(u, _)
+            | Self::Uint(u, _)
+            | Self::Real(u, _)
+            | Self::Str(u, _)
+            | Self::Bytes(u, _) => u,
         }
     }
 }
 
 impl PartialEq for PackedValue {
     fn eq(&self, other: &Self) -> bool {
-        self.unpack() == other.unpack()
+        self.unpack() == other.unpack() && self.has_unit() == other.has_unit()
     }
 }
 
@@ -163,8 +177,8 @@ impl EntryDesc {
             data_type,
             bit_len,
             access,
-            unit: None,
-            default: PackedValue::None,
+            unit: 0,
+            default: PackedValue::None(false),
             range: None,
         }
     }
@@ -202,7 +216,7 @@ impl EntryDesc {
 
     /// Sets the default value.
     pub const fn with_default(mut self, default: Value) -> Self {
-        self.default = PackedValue::pack(default);
+        self.default = PackedValue::pack(default, self.default.has_unit());
         self
     }
 
@@ -242,12 +256,17 @@ impl EntryDesc {
     /// Unit type, if any: the UNSIGNED16 the SDO Information entry description carries
     /// with value info 0x08 (see [`crate::wire::sdo_info::UNIT_TYPE_LEN`] for the size).
     pub const fn unit(&self) -> Option<u16> {
-        self.unit
+        if self.default.has_unit() {
+            Some(self.unit)
+        } else {
+            None
+        }
     }
 
     /// Sets the unit type.
     pub const fn with_unit(mut self, unit: u16) -> Self {
-        self.unit = Some(unit);
+        self.unit = unit;
+        self.default = PackedValue::pack(self.default.unpack(), true);
         self
     }
 
@@ -270,7 +289,7 @@ impl EntryDesc {
     /// unit, default, minimum, maximum ([`ValueInfo`] bits).
     pub const fn value_info(&self) -> u8 {
         let mut info = 0;
-        if self.unit.is_some() {
+        if self.unit().is_some() {
             info |= ValueInfo::UNIT_TYPE;
         }
         if self.default().is_some() {

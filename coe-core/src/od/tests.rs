@@ -295,4 +295,12 @@ fn default_and_range_read_back_unchanged() {
         ValueInfo::MINIMUM | ValueInfo::MAXIMUM
     );
     assert_eq!(base.with_unit(0x26).unit(), Some(0x26));
+    assert_eq!(base.with_unit(0).unit(), Some(0), "unit 0 is a unit");
+    // Unit and default are set independently, in either order.
+    let a = base.with_unit(0x26).with_default(Value::Int(-2));
+    let b = base.with_default(Value::Int(-2)).with_unit(0x26);
+    assert_eq!((a.unit(), a.default()), (Some(0x26), Value::Int(-2)));
+    assert_eq!(a, b);
+    assert_ne!(a, base.with_default(Value::Int(-2)));
+    assert_eq!(a.value_info(), ValueInfo::UNIT_TYPE | ValueInfo::DEFAULT);
 }
