@@ -43,9 +43,8 @@ use core::fmt;
 ///
 /// The layout is kept small because the firmware's dictionary lives in a 32 KB flash: the
 /// default is stored in a 4-byte-aligned packed form (carrying the unit flag in its spare
-/// byte) and minimum/maximum sit behind one
-/// optional reference (most entries have none), so an entry takes 36 bytes on a 32-bit
-/// target instead of 72. Read them through [`EntryDesc::default`], [`EntryDesc::min`],
+/// byte) and minimum/maximum sit behind one optional reference (most entries have none),
+/// so an entry takes 36 bytes on a 32-bit target instead of 72. Read them through [`EntryDesc::default`], [`EntryDesc::min`],
 /// [`EntryDesc::max`] and [`EntryDesc::unit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
