@@ -779,5 +779,6 @@ impl Display for Physics<'_> {
     }
 }
 
-#[cfg(test)]
+// The test device has a REAL32 entry.
+#[cfg(all(test, feature = "real"))]
 mod tests;

@@ -264,6 +264,25 @@ fn store_defaults_and_writes() {
 }
 
 #[test]
+#[cfg(not(feature = "real"))]
+fn real_entries_need_the_real_feature() {
+    static OD: ObjectDictionary = ObjectDictionary::new(&[ObjectDesc::var(
+        0x2000,
+        "Gain",
+        &[EntryDesc::new(0, "Gain", DataType::Real32, Access::RW)],
+    )]);
+    assert_eq!(
+        OD.validate().map_err(|e| e.kind),
+        Err(OdErrorKind::RealNotEnabled)
+    );
+    let mut buf = [0u8; 4];
+    assert_eq!(
+        Value::Real(1.0).encode(DataType::Real32, 32, &mut buf),
+        None
+    );
+}
+
+#[test]
 fn default_and_range_read_back_unchanged() {
     let values = [
         Value::None,
