@@ -68,6 +68,22 @@ pub fn run(args: &Args) -> Result {
 
 /// Builds, converts, verifies; no printing of the usage.
 pub fn build(args: &Args) -> Result<Output> {
+    let out = build_unchecked(args)?;
+    check_budget(&out.usage)?;
+    Ok(out)
+}
+
+/// The budget verdict, printing the figures when over budget.
+pub fn check_budget(usage: &Usage) -> Result {
+    if let Err(e) = image::check_budget(usage, &BUDGET) {
+        print_usage(usage);
+        return Err(e.to_string());
+    }
+    Ok(())
+}
+
+/// Like [`build`] but without the budget verdict (for `size`, which reports first).
+pub fn build_unchecked(args: &Args) -> Result<Output> {
     setup::targets()?;
     setup::flip_link()?;
     exec(cargo().args([
@@ -81,12 +97,19 @@ pub fn build(args: &Args) -> Result<Output> {
         TARGET,
     ]))?;
     let elf = elf_path();
-    finish(&elf, args.allow_crp)
+    finish_unchecked(&elf, args.allow_crp)
 }
 
 /// The post-link steps on an existing ELF: checksum into the ELF and the BIN, BIN written
 /// and verified from disk, budget.
 pub fn finish(elf: &Path, allow_crp: bool) -> Result<Output> {
+    let out = finish_unchecked(elf, allow_crp)?;
+    check_budget(&out.usage)?;
+    Ok(out)
+}
+
+/// [`finish`] without the budget verdict.
+fn finish_unchecked(elf: &Path, allow_crp: bool) -> Result<Output> {
     let mut data = std::fs::read(elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
     let sections = image::sections(&data).map_err(|e| e.to_string())?;
     if image::patch_elf_checksum(&mut data, &sections)
@@ -118,10 +141,6 @@ pub fn finish(elf: &Path, allow_crp: bool) -> Result<Output> {
         written.len()
     );
     let usage = image::usage(&sections);
-    if let Err(e) = image::check_budget(&usage, &BUDGET) {
-        print_usage(&usage);
-        return Err(e.to_string());
-    }
     Ok(Output {
         elf: elf.to_path_buf(),
         bin: bin_path,

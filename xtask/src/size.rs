@@ -139,7 +139,7 @@ pub fn by_crate(symbols: &[Symbol]) -> Vec<(String, u64, u64)> {
 }
 
 pub fn run(args: &Args) -> Result {
-    let out = build::build(&build::Args {
+    let out = build::build_unchecked(&build::Args {
         allow_crp: args.allow_crp,
     })?;
     let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
@@ -186,7 +186,8 @@ pub fn run(args: &Args) -> Result {
         }
         println!("  {:>7} {place:<5} {name}", s.size);
     }
-    Ok(())
+    // The verdict last, so the breakdown above is printed even when over budget.
+    build::check_budget(&out.usage)
 }
 
 #[cfg(test)]
