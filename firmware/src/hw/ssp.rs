@@ -135,22 +135,21 @@ impl<S: SspInstance> Ssp<S> {
         Some(self.ssp.dr.read().bits() as u16)
     }
 
-    /// Sends `write` (or zeros) while receiving into `read`, `n` frames, FIFO kept full.
-    fn run(
-        &mut self,
-        n: usize,
-        write: impl Fn(usize) -> u8,
-        mut read: impl FnMut(usize, u8),
-    ) -> Result<(), SspError> {
+    /// Runs one bus operation, FIFO kept full. One copy for all four operations (not one per
+    /// operation): the DAC's SPI transaction inlines every operation, so per-operation loops
+    /// would all land in the flash image.
+    #[inline(never)]
+    fn run(&mut self, mut frames: Frames<'_>) -> Result<(), SspError> {
+        let n = frames.len();
         let (mut sent, mut got, mut idle) = (0, 0, 0u32);
         while got < n {
             let mut progress = false;
-            while sent < n && sent - got < FIFO_DEPTH && self.try_push(u16::from(write(sent))) {
+            while sent < n && sent - got < FIFO_DEPTH && self.try_push(u16::from(frames.tx(sent))) {
                 sent += 1;
                 progress = true;
             }
             if let Some(b) = self.try_pop() {
-                read(got, b as u8);
+                frames.rx(got, b as u8);
                 got += 1;
                 progress = true;
             }
@@ -181,54 +180,64 @@ impl<S: SspInstance> ErrorType for Ssp<S> {
     type Error = SspError;
 }
 
+/// The buffers of one bus operation: what frame `i` sends and where its reply goes.
+enum Frames<'a> {
+    /// Zeros out, replies kept.
+    Read(&'a mut [u8]),
+    /// Bytes out, replies dropped.
+    Write(&'a [u8]),
+    /// `max(len)` frames: `write` (then zeros) out, replies into `read` (the rest dropped).
+    Transfer(&'a mut [u8], &'a [u8]),
+    /// Bytes out, each replaced by its reply. Frames in flight are at most FIFO_DEPTH
+    /// behind, and byte i is sent before it is overwritten by its own reply (reply i arrives
+    /// after send i).
+    InPlace(&'a mut [u8]),
+}
+
+impl Frames<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Frames::Read(r) | Frames::InPlace(r) => r.len(),
+            Frames::Write(w) => w.len(),
+            Frames::Transfer(r, w) => r.len().max(w.len()),
+        }
+    }
+
+    fn tx(&self, i: usize) -> u8 {
+        match self {
+            Frames::Read(_) => 0,
+            Frames::Write(w) | Frames::Transfer(_, w) => w.get(i).copied().unwrap_or(0),
+            Frames::InPlace(w) => w.get(i).copied().unwrap_or(0),
+        }
+    }
+
+    fn rx(&mut self, i: usize, b: u8) {
+        match self {
+            Frames::Read(r) | Frames::Transfer(r, _) | Frames::InPlace(r) => {
+                if let Some(slot) = r.get_mut(i) {
+                    *slot = b;
+                }
+            }
+            Frames::Write(_) => {}
+        }
+    }
+}
+
 impl<S: SspInstance> SpiBus<u8> for Ssp<S> {
     fn read(&mut self, words: &mut [u8]) -> Result<(), SspError> {
-        self.run(words.len(), |_| 0, |i, b| words[i] = b)
+        self.run(Frames::Read(words))
     }
 
     fn write(&mut self, words: &[u8]) -> Result<(), SspError> {
-        self.run(words.len(), |i| words[i], |_, _| {})
+        self.run(Frames::Write(words))
     }
 
     fn transfer(&mut self, read: &mut [u8], write: &[u8]) -> Result<(), SspError> {
-        let n = read.len().max(write.len());
-        self.run(
-            n,
-            |i| write.get(i).copied().unwrap_or(0),
-            |i, b| {
-                if let Some(r) = read.get_mut(i) {
-                    *r = b;
-                }
-            },
-        )
+        self.run(Frames::Transfer(read, write))
     }
 
     fn transfer_in_place(&mut self, words: &mut [u8]) -> Result<(), SspError> {
-        // Frames in flight are at most FIFO_DEPTH behind, and word i is sent before it is
-        // overwritten by its own reply (reply i arrives after send i).
-        let n = words.len();
-        let (mut sent, mut got, mut idle) = (0, 0, 0u32);
-        while got < n {
-            let mut progress = false;
-            while sent < n && sent - got < FIFO_DEPTH && self.try_push(u16::from(words[sent])) {
-                sent += 1;
-                progress = true;
-            }
-            if let Some(b) = self.try_pop() {
-                words[got] = b as u8;
-                got += 1;
-                progress = true;
-            }
-            if progress {
-                idle = 0;
-            } else {
-                idle += 1;
-                if idle > POLLS {
-                    return Err(SspError::Timeout);
-                }
-            }
-        }
-        Ok(())
+        self.run(Frames::InPlace(words))
     }
 
     fn flush(&mut self) -> Result<(), SspError> {
