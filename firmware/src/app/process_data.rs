@@ -79,7 +79,7 @@ pub struct FastImage {
 impl FastImage {
     /// The plan of `layout`, or `None` if an object is not byte-aligned, has no slot, or is
     /// not allowed in this direction (`allow`).
-    pub fn build(layout: &ImageLayout<MAX_FIELDS>, allow: impl Fn(Slot) -> bool) -> Option<Self> {
+    pub fn build(layout: &ImageLayout<MAX_FIELDS>, allow: fn(Slot) -> bool) -> Option<Self> {
         let mut plan = Self {
             fields: [(0, Slot::ErrorRegister); MAX_FIELDS],
             count: 0,
