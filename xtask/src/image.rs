@@ -9,6 +9,7 @@
 //! * The word at 0x2FC is the CRP: 0x12345678 CRP1, 0x87654321 CRP2, 0x43218765 CRP3
 //!   (permanent: no SWD, no ISP), 0x4E697370 NO_ISP; any other value = no protection.
 
+use flash_algo::crp;
 use object::elf;
 use object::read::elf::{FileHeader, ProgramHeader, SectionHeader};
 use object::LittleEndian as LE;
@@ -17,7 +18,7 @@ use std::fmt;
 /// Offset of the checksum word in the vector table.
 pub const CHECKSUM_OFFSET: usize = 0x1C;
 /// Offset of the CRP word.
-pub const CRP_OFFSET: usize = 0x2FC;
+pub const CRP_OFFSET: usize = flash_algo::crp::CRP_ADDRESS as usize;
 
 /// LPC1754 memory map (UM10360 2.1).
 pub const FLASH: Region = Region {
@@ -128,10 +129,10 @@ impl Crp {
     /// The level of `word`.
     pub fn of(word: u32) -> Self {
         match word {
-            0x1234_5678 => Self::Crp1,
-            0x8765_4321 => Self::Crp2,
-            0x4321_8765 => Self::Crp3,
-            0x4E69_7370 => Self::NoIsp,
+            crp::CRP1 => Self::Crp1,
+            crp::CRP2 => Self::Crp2,
+            crp::CRP3 => Self::Crp3,
+            crp::NO_ISP => Self::NoIsp,
             w => Self::None(w),
         }
     }

@@ -3,7 +3,7 @@
 //! * `Init`: read part ID (54) as a sanity check: the algorithm only runs on an LPC1754.
 //! * `EraseSector(addr)`: prepare (50) + erase (52) + blank check (53) of that one sector.
 //! * `EraseChip`: the same over sectors 0..=17.
-//! * `ProgramPage(addr, len, buf)`: refuse a CRP lock value at 0x2FC, then prepare (50) +
+//! * `ProgramPage(addr, len, buf)`: refuse a write that would leave a CRP lock value at 0x2FC (programming only clears bits: the written word AND the word flash holds), then prepare (50) +
 //!   copy RAM to flash (51) straight from probe-rs' buffer when the ROM accepts it as is
 //!   (256/512/1024/4096 bytes at a destination aligned to the size, word-aligned buffer), else
 //!   in 256-byte pieces through a staging buffer padded with 0xFF.
@@ -228,7 +228,8 @@ impl<E: IapEntry> FlashAlgo<E> {
         if addr % COPY_DST_ALIGN != 0 {
             return Err(Error::Unaligned(addr));
         }
-        if let Some(word) = crp::lock_value_written(addr, data) {
+        let current = self.iap.entry().read_flash_word(crp::CRP_ADDRESS);
+        if let Some(word) = crp::lock_value_resulting(addr, data, current) {
             if !self.allow_crp_lock {
                 return Err(Error::CrpLock(word));
             }
@@ -520,6 +521,28 @@ mod tests {
         page[0x2FC..0x300].copy_from_slice(&CRP3.to_le_bytes());
         a.program_page(0x400, &page, BUF, &mut Staging::default(), STAGE)
             .unwrap();
+    }
+
+    #[test]
+    fn two_writes_that_combine_into_a_lock_value_are_refused() {
+        // Each word alone is harmless, but flash keeps only the bits both leave set.
+        let first = CRP3 | 0x0000_00FF;
+        let second = CRP3 | 0x0000_FF00;
+        assert!(!crate::crp::LOCK_VALUES.contains(&first));
+        assert!(!crate::crp::LOCK_VALUES.contains(&second));
+        let mut a = algo();
+        let mut page = [0xFFu8; 1024];
+        page[0x2FC..0x300].copy_from_slice(&first.to_le_bytes());
+        a.program_page(0, &page, BUF, &mut Staging::default(), STAGE)
+            .unwrap();
+        let writes = log(&a).len();
+        page[0x2FC..0x300].copy_from_slice(&second.to_le_bytes());
+        let e = a
+            .program_page(0, &page, BUF, &mut Staging::default(), STAGE)
+            .unwrap_err();
+        assert_eq!(e, Error::CrpLock(CRP3));
+        assert_eq!(log(&a).len(), writes, "nothing written the second time");
+        assert_eq!(&a.iap().entry().flash[0x2FC..0x300], &first.to_le_bytes());
     }
 
     #[test]

@@ -35,9 +35,18 @@ pub fn crp_word_written(addr: u32, data: &[u8]) -> Option<u32> {
     Some(u32::from_le_bytes(bytes))
 }
 
-/// The lock value a write of `data` at `addr` would program, if any.
+/// The lock value a write of `data` at `addr` would program into erased flash, if any.
 pub fn lock_value_written(addr: u32, data: &[u8]) -> Option<u32> {
-    crp_word_written(addr, data).filter(|w| LOCK_VALUES.contains(w))
+    lock_value_resulting(addr, data, u32::MAX)
+}
+
+/// The lock value flash would hold at [`CRP_ADDRESS`] after a write of `data` at `addr` over
+/// a word that holds `current` now, if any. Programming only clears bits (the result is
+/// `written & current`), so two writes that are harmless alone can together form a lock value.
+pub fn lock_value_resulting(addr: u32, data: &[u8], current: u32) -> Option<u32> {
+    crp_word_written(addr, data)
+        .map(|w| w & current)
+        .filter(|w| LOCK_VALUES.contains(w))
 }
 
 #[cfg(test)]
@@ -58,6 +67,13 @@ mod tests {
             assert_eq!(lock_value_written(0, &page_with(v)), Some(v));
         }
         assert_eq!(lock_value_written(0, &page_with(0xFFFF_FFFF)), None);
+        // Over a word that is not erased, the bits already cleared count too.
+        assert_eq!(
+            lock_value_resulting(0, &page_with(CRP3 | 0xFF), CRP3 | 0xFF00),
+            Some(CRP3)
+        );
+        assert_eq!(lock_value_resulting(0, &page_with(CRP3), 0), None);
+        assert_eq!(lock_value_resulting(0x400, &page_with(CRP3), CRP3), None);
         assert_eq!(lock_value_written(0, &page_with(CRP1 ^ 1)), None);
         // A 256-byte write at 0x200 holds it at offset 0xFC.
         let mut p = [0u8; 256];
@@ -81,8 +97,13 @@ mod tests {
         assert_eq!(crp_word_written(0x2FC, &[0x78, 0x56]), Some(0xFFFF_5678));
         // The top two bytes of CRP1 alone do not make a lock value...
         assert_eq!(lock_value_written(0x2FE, &[0x34, 0x12]), None);
-        // ...but completing the lower half later would: each write is checked on its own,
-        // and the lower half alone is not a lock value either (0xFFFF_5678).
+        // ...and the lower half alone is not a lock value either (0xFFFF_5678); but written
+        // over the upper half already in flash it completes CRP1, which the guard sees
+        // because it checks the word flash will hold.
         assert_eq!(lock_value_written(0x2FC, &[0x78, 0x56]), None);
+        assert_eq!(
+            lock_value_resulting(0x2FC, &[0x78, 0x56], 0x1234_FFFF),
+            Some(CRP1)
+        );
     }
 }

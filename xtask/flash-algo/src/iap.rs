@@ -209,6 +209,11 @@ impl fmt::Display for Status {
 pub trait IapEntry {
     /// Runs `command` (code and four parameter words) and returns the five result words.
     fn call(&mut self, command: &[u32; 5], source: &[u8]) -> [u32; 5];
+
+    /// The word user flash holds at `addr` now (user flash is mapped at 0 while the
+    /// algorithm runs). Programming only clears bits, so the CRP guard checks what a write
+    /// leaves in flash: the written word ANDed with this one.
+    fn read_flash_word(&self, addr: u32) -> u32;
 }
 
 /// A failed IAP command.

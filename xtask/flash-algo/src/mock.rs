@@ -182,4 +182,12 @@ impl IapEntry for MockIap {
             Err(Fail(status, [r1, r2])) => [u32::from(status), r1, r2, 0, 0],
         }
     }
+
+    fn read_flash_word(&self, addr: u32) -> u32 {
+        let at = addr as usize;
+        match self.flash.get(at..at + 4) {
+            Some(b) => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            None => u32::MAX,
+        }
+    }
 }
