@@ -27,6 +27,9 @@ pub fn run(args: &Args) -> Result {
         ]))?;
     }
     exec(cargo().args(["test", "--workspace"]))?;
+    // coe-core as the firmware builds it (without the `real` feature, which the workspace
+    // test run unifies back on), so the no-REAL paths are tested too.
+    exec(cargo().args(["test", "-p", "coe-core", "--no-default-features"]))?;
     // The device description files, the ESI validated against the ETG.2000 schema.
     esi::run(&esi::Args::default())?;
     for target in setup::TARGETS {

@@ -383,7 +383,7 @@ mod tests {
 
     #[test]
     fn virtual_board_scan_word() {
-        // The virtual board's ADC_SCAN_CFG: ext + buffer, scan IN0..IN7.
+        // The firmware's scan word (firmware::app::adc_scan::SCAN_CONFIG): ext + buffer, IN0..IN7.
         let cfg = Config::new()
             .channel(7)
             .reference(Reference::ExternalBuffer)

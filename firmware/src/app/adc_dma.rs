@@ -434,8 +434,12 @@ impl ScanReader {
         let first = self.read;
         while end.wrapping_sub(self.read) >= CHANNELS as u32 {
             let at = self.read as usize % RING_WORDS;
-            let scan = ring[at..at + CHANNELS].iter();
-            sampler.add_scan(scan.map(|w| w.load(Ordering::Relaxed)));
+            // `read` stays scan-aligned and the ring holds whole scans, so this is always
+            // `Some`; checked instead of indexed so no input can make the drain panic.
+            let Some(scan) = ring.get(at..at + CHANNELS) else {
+                break;
+            };
+            sampler.add_scan(scan.iter().map(|w| w.load(Ordering::Relaxed)));
             self.read = self.read.wrapping_add(CHANNELS as u32);
             report.scans += 1;
         }

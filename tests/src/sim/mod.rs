@@ -210,11 +210,6 @@ impl Target {
     }
 }
 
-/// Why the firmware's slave application cannot run on the board yet.
-pub const FIRMWARE_UNAVAILABLE: &str = "firmware application not yet available: the virtual \
-    board needs the firmware's slave application (firmware::app) and the et1100/ad5663/ad7689 \
-    drivers to run it";
-
 /// The firmware's own slave application on the board, with the generated SII image.
 pub fn firmware_target() -> Result<Target, String> {
     let device = firmware_device::device()?;

@@ -507,7 +507,11 @@ impl Footprint {
                 .to_string()
         };
         let verdict = |used: u64, budget: u64| {
-            if used <= budget {
+            if !self.has_app {
+                // The budget is for the whole firmware: a figure without the application
+                // proves nothing either way.
+                Verdict::NotMeasured(note.clone())
+            } else if used <= budget {
                 Verdict::Met(note.clone())
             } else {
                 Verdict::Missed(format!("{} B over", used - budget))
