@@ -152,9 +152,8 @@ pub const TICK_NS: u32 = 10;
 pub const PERIOD_TICKS: u32 = 400;
 /// CNV rises at this TC value (MR0's first value).
 pub const CNV_RISE: u32 = 1;
-/// CNV stays high 2.3 us (hardware-facts 6: tCONV <= 2.2 us, UNCONFIRMED for the AD7689
-/// itself), then falls: the result is on SDO.
-pub const CNV_FALL: u32 = CNV_RISE + 230;
+/// CNV stays high tCONV max plus 100 ns of margin (2.3 us), then falls: the result is on SDO.
+pub const CNV_FALL: u32 = CNV_RISE + T_CONV_MAX_TICKS + 10;
 /// The TX frame is requested 20 ns after CNV falls (CNV low to first SCK >= 10 ns).
 pub const FRAME_START: u32 = CNV_FALL + 2;
 /// SSP1 SCK in Hz (`hw::ssp::SspConfig::AD7689`: 100 MHz / 6).
@@ -164,10 +163,11 @@ pub const SCK_HZ: u32 = 16_666_666;
 pub const FRAME_TICKS: u32 = (16 * (1_000_000_000 / TICK_NS)).div_ceil(SCK_HZ) + 20;
 /// Quiet time before the next CNV rise (hardware-facts 6: ~20 ns).
 pub const QUIET_TICKS: u32 = 2;
-/// tCONV max of hardware-facts 6 in ticks.
-pub const T_CONV_MAX_TICKS: u32 = 220;
-/// tACQ min of hardware-facts 6 in ticks (end of conversion to the next rise).
-pub const T_ACQ_MIN_TICKS: u32 = 180;
+/// tCONV max in ticks (the driver's `ad7689::unconfirmed::T_CONV_MAX_NS`, hardware-facts 6;
+/// UNCONFIRMED for the AD7689 itself, kept in that one place).
+pub const T_CONV_MAX_TICKS: u32 = ad7689::unconfirmed::T_CONV_MAX_NS.div_ceil(TICK_NS);
+/// tACQ min in ticks (end of conversion to the next rise; `ad7689::unconfirmed::T_ACQ_MIN_NS`).
+pub const T_ACQ_MIN_TICKS: u32 = ad7689::unconfirmed::T_ACQ_MIN_NS.div_ceil(TICK_NS);
 
 /// The two MR0 values the CNV channel writes in turn: after the rise, the fall; after the
 /// fall, the next rise.

@@ -52,11 +52,10 @@ pub const DMA_POSITION_REGISTER_CYCLES: f64 = 3.0;
 pub const DMA_IRQ_REGISTER_CYCLES: f64 = 3.0 * 3.0;
 
 /// Channels per AD7689 scan (one whole scan per drain step on the GPDMA path).
-pub const ADC_SCAN_WORDS: f64 = 8.0;
+pub const ADC_SCAN_WORDS: f64 = firmware::app::sampler::CHANNELS as f64;
 
-/// Words per half ring of the GPDMA path (one terminal-count interrupt each;
-/// `firmware::app::adc_dma::HALF_WORDS`).
-pub const ADC_DMA_HALF_WORDS: f64 = 512.0;
+/// Words per half ring of the GPDMA path (one terminal-count interrupt each).
+pub const ADC_DMA_HALF_WORDS: f64 = firmware::app::adc_dma::HALF_WORDS as f64;
 
 /// Microseconds of `instructions` at [`CPI`] and [`CPU_HZ`].
 pub fn cpu_us(instructions: f64) -> f64 {
