@@ -162,7 +162,9 @@ static SM_TYPES: [EntryDesc; 5] = {
 
 /// 0x1C32 (outputs) / 0x1C33 (inputs), ETG.1020 "SM synchronisation": the subindices the
 /// [`SyncMonitor`](crate::app::sync::SyncMonitor) serves, with its constants as defaults.
-const fn sync_parameters(inputs: bool) -> [EntryDesc; 20] {
+/// 0x0E..=0x12 (RxPDO toggle failed, cycle and SM sync distances) are optional in ETG.1020 and
+/// not measured here, so they are absent (a gap before 0x20; sub 0 stays 0x20).
+const fn sync_parameters(inputs: bool) -> [EntryDesc; 15] {
     let (mode, calc_copy, delay) = if inputs {
         (SyncMode::SmSync.input_value(), INPUT_CALC_COPY_NS, 0)
     } else {
@@ -191,11 +193,6 @@ const fn sync_parameters(inputs: bool) -> [EntryDesc; 20] {
         EntryDesc::new(0x0B, "SM event missed", U16, RO),
         EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
         EntryDesc::new(0x0D, "Shift time too short", U16, RO),
-        EntryDesc::new(0x0E, "RxPDO toggle failed", U16, RO),
-        EntryDesc::new(0x0F, "Minimum cycle distance", U32, RO),
-        EntryDesc::new(0x10, "Maximum cycle distance", U32, RO),
-        EntryDesc::new(0x11, "Minimum SM sync distance", U32, RO),
-        EntryDesc::new(0x12, "Maximum SM sync distance", U32, RO),
         EntryDesc::new(0x20, "Sync error", BOOL, RO),
     ]
 }
@@ -204,8 +201,8 @@ const fn ns(value: u32) -> Value {
     Value::Uint(value as u64)
 }
 
-static SYNC_OUTPUTS: [EntryDesc; 20] = sync_parameters(false);
-static SYNC_INPUTS: [EntryDesc; 20] = sync_parameters(true);
+static SYNC_OUTPUTS: [EntryDesc; 15] = sync_parameters(false);
+static SYNC_INPUTS: [EntryDesc; 15] = sync_parameters(true);
 
 const AI_NAMES: [&str; AI_CHANNELS] = [
     "AI 1", "AI 2", "AI 3", "AI 4", "AI 5", "AI 6", "AI 7", "AI 8",
@@ -368,6 +365,34 @@ const _: () = if let Err(e) = OD.validate() {
 mod tests {
     use super::*;
     use std::vec::Vec;
+
+    /// 0x1C32/0x1C33 describe exactly what the sync monitor serves: every entry is read with
+    /// its length, sub 0 stays 0x20, and the unmeasured 0x0E..=0x12 are absent from both.
+    #[test]
+    fn sync_parameters_match_the_sync_monitor() {
+        let monitor = crate::app::sync::SyncMonitor::new();
+        for (index, inputs) in [(0x1C32, false), (0x1C33, true)] {
+            let object = OD.find(index).unwrap();
+            assert_eq!(object.max_subindex(), 0x20);
+            let mut buf = [0u8; 8];
+            for e in object.entries.iter().skip(1) {
+                let n = monitor.read(inputs, e.subindex, &mut buf);
+                assert_eq!(
+                    n,
+                    Ok(usize::from(e.bit_len.div_ceil(8))),
+                    "{index:#x}:{:#x}",
+                    e.subindex
+                );
+            }
+            for sub in 0x0E..=0x12 {
+                assert!(object.entry(sub).is_none(), "{index:#x}:{sub:#x}");
+                assert_eq!(
+                    monitor.read(inputs, sub, &mut buf),
+                    Err(coe_core::abort::SdoAbortCode::SubindexDoesNotExist)
+                );
+            }
+        }
+    }
 
     #[test]
     fn device_type_is_cia401_analog_io() {

@@ -510,8 +510,6 @@ impl SyncMonitor {
             0x0B => put_u16(&mut tmp, self.sm_event_missed),
             0x0C => put_u16(&mut tmp, self.cycle_too_small),
             0x0D => put_u16(&mut tmp, self.shift_too_short),
-            0x0E => put_u16(&mut tmp, 0),
-            0x0F..=0x12 => put_u32(&mut tmp, 0),
             0x20 => {
                 tmp[0] = u8::from(self.sync_error);
                 &tmp[..1]
