@@ -53,9 +53,19 @@ macro_rules! open_enum {
             // code, too big to repeat at every call site in a 32 KB firmware.
             #[inline(never)]
             fn from(value: $name) -> Self {
+                // The codes as a table indexed by the variant's position (a match with a
+                // branch per code is bigger).
+                const CODES: &[$ty] = &[$( $value ),*];
+                let mut position = 0usize;
+                $(
+                    if let $name::$variant = value {
+                        return CODES.get(position).copied().unwrap_or_default();
+                    }
+                    position += 1;
+                )*
                 match value {
-                    $( $name::$variant => $value ),*,
-                    $name::Unknown(other) => other
+                    $name::Unknown(other) => other,
+                    _ => CODES.get(position).copied().unwrap_or_default(),
                 }
             }
         }
