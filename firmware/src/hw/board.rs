@@ -33,8 +33,8 @@
 
 use super::adc::AdcHw;
 use super::clocks::{self, ClockError, Clocks};
+use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
-use super::delay::CycleDelay;
 use super::esc::EscPdi;
 use super::gpio::{InPin, OutPin};
 use super::gpio_irq::EscIrq;
@@ -43,7 +43,6 @@ use super::ssp::{Ssp, SspConfig};
 use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
 use super::CCLK_HZ;
-use embedded_hal_bus::spi::ExclusiveDevice;
 use lpc17xx_pac as pac;
 
 /// A port pin `Pport.pin`.
@@ -228,10 +227,10 @@ fn apply(_pincon: &pac::PINCONNECT, pf: PinFunction) {
 
 /// The ET1100's SPI device: the legacy SPI with the GPIO SPI_SEL held low for a whole
 /// transaction (one `SpiDevice::transaction` per ESC access).
-pub type EscSpiDevice = ExclusiveDevice<LegacySpi, OutPin, CycleDelay>;
+pub type EscSpiDevice = CsDevice<LegacySpi>;
 
 /// The AD5663's SPI device: SSP0 with the GPIO SYNC held low for a whole 24-bit frame.
-pub type DacSpiDevice = ExclusiveDevice<Ssp<pac::SSP0>, OutPin, CycleDelay>;
+pub type DacSpiDevice = CsDevice<Ssp<pac::SSP0>>;
 
 /// What the tasks receive: each bus and line with its single owner.
 pub struct Board {
@@ -279,16 +278,12 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     let _dac_clr = OutPin::new(DAC_CLR, true); // held high for ever: never clear
 
     let spi = LegacySpi::new(dp.SPI);
-    let esc =
-        EscPdi::new(ExclusiveDevice::new(spi, esc_cs, CycleDelay).unwrap_or_else(|e| match e {}));
+    let esc = EscPdi::new(CsDevice::new(spi, esc_cs));
     let esc_irq = EscIrq::new(dp.GPIOINT, InPin::new(ESC_IRQ));
 
     let ssp0 = Ssp::new(dp.SSP0, SspConfig::AD5663);
-    let dac = Dac::new(
-        ExclusiveDevice::new(ssp0, dac_sync, CycleDelay).unwrap_or_else(|e| match e {}),
-        LdacPin::new(dac_ldac),
-    )
-    .unwrap_or_else(|e| match e {});
+    let dac = Dac::new(CsDevice::new(ssp0, dac_sync), LdacPin::new(dac_ldac))
+        .unwrap_or_else(|e| match e {});
     let ssp1 = Ssp::new(dp.SSP1, SspConfig::AD7689);
     let adc = AdcHw::new(dp.TIMER2, ssp1, dp.GPDMA);
     let sync0 = Sync0Capture::new(dp.TIMER1);

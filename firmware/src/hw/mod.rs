@@ -17,6 +17,7 @@
 //! | [`esc`]      | the application's `EscPort` over the `et1100` driver                  |
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
+//! | [`cs_device`] | bus + GPIO chip select as `SpiDevice` (ET1100, AD5663)              |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
 //! | [`aeabi_mem`] | small AEABI memcpy/memclr in place of compiler-builtins' (flash)   |
 
@@ -27,6 +28,7 @@ pub mod aeabi_mem;
 pub mod board;
 pub mod clocks;
 pub mod crp;
+pub mod cs_device;
 pub mod dac;
 pub mod delay;
 pub mod esc;
