@@ -68,10 +68,18 @@ pub(crate) fn emit_coe(
     service: CoeService,
     body: impl FnOnce(&mut [u8]) -> wire::Result<usize>,
 ) -> Option<usize> {
-    let mut coe = Coe::new_unchecked(out);
-    CoeRepr::new(service).emit(&mut coe).ok()?;
-    let n = body(coe.payload_mut()).ok()?;
+    let n = body(coe_header(out, service)?).ok()?;
     Some(wire::coe::HEADER_LEN + n)
+}
+
+/// The CoE header part of [`emit_coe`], one copy for all its callers (flash): writes the
+/// header and returns the bytes after it.
+#[inline(never)]
+fn coe_header(out: &mut [u8], service: CoeService) -> Option<&mut [u8]> {
+    CoeRepr::new(service)
+        .emit(&mut Coe::new_unchecked(&mut *out))
+        .ok()?;
+    Some(wire::tail_mut(out, wire::coe::HEADER_LEN))
 }
 
 /// Counter, backup and emergency queue of one mailbox; `MBX` is the largest frame kept for
