@@ -27,4 +27,6 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
     // No page alignment between sections (the usual Cortex-M setting; smaller ELF).
     println!("cargo:rustc-link-arg-bins=--nmagic");
+    // Identical code folding: monomorphised copies with the same machine code share one body.
+    println!("cargo:rustc-link-arg-bins=--icf=all");
 }
