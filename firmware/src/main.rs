@@ -1,18 +1,32 @@
 //! RTIC 2 application for the LPC1754 (a stub on the host; build with `cargo xtask build`).
 //!
-//! | task            | binds / kind          | prio | owns                                     |
-//! |-----------------|-----------------------|------|------------------------------------------|
-//! | `sync0_dac`     | TIMER1 (CAP1.0, pend) | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch` |
-//! | `pdi`           | EINT3 (P0.22 falling) | 2    | ET1100 (legacy SPI), sample consumer     |
-//! | `adc_dma`       | DMA (TC per half ring)| 1    | - (GPDMA path: counts ring halves)       |
-//! | `sampler`       | TIMER2 (MR1)          | 1    | ADC front (`adc-irq`: sample producer)   |
-//! | `feed_watchdog` | async, SysTick        | 1    | the MCU watchdog                         |
-//! | `idle`          | -                     | 0    | `wfi`                                    |
+//! | task            | binds / kind                 | prio | owns                                         |
+//! |-----------------|------------------------------|------|----------------------------------------------|
+//! | `sync0_dac`     | TIMER1 (CAP1.0, pend)        | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch`     |
+//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 2    | ET1100 (legacy SPI), `SlaveApp`, sample consumer |
+//! | `adc_dma`       | DMA (TC per half ring)       | 1    | - (GPDMA path: counts ring halves)           |
+//! | `sampler`       | TIMER2 (MR1)                 | 1    | ADC front (`adc-irq`: sample producer)       |
+//! | `tick`          | SysTick, every 1 ms          | 1    | the MCU watchdog (fed every 10 ms); requests the PDI task's background work |
+//! | `idle`          | -                            | 0    | `wfi`                                        |
 //!
-//! The tasks share only the lock-free `OutputStage` (`&'static`) and the two halves of the
-//! sample ring (in AHB SRAM); no resource needs a lock. Each bus has one owner. The task
-//! bodies call the hardware layer ([`hw`]) and the slave application's logic
-//! (`firmware::app`), which is tested on the host.
+//! The tasks share only the lock-free `OutputStage` (`&'static`), the two halves of the
+//! sample ring (in AHB SRAM) and two request flags; no resource needs a lock. Each bus has
+//! one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
+//! on the host); the task bodies only read pins and pend each other:
+//!
+//! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::on_sync0`: LDAC pulse or
+//!   write-and-update), then requests the PDI task's background work (`SlaveApp::poll`:
+//!   cycle monitor, inputs of the cycle to SM3, mailbox).
+//! - ESC IRQ edge (or the line still asserted): `SlaveApp::on_pdi_irq`; the PDI task pends
+//!   itself again while the line stays asserted, at most `pdi_task::MAX_REPENDS` times.
+//! - When an outcome says `apply_outputs` (free run, SM-synchronous, fault values), the PDI
+//!   task pends the DAC task with the apply request (`DacLatch::apply_now`); in DC mode it
+//!   pends it without the request after serving events, and the DAC task preloads freshly
+//!   staged outputs into the input registers (`DacLatch::preload`), so SYNC0 only pulses
+//!   LDAC.
+//! - Every millisecond `tick` requests the background work too: free-run inputs,
+//!   mailbox timeouts, the sample ring drained well before it fills (~4 ms), the start of
+//!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -22,28 +36,38 @@ mod hw;
 use {defmt_rtt as _, panic_probe as _};
 
 #[cfg(target_os = "none")]
-#[rtic::app(device = lpc17xx_pac, dispatchers = [UART2, UART3])]
+#[rtic::app(device = lpc17xx_pac)]
 mod rtic_app {
     use crate::hw;
     use crate::hw::adc::{AdcFront, AdcSource};
     use crate::hw::dac::Dac;
     use crate::hw::esc::EscPdi;
+    use crate::hw::gpio::InPin;
     use crate::hw::gpio_irq::EscIrq;
     use crate::hw::timers::{Sync0Capture, Timer1Event};
     use crate::hw::wdt::Watchdog;
     use core::sync::atomic::{AtomicBool, Ordering};
-    use firmware::app::esc::{reg, EscPort};
+    use cortex_m::peripheral::syst::SystClkSource;
     use firmware::app::outputs::{DacLatch, OutputStage};
-    use firmware::app::pdi_task::LevelIrq;
-    use firmware::app::sampler::{PublishMode, Sampler};
+    use firmware::app::pdi_task::{PdiTask, Wake};
+    use firmware::app::SlaveApp;
+    use firmware::{device, od};
     use lpc17xx_pac::Interrupt;
-    use rtic_monotonics::systick::prelude::*;
-
-    systick_monotonic!(Mono, 1_000);
 
     /// Set by the PDI task before it pends TIMER1: "apply the staged outputs now" (free run,
     /// SM-synchronous, fault values), as opposed to a SYNC0 capture.
     static DAC_APPLY: AtomicBool = AtomicBool::new(false);
+
+    /// Set before EINT3 is pended for the background work (after SYNC0, by the tick), as
+    /// opposed to an IRQ edge or a self-pend for a line still asserted.
+    static PDI_POLL: AtomicBool = AtomicBool::new(false);
+
+    /// Period of the PDI task's background work without SYNC0: the SysTick period. A plain
+    /// SysTick-bound task instead of async tasks on a monotonic timer: no timer queue, no
+    /// dispatchers (about 1 KB of flash less).
+    const TICK_HZ: u32 = 1_000;
+    /// SysTick periods between two feeds of the MCU watchdog.
+    const FEED_TICKS: u32 = hw::wdt::FEED_PERIOD_MS * TICK_HZ / 1_000;
 
     #[shared]
     struct Shared {}
@@ -56,61 +80,46 @@ mod rtic_app {
         stage_dac: &'static OutputStage,
         esc: EscPdi,
         esc_irq: EscIrq,
-        pdi: PdiSide,
+        esc_eeprom_loaded: InPin,
+        pdi: &'static mut PdiSide,
         stage_pdi: &'static OutputStage,
         adc: AdcFront,
         wdt: Watchdog,
     }
 
-    /// The PDI task's state besides the ESC.
-    ///
-    /// SEAM for the slave application: once `firmware::device` (object dictionary, SM
-    /// expectations, default PDO configuration) lands, this holds the `SlaveApp` (which owns
-    /// the `Sampler`), `start` calls `SlaveApp::start(esc)` instead of masking the ESC
-    /// events, and `serve` becomes `app.on_pdi_irq(esc, stage, now)` (pin edge) /
-    /// `app.poll(esc, stage, now)` (pended), calling [`request_dac_apply`] when the outcome's
-    /// `apply_outputs` is set.
+    /// The PDI task's state besides the ESC: the slave application (which owns the
+    /// `Sampler`) and the consumer half of the sample ring that feeds it.
     pub struct PdiSide {
+        task: PdiTask,
         samples_out: AdcSource,
-        sampler: Sampler,
-        line: LevelIrq,
-        bus_errors: u32,
-    }
-
-    impl PdiSide {
-        /// Power-up of the PDI side. Without the application nothing serves the AL events, so
-        /// the event mask is cleared: the ESC keeps SPI_IRQ released and reports INIT.
-        fn start(&mut self, esc: &mut EscPdi) -> Result<(), hw::esc::EscError> {
-            esc.write(reg::AL_EVENT_MASK, &0u32.to_le_bytes())?;
-            Ok(())
-        }
-
-        /// One activation of the PDI task: the AL events of the ESC (pin edge or pended
-        /// after SYNC0) and the samples of the ring.
-        fn serve(&mut self, esc: &mut EscPdi, _stage: &OutputStage, _now_ns: u64) {
-            self.samples_out.drain_into(&mut self.sampler);
-            match esc.events() {
-                Ok(events) => defmt::trace!("AL events {=u32:#x}", events),
-                Err(_) => self.bus_errors = self.bus_errors.wrapping_add(1),
-            }
-        }
     }
 
     /// Asks the DAC task to apply the staged outputs now (called from the PDI task).
-    #[allow(dead_code)] // used by the slave application's PDI path (see `PdiSide`)
-    pub fn request_dac_apply() {
+    fn request_dac_apply() {
         DAC_APPLY.store(true, Ordering::Release);
         rtic::pend(Interrupt::TIMER1);
     }
 
-    #[init(local = [stage: OutputStage = OutputStage::new()])]
+    /// Asks the PDI task for its background work (`SlaveApp::poll`).
+    fn request_pdi_poll() {
+        PDI_POLL.store(true, Ordering::Release);
+        rtic::pend(Interrupt::EINT3);
+    }
+
+    #[init(local = [
+        stage: OutputStage = OutputStage::new(),
+        pdi_slot: core::mem::MaybeUninit<PdiSide> = core::mem::MaybeUninit::uninit(),
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let (board, clock_result) = hw::board::init(cx.device);
         if let Err(e) = clock_result {
             defmt::error!("clock setup failed: {}", e);
         }
         defmt::info!("analog-io: clocks {}", board.clocks);
-        Mono::start(cx.core.SYST, board.clocks.cclk_hz);
+        let mut syst = cx.core.SYST;
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload((board.clocks.cclk_hz / TICK_HZ).saturating_sub(1));
+        syst.clear_current();
 
         let hw::board::Board {
             clocks: _,
@@ -129,27 +138,27 @@ mod rtic_app {
         }
 
         let (mut adc, samples_out) = hw::adc::split(adc);
-        let mut pdi = PdiSide {
+        // Built in its static slot, not moved through the stack (2 KB).
+        let pdi = cx.local.pdi_slot.write(PdiSide {
+            task: PdiTask::new(SlaveApp::new(
+                &od::OD,
+                device::app_config(),
+                device::process_data(),
+            )),
             samples_out,
-            sampler: Sampler::new(PublishMode::Latest),
-            line: LevelIrq::new(),
-            bus_errors: 0,
-        };
+        });
+        let ready = hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded);
+        if !pdi.task.start(&mut esc, ready) {
+            defmt::warn!("ET1100 PDI not ready: the PDI task starts the application later");
+        }
 
-        if !hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded) {
-            defmt::warn!("ET1100 EEPROM not loaded yet: PDI may not be operational");
-        }
-        if pdi.start(&mut esc).is_err() {
-            defmt::error!("ET1100: no answer on the SPI PDI");
-        }
         if wdt.caused_reset() {
             defmt::warn!("reset by the MCU watchdog");
         }
         wdt.start();
         adc.start();
-        if feed_watchdog::spawn().is_err() {
-            defmt::error!("watchdog feeder not spawned");
-        }
+        syst.enable_interrupt();
+        syst.enable_counter();
 
         let stage: &'static OutputStage = cx.local.stage;
         (
@@ -161,6 +170,7 @@ mod rtic_app {
                 stage_dac: stage,
                 esc,
                 esc_irq,
+                esc_eeprom_loaded,
                 pdi,
                 stage_pdi: stage,
                 adc,
@@ -185,7 +195,7 @@ mod rtic_app {
             Timer1Event::Sync0(t_ns) => {
                 let action = cx.local.latch.on_sync0(stage, t_ns);
                 let r = cx.local.dac.execute(action);
-                rtic::pend(Interrupt::EINT3); // the PDI side's per-cycle work
+                request_pdi_poll(); // the PDI side's per-cycle work
                 r
             }
             Timer1Event::Pended if DAC_APPLY.swap(false, Ordering::AcqRel) => {
@@ -203,20 +213,35 @@ mod rtic_app {
         }
     }
 
-    /// ESC SPI_IRQ (P0.22 falling edge), or pended after SYNC0.
-    #[task(binds = EINT3, priority = 2, local = [esc, esc_irq, pdi, stage_pdi])]
+    /// ESC SPI_IRQ (P0.22 falling edge), pended after SYNC0 / by the tick, or by itself while
+    /// the line stays asserted.
+    #[task(binds = EINT3, priority = 2, local = [esc, esc_irq, esc_eeprom_loaded, pdi, stage_pdi])]
     fn pdi(cx: pdi::Context) {
         let pdi::LocalResources {
             esc,
             esc_irq,
+            esc_eeprom_loaded,
             pdi,
             stage_pdi,
             ..
         } = cx.local;
-        let edge = esc_irq.acknowledge();
-        pdi.serve(esc, stage_pdi, hw::timers::now_ns());
-        // SPI_IRQ is a level: serve again while it stays asserted (bounded).
-        if pdi.line.after_serve(edge, esc_irq.still_asserted()) {
+        let wake = Wake {
+            edge: esc_irq.acknowledge(),
+            line_asserted: esc_irq.still_asserted(),
+            poll: PDI_POLL.swap(false, Ordering::AcqRel),
+            pdi_ready: esc_eeprom_loaded.is_high(),
+        };
+        pdi.samples_out.drain_into(pdi.task.app_mut().sampler_mut());
+        let now = hw::timers::now_ns();
+        let done = pdi
+            .task
+            .run(esc, stage_pdi, now, wake, || esc_irq.still_asserted());
+        if done.apply_outputs {
+            request_dac_apply();
+        } else if done.preload_outputs {
+            rtic::pend(Interrupt::TIMER1);
+        }
+        if done.pend_again {
             rtic::pend(Interrupt::EINT3);
         }
     }
@@ -233,12 +258,16 @@ mod rtic_app {
         hw::adc::on_dma_interrupt();
     }
 
-    /// Feeds the MCU watchdog from the lowest priority: a lock-up above starves it.
-    #[task(priority = 1, local = [wdt])]
-    async fn feed_watchdog(cx: feed_watchdog::Context) {
-        loop {
+    /// Every SysTick (1 ms): requests the PDI task's background work; every
+    /// [`FEED_TICKS`] feeds the MCU watchdog, from the lowest priority, so a lock-up above
+    /// starves it.
+    #[task(binds = SysTick, priority = 1, local = [wdt, ticks: u32 = 0])]
+    fn tick(cx: tick::Context) {
+        request_pdi_poll();
+        *cx.local.ticks += 1;
+        if *cx.local.ticks >= FEED_TICKS {
+            *cx.local.ticks = 0;
             cx.local.wdt.feed();
-            Mono::delay(hw::wdt::FEED_PERIOD_MS.millis()).await;
         }
     }
 }
