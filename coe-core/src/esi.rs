@@ -27,6 +27,7 @@
 use crate::device::{DescError, DeviceDescription, MailboxProtocols};
 use crate::od::{Access, DataType, EntryDesc, EsiTypeName, ObjectCode, ObjectDesc, Value};
 use crate::pdo::PdoDirection;
+use crate::sdo_server::Layout;
 use crate::sii::{self, SiiError};
 use core::fmt::{self, Display, Write};
 
@@ -142,25 +143,10 @@ fn check_entry_names(desc: &DeviceDescription) -> Result<(), EsiError> {
     Ok(())
 }
 
-/// Bit offsets of an object's entries in its complete-access image (ETG.1020 12.2, the
-/// layout `sdo_server::complete` transfers): sub 0 of an ARRAY/RECORD takes 16 bits,
-/// entries of whole bytes start on a byte boundary, BOOLEAN/BITn entries are packed.
+/// Bit offsets of an object's entries in its complete-access image (ETG.1020 12.2): the
+/// layout `sdo_server::complete` transfers, from the same code.
 fn entry_offsets(object: &ObjectDesc) -> impl Iterator<Item = (&'static EntryDesc, u32)> {
-    let entries: &'static [EntryDesc] = object.entries;
-    let is_var = object.code == ObjectCode::Var;
-    let mut next = 0u32;
-    entries.iter().map(move |e| {
-        if e.bit_len % 8 == 0 && next % 8 != 0 {
-            next += 8 - next % 8;
-        }
-        let offset = next;
-        next += if e.subindex == 0 && !is_var {
-            16
-        } else {
-            u32::from(e.bit_len)
-        };
-        (e, offset)
-    })
+    Layout::whole(object).entries()
 }
 
 /// `BitSize` of an object: the entry's length for a VAR, the whole bytes of the
@@ -168,17 +154,7 @@ fn entry_offsets(object: &ObjectDesc) -> impl Iterator<Item = (&'static EntryDes
 fn object_bits(object: &ObjectDesc) -> u32 {
     match object.code {
         ObjectCode::Var => object.entries.first().map_or(0, |e| u32::from(e.bit_len)),
-        ObjectCode::Array | ObjectCode::Record => {
-            let end = entry_offsets(object).last().map_or(0, |(e, offset)| {
-                offset
-                    + if e.subindex == 0 {
-                        16
-                    } else {
-                        u32::from(e.bit_len)
-                    }
-            });
-            end.div_ceil(8) * 8
-        }
+        ObjectCode::Array | ObjectCode::Record => Layout::whole(object).bits().div_ceil(8) * 8,
     }
 }
 

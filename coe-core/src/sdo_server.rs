@@ -24,6 +24,7 @@
 //! SM0 until then), and [`SdoServer::poll`] whenever the read mailbox has become free.
 
 mod complete;
+pub(crate) use complete::Layout;
 mod info;
 
 use crate::abort::SdoAbortCode;

@@ -20,15 +20,25 @@ use crate::pdo::{read_bits, write_bits};
 /// Largest entry a complete access handles (64-bit types).
 const MAX_ENTRY: usize = 8;
 
-/// The entries that take part and their bit offsets in the image.
-struct Layout<'a> {
+/// The entries that take part and their bit offsets in the image (also the ESI's
+/// `BitSize`/`BitOffs`, [`crate::esi`], so both describe the same image).
+pub(crate) struct Layout<'a> {
     object: &'a ObjectDesc,
     start: u8,
     count: u8,
 }
 
-impl Layout<'_> {
-    fn entries(&self) -> impl Iterator<Item = (&'static EntryDesc, u32)> + '_ {
+impl<'a> Layout<'a> {
+    /// The image of every entry of `object` (from subindex 0, all subindices).
+    pub(crate) fn whole(object: &'a ObjectDesc) -> Self {
+        Self {
+            object,
+            start: 0,
+            count: u8::MAX,
+        }
+    }
+
+    pub(crate) fn entries(&self) -> impl Iterator<Item = (&'static EntryDesc, u32)> {
         let is_var = self.object.code == ObjectCode::Var;
         let start = self.start;
         let count = self.count;
@@ -42,28 +52,30 @@ impl Layout<'_> {
                     bits += 8 - bits % 8;
                 }
                 let offset = bits;
-                bits += if e.subindex == 0 && !is_var {
-                    16
-                } else {
-                    u32::from(e.bit_len)
-                };
+                bits += entry_bits(is_var, e);
                 (e, offset)
             })
     }
 
-    fn byte_len(&self) -> usize {
+    /// Bits up to the end of the last entry.
+    pub(crate) fn bits(&self) -> u32 {
         let is_var = self.object.code == ObjectCode::Var;
         self.entries()
             .last()
-            .map(|(e, offset)| {
-                let len = if e.subindex == 0 && !is_var {
-                    16
-                } else {
-                    u32::from(e.bit_len)
-                };
-                (offset + len).div_ceil(8) as usize
-            })
-            .unwrap_or(0)
+            .map_or(0, |(e, offset)| offset + entry_bits(is_var, e))
+    }
+
+    fn byte_len(&self) -> usize {
+        self.bits().div_ceil(8) as usize
+    }
+}
+
+/// Bits `entry` takes in the image: sub 0 of an ARRAY/RECORD is padded to 16 bits.
+fn entry_bits(is_var: bool, entry: &EntryDesc) -> u32 {
+    if entry.subindex == 0 && !is_var {
+        16
+    } else {
+        u32::from(entry.bit_len)
     }
 }
 
