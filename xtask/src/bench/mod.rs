@@ -517,8 +517,8 @@ impl Footprint {
                 Verdict::Missed(format!("{} B over", used - budget))
             }
         };
-        let flash_budget = 32 * 1024;
-        let ram_budget = 6 * 1024;
+        let flash_budget = crate::image::BUDGET.flash;
+        let ram_budget = crate::image::BUDGET.ram;
         let mut rows = vec![
             Row::new(
                 Group::Footprint,
@@ -528,7 +528,7 @@ impl Footprint {
                     self.usage.flash,
                     self.usage.flash as f64 / 1024.0
                 ),
-                "<= 32 KB".into(),
+                format!("<= {} KB", flash_budget / 1024),
                 "SOES CoE-only: 12.5 KB text".into(),
                 verdict(self.usage.flash, flash_budget),
             )
@@ -541,7 +541,7 @@ impl Footprint {
                     self.usage.ram,
                     self.usage.ram as f64 / 1024.0
                 ),
-                "<= 6 KB".into(),
+                format!("<= {} KB", ram_budget / 1024),
                 "SOES CoE-only: 1.3 KB RAM".into(),
                 verdict(self.usage.ram, ram_budget),
             )
