@@ -12,8 +12,8 @@
 //! - [`board::VirtualBoard`]: ESC + DAC + ADC + [`clock::Clock`] + [`pcap::PcapWriter`],
 //!   with the firmware plugged in as a [`board::PdiCpu`].
 //! - [`master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
-//! - [`sdo_client`]: an SDO upload client on raw mailbox access (segmented uploads, which
-//!   ethercrab 0.7.1 cannot take).
+//! - [`sdo_client`]: raw mailbox access as a master does it, and an SDO upload client on it
+//!   (segmented uploads, which ethercrab 0.7.1 cannot take).
 //! - [`sii_builder`]: a tiny SII image builder for the ESC model tests (the firmware's
 //!   image is generated from its description, [`sim::firmware_device`]).
 //!

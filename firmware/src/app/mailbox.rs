@@ -17,8 +17,11 @@
 //! - Repeat request: when SM1 activate b1 differs from PDI control b1, the last frame (the
 //!   server's backup) is written again (SM1 emptied first through PDI control b0 if it is
 //!   full) and PDI control b1 is set to the request's value.
-//! - INIT -> PREOP resets the counters (the server), any state change to INIT drops a waiting
-//!   reply.
+//! - INIT -> PREOP starts the mailbox ([`MailboxLink::start`]): a frame left in SM0 or SM1
+//!   from before INIT answers nothing and is dropped, the repeat acknowledge takes SM1's
+//!   repeat request bit (so a toggle state left by the master is not taken for a repeat
+//!   request), and the server's counters and backup are reset. Any state change to INIT
+//!   drops a waiting reply.
 //! - The mailbox is served when the AL event bits (which every PDI access returns) say it
 //!   changed, or work waits ([`MailboxLink::needs_service`]); the SM1 event (IntR: the
 //!   master read the last byte) is the only way SM1 empties, and it stays set until the next
@@ -180,9 +183,39 @@ impl MailboxLink {
         }
     }
 
-    /// The SM0 and SM1 registers as just read and checked (INIT -> PREOP).
-    pub fn use_registers(&mut self, sm0: SmConfig, sm1: SmConfig) {
-        self.registers = Some((sm0, sm1));
+    /// Starts the mailbox on the SM0 and SM1 registers as just read and checked
+    /// (INIT -> PREOP; SOES does the same in `ESC_startmbx`). A frame in either buffer is
+    /// from before INIT and answers nothing: the PDI side deactivates that SyncManager for a
+    /// moment, which empties its buffer. The repeat acknowledge (SM1 PDI control b1) is set
+    /// to SM1's repeat request bit: the master may have rewritten the SyncManager with
+    /// another toggle state, and the difference is not a repeat request.
+    pub fn start<E: EscPort + ?Sized>(
+        &mut self,
+        esc: &mut E,
+        sm0: SmConfig,
+        sm1: SmConfig,
+    ) -> Result<(), E::Error> {
+        if sm0.mailbox_full() {
+            esc.set_sm_pdi_control(0, SmConfig::PDI_DEACTIVATE)?;
+            esc.set_sm_pdi_control(0, 0)?;
+        }
+        let ack = sm1.activate & SmConfig::REPEAT;
+        if sm1.mailbox_full() {
+            esc.set_sm_pdi_control(1, ack | SmConfig::PDI_DEACTIVATE)?;
+        }
+        if sm1.mailbox_full() || sm1.pdi_control & SmConfig::REPEAT != ack {
+            esc.set_sm_pdi_control(1, ack)?;
+        }
+        let empty = |sm: SmConfig| SmConfig {
+            status: sm.status & !SmConfig::STATUS_MAILBOX_FULL,
+            pdi_control: sm.pdi_control & !SmConfig::REPEAT | ack,
+            ..sm
+        };
+        self.registers = Some((empty(sm0), empty(sm1)));
+        self.pending = 0;
+        self.blocked = false;
+        self.sm1_busy = false;
+        Ok(())
     }
 
     /// Serves the mailbox: repeat request (if asked), waiting reply, a new request if SM0 is
@@ -277,12 +310,12 @@ impl MailboxLink {
     }
 
     fn repeat<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
-        let ack = sm1.pdi_control & 0x02;
+        let ack = sm1.pdi_control & SmConfig::REPEAT;
         // Empty now, or emptied below.
         self.sm1_busy = false;
         if sm1.mailbox_full() {
             // Empty SM1 by deactivating it from the PDI side, then activate it again.
-            esc.set_sm_pdi_control(1, ack | 0x01)?;
+            esc.set_sm_pdi_control(1, ack | SmConfig::PDI_DEACTIVATE)?;
             esc.set_sm_pdi_control(1, ack)?;
         }
         let len = usize::from(sm1.len).min(MAILBOX_SIZE);
@@ -293,7 +326,7 @@ impl MailboxLink {
             self.sm1_busy = true;
             self.replies = self.replies.wrapping_add(1);
         }
-        let requested = sm1.activate & 0x02;
+        let requested = sm1.activate & SmConfig::REPEAT;
         esc.set_sm_pdi_control(1, requested)?;
         self.repeats = self.repeats.wrapping_add(1);
         Ok(())
@@ -417,6 +450,48 @@ mod tests {
         let (req, reads) = read(&mut esc, &f);
         assert_eq!(reads, 2);
         assert_eq!(req[..16], f[..16]);
+    }
+
+    #[test]
+    fn start_drops_frames_from_before_init_and_takes_the_repeat_state_from_sm1() {
+        let mut esc = esc();
+        // SM1 holds an unread reply and its repeat acknowledge is 1 from an earlier repeat;
+        // the master has rewritten SM1 with repeat request 0; SM0 holds an unread request.
+        write_frame(&mut esc, IN, &frame(10, 10), 16).unwrap();
+        assert!(esc.master_write_mailbox(&frame(10, 10)));
+        esc.set_sm_pdi_control(1, SmConfig::REPEAT).unwrap();
+        let (sm0, sm1) = (esc.sm(0), esc.sm(1));
+        assert!(sm0.mailbox_full() && sm1.mailbox_full());
+        assert_eq!((sm1.repeat_request(), sm1.repeat_ack()), (false, true));
+
+        let mut link = MailboxLink::new();
+        link.start(&mut esc, sm0, sm1).unwrap();
+        let (sm0, sm1) = (esc.sm(0), esc.sm(1));
+        assert!(
+            !sm0.mailbox_full(),
+            "the request from before INIT is dropped"
+        );
+        assert!(!sm1.mailbox_full(), "the reply from before INIT is dropped");
+        assert!(
+            !sm1.repeat_ack(),
+            "the acknowledge follows SM1's repeat request"
+        );
+        assert_eq!(
+            sm0.pdi_control & SmConfig::PDI_DEACTIVATE,
+            0,
+            "SM0 active again"
+        );
+        assert_eq!(
+            sm1.pdi_control & SmConfig::PDI_DEACTIVATE,
+            0,
+            "SM1 active again"
+        );
+        assert!(!link.sm1_busy() && !link.reply_pending());
+
+        // Nothing to do when both are empty and the toggle states agree.
+        let writes = esc.writes;
+        link.start(&mut esc, sm0, sm1).unwrap();
+        assert_eq!(esc.writes, writes);
     }
 
     #[test]

@@ -329,7 +329,7 @@ impl SlaveApp {
                     }
                     *slot = sm;
                 }
-                self.mailbox.use_registers(regs[0], regs[1]);
+                self.mailbox.start(esc, regs[0], regs[1])?;
                 self.data.sync.reset();
             }
             (AlState::PreOp, AlState::SafeOp) => {

@@ -234,6 +234,13 @@ impl FakeEsc {
     fn after_write(&mut self, addr: usize, len: usize) {
         let end = addr + len;
         let covers = |a: usize| a >= addr && a < end;
+        for n in 0..4u8 {
+            // PDI control b0: deactivating a SyncManager empties its buffer.
+            let pdi_control = usize::from(reg::SM_BASE) + 8 * usize::from(n) + 7;
+            if covers(pdi_control) && self.mem[pdi_control] & SmConfig::PDI_DEACTIVATE != 0 {
+                self.set_sm_status_bit(n, SmConfig::STATUS_MAILBOX_FULL, false);
+            }
+        }
         for n in [1u8, 3] {
             let sm = self.sm(n);
             if !sm.enabled() || sm.len == 0 {

@@ -72,6 +72,14 @@ pub struct SmConfig {
 }
 
 impl SmConfig {
+    /// PDI control b0: the PDI side deactivates the SyncManager (its buffer is emptied).
+    pub const PDI_DEACTIVATE: u8 = 0x01;
+    /// Activate b1 (repeat request, by the master) and PDI control b1 (repeat
+    /// acknowledge, by the slave).
+    pub const REPEAT: u8 = 0x02;
+    /// Status b3: mailbox full.
+    pub const STATUS_MAILBOX_FULL: u8 = 0x08;
+
     /// Decodes the 8 register bytes.
     pub const fn from_bytes(b: [u8; 8]) -> Self {
         Self {
@@ -107,17 +115,17 @@ impl SmConfig {
 
     /// Status b3: mailbox full.
     pub const fn mailbox_full(&self) -> bool {
-        self.status & 0x08 != 0
+        self.status & Self::STATUS_MAILBOX_FULL != 0
     }
 
     /// Activate b1: repeat request (toggles).
     pub const fn repeat_request(&self) -> bool {
-        self.activate & 0x02 != 0
+        self.activate & Self::REPEAT != 0
     }
 
     /// PDI control b1: repeat acknowledge.
     pub const fn repeat_ack(&self) -> bool {
-        self.pdi_control & 0x02 != 0
+        self.pdi_control & Self::REPEAT != 0
     }
 
     /// Control bits 1:0 = 00.
