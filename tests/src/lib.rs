@@ -1,38 +1,57 @@
 //! Virtual board: models of the ET1100, AD5663 and AD7689 on the host, and a rig that
 //! lets a real EtherCAT master (ethercrab) drive them in-process.
 //!
-//! - [`esc::Esc`]: the ET1100 (frames with every datagram command and its working
-//!   counter, registers with per-side write masks, 8 FMMUs, 8 SyncManagers in mailbox and
-//!   3-buffer mode, AL control/status and events, SII EEPROM interface, DC with SYNC0/1,
-//!   process-data watchdog), driven by virtual time ([`esc::Esc::advance`]).
-//! - [`spi::EscSpi`]: the ESC's SPI PDI as an `embedded_hal::spi::SpiDevice<u8>`,
-//!   byte-exact, with [`spi::SpiStats`] counters.
-//! - [`dac::DacSpi`]/[`dac::LdacPin`] on [`dac::Ad5663`], [`adc::AdcSpi`] on
-//!   [`adc::Ad7689`] with per-channel [`adc::Signal`] sources.
-//! - [`board::VirtualBoard`]: ESC + DAC + ADC + [`clock::Clock`] + [`pcap::PcapWriter`],
-//!   with the firmware plugged in as a [`board::PdiCpu`].
-//! - [`master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
-//! - [`sdo_client`]: raw mailbox access as a master does it, and an SDO upload client on it
-//!   (segmented uploads, which ethercrab 0.7.1 cannot take).
-//! - [`sii_builder`]: a tiny SII image builder for the ESC model tests (the firmware's
-//!   image is generated from its description, [`sim::firmware_device`]).
+//! Three groups:
+//! - [`models`]: the chips, each read from its datasheet.
+//!   - [`models::esc::Esc`]: the ET1100 (frames with every datagram command and its working
+//!     counter, registers with per-side write masks, 8 FMMUs, 8 SyncManagers in mailbox and
+//!     3-buffer mode, AL control/status and events, SII EEPROM interface, DC with SYNC0/1,
+//!     process-data watchdog), driven by virtual time ([`models::esc::Esc::advance`]).
+//!   - [`models::spi::EscSpi`]: the ESC's SPI PDI as an `embedded_hal::spi::SpiDevice<u8>`,
+//!     byte-exact, with [`models::spi::SpiStats`] counters.
+//!   - [`models::dac::DacSpi`]/[`models::dac::LdacPin`] on [`models::dac::Ad5663`],
+//!     [`models::adc::AdcSpi`] on [`models::adc::Ad7689`] with per-channel
+//!     [`models::adc::Signal`] sources.
+//! - [`rig`]: what puts the models to work in a test.
+//!   - [`rig::board::VirtualBoard`]: ESC + DAC + ADC + [`rig::clock::Clock`] +
+//!     [`tools::pcap::PcapWriter`], with the firmware plugged in as a [`rig::board::PdiCpu`].
+//!   - [`rig::firmware_cpu::FirmwareCpu`]: the firmware's tasks on the models.
+//!   - [`rig::master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
+//!   - [`rig::sdo_client`]: raw mailbox access as a master does it, and an SDO upload
+//!     client on it (segmented uploads, which ethercrab 0.7.1 cannot take).
+//!   - [`rig::sii_builder`]: a tiny SII image builder for the ESC model tests (the
+//!     firmware's image is generated from its description, [`tools::sim::firmware_device`]).
+//! - [`tools`]: what `cargo xtask` runs on the board: the simulation ([`tools::sim`], also
+//!   on a network interface, [`tools::iface`]), the PDI bus cost ([`tools::bus_cost`]), the
+//!   thesis loop-back ([`tools::loopback`]) and the pcap writer ([`tools::pcap`]).
 //!
 //! Time: nothing here reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
 //! watchdog and ADC sampling all use that time.
 
-pub mod adc;
-pub mod board;
-pub mod bus_cost;
-pub mod clock;
-pub mod dac;
-pub mod esc;
-pub mod firmware_cpu;
-pub mod iface;
-pub mod loopback;
-pub mod master;
-pub mod pcap;
-pub mod sdo_client;
-pub mod sii_builder;
-pub mod sim;
-pub mod spi;
+/// The chips: ET1100 (with its SPI front end), AD5663, AD7689.
+pub mod models {
+    pub mod adc;
+    pub mod dac;
+    pub mod esc;
+    pub mod spi;
+}
+
+/// The test rig: board, clock, the firmware as the board's CPU, the master side.
+pub mod rig {
+    pub mod board;
+    pub mod clock;
+    pub mod firmware_cpu;
+    pub mod master;
+    pub mod sdo_client;
+    pub mod sii_builder;
+}
+
+/// What `cargo xtask` runs on the board.
+pub mod tools {
+    pub mod bus_cost;
+    pub mod iface;
+    pub mod loopback;
+    pub mod pcap;
+    pub mod sim;
+}

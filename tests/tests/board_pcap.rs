@@ -1,9 +1,9 @@
 //! The board's frame path and the pcap writer.
 
-use virtual_board::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
-use virtual_board::esc::{cmd, parse_frame, regs, FrameBuilder};
-use virtual_board::pcap::{read_records, PcapWriter, LINKTYPE_ETHERNET, MAGIC_NS};
-use virtual_board::sii_builder::minimal_io_device;
+use virtual_board::models::esc::{cmd, parse_frame, regs, FrameBuilder};
+use virtual_board::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
+use virtual_board::rig::sii_builder::minimal_io_device;
+use virtual_board::tools::pcap::{read_records, PcapWriter, LINKTYPE_ETHERNET, MAGIC_NS};
 
 #[test]
 fn pcap_header_and_records() {

@@ -4,9 +4,9 @@ use embedded_hal::digital::OutputPin;
 use embedded_hal::spi::{Operation, SpiDevice};
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::adc::{Ad7689, AdcSpi, Signal, Source};
-use virtual_board::clock::Clock;
-use virtual_board::dac::{Ad5663, DacSpi, LdacPin, PowerMode};
+use virtual_board::models::adc::{Ad7689, AdcSpi, Signal, Source};
+use virtual_board::models::dac::{Ad5663, DacSpi, LdacPin, PowerMode};
+use virtual_board::rig::clock::Clock;
 
 fn dac() -> (Clock, Rc<RefCell<Ad5663>>, DacSpi, LdacPin) {
     let clock = Clock::new();

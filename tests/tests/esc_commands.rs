@@ -2,7 +2,7 @@
 
 mod common;
 use common::*;
-use virtual_board::esc::{cmd, parse_frame, regs, FrameBuilder};
+use virtual_board::models::esc::{cmd, parse_frame, regs, FrameBuilder};
 
 #[test]
 fn brd_reads_type_increments_adp_and_marks_source_mac() {

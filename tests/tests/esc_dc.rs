@@ -2,9 +2,9 @@
 
 mod common;
 use common::*;
-use virtual_board::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
-use virtual_board::esc::{cmd, regs, SyncEdge, SyncSignal};
-use virtual_board::sii_builder::minimal_io_device;
+use virtual_board::models::esc::{cmd, regs, SyncEdge, SyncSignal};
+use virtual_board::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
+use virtual_board::rig::sii_builder::minimal_io_device;
 
 #[test]
 fn receive_times_latch_on_bwr_0x0900() {
@@ -60,7 +60,12 @@ fn drift_control_converges_on_the_reference() {
     assert!(diff <= 4, "difference {diff} ns after 20 writes");
 }
 
-fn start_sync(esc: &mut virtual_board::esc::Esc, start_in: u64, cycle: u32, act: u8) -> u64 {
+fn start_sync(
+    esc: &mut virtual_board::models::esc::Esc,
+    start_in: u64,
+    cycle: u32,
+    act: u8,
+) -> u64 {
     let start = esc.dc_system_time() + start_in;
     esc.ecat_write(regs::DC_SYNC0_CYCLE, &cycle.to_le_bytes());
     esc.ecat_write(regs::DC_START_TIME, &start.to_le_bytes());
@@ -132,10 +137,11 @@ fn sync0_single_shot_sync1_and_past_start() {
 
 #[test]
 fn sync0_mapped_to_al_event_when_configured() {
-    let image = virtual_board::sii_builder::SiiBuilder::new()
+    let image = virtual_board::rig::sii_builder::SiiBuilder::new()
         .config_word(1, 0x0E03)
         .build();
-    let mut esc = virtual_board::esc::Esc::new(virtual_board::esc::EscConfig::new(image));
+    let mut esc =
+        virtual_board::models::esc::Esc::new(virtual_board::models::esc::EscConfig::new(image));
     start_sync(&mut esc, 1_000, 10_000, 0x03);
     esc.advance(2_000);
     assert_ne!(esc.al_event_request() & 0x04, 0);

@@ -3,8 +3,10 @@
 mod common;
 use common::*;
 use std::path::PathBuf;
-use virtual_board::esc::{check_config_area, cmd, regs, sii_crc8, Esc, EscConfig, SiiConfigError};
-use virtual_board::sii_builder::{minimal_io_device, SiiBuilder};
+use virtual_board::models::esc::{
+    check_config_area, cmd, regs, sii_crc8, Esc, EscConfig, SiiConfigError,
+};
+use virtual_board::rig::sii_builder::{minimal_io_device, SiiBuilder};
 
 fn sii_read(esc: &mut Esc, word: u32) -> Vec<u8> {
     let mut req = vec![0x00, 0x01];

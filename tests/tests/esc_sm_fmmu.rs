@@ -2,7 +2,7 @@
 
 mod common;
 use common::*;
-use virtual_board::esc::{cmd, regs, FrameBuilder};
+use virtual_board::models::esc::{cmd, regs, FrameBuilder};
 
 #[test]
 fn logical_commands_need_an_fmmu() {

@@ -16,11 +16,11 @@ use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Duration;
-use virtual_board::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
-use virtual_board::esc::regs;
-use virtual_board::master::{in_process_timeouts, tx_rx_task};
-use virtual_board::sim::firmware_device::sii_image;
-use virtual_board::spi::EscSpi;
+use virtual_board::models::esc::regs;
+use virtual_board::models::spi::EscSpi;
+use virtual_board::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
+use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
+use virtual_board::tools::sim::firmware_device::sii_image;
 
 use embedded_hal::spi::{Operation, SpiDevice};
 
@@ -290,7 +290,7 @@ fn ethercrab_init_to_op_with_process_data() {
     let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("ethercrab-esm.pcap");
     pcap.save(&path).unwrap();
     eprintln!("pcap: {} frames -> {}", pcap.frames(), path.display());
-    virtual_board::sim::tshark::assert_clean(&path);
+    virtual_board::tools::sim::tshark::assert_clean(&path);
 }
 
 static STORAGE_DC: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();
@@ -361,5 +361,5 @@ fn ethercrab_dc_sync0_reaches_the_board() {
     let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("ethercrab-dc.pcap");
     b.pcap().unwrap().save(&path).unwrap();
     eprintln!("{} SYNC0 edges; pcap -> {}", edges.len(), path.display());
-    virtual_board::sim::tshark::assert_clean(&path);
+    virtual_board::tools::sim::tshark::assert_clean(&path);
 }

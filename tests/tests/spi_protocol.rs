@@ -5,10 +5,10 @@ use common::*;
 use embedded_hal::spi::{Operation, SpiDevice};
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::esc::regs;
-use virtual_board::spi::EscSpi;
+use virtual_board::models::esc::regs;
+use virtual_board::models::spi::EscSpi;
 
-fn with_al_control_event() -> virtual_board::esc::Esc {
+fn with_al_control_event() -> virtual_board::models::esc::Esc {
     let mut esc = esc();
     // The master requests PREOP: AL event bit 0 set, AL control = 0x0002.
     esc.ecat_write(regs::AL_CONTROL, &[0x02, 0x00]);

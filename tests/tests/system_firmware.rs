@@ -1,5 +1,5 @@
 //! SYSTEM TESTS: ethercrab (a real master, in process) against the virtual board running
-//! the firmware's own slave application ([`virtual_board::firmware_cpu::FirmwareCpu`]).
+//! the firmware's own slave application ([`virtual_board::rig::firmware_cpu::FirmwareCpu`]).
 //! Each test writes a pcap under CARGO_TARGET_TMPDIR and, when tshark is installed,
 //! checks that every frame decodes as EtherCAT with none malformed.
 //!
@@ -17,12 +17,12 @@ use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Duration;
-use virtual_board::adc::Signal;
-use virtual_board::board::{BoardConfig, VirtualBoard};
-use virtual_board::esc::regs;
-use virtual_board::master::{in_process_timeouts, tx_rx_task};
-use virtual_board::sdo_client::SdoUploader;
-use virtual_board::sim::{self, tshark};
+use virtual_board::models::adc::Signal;
+use virtual_board::models::esc::regs;
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
+use virtual_board::rig::sdo_client::SdoUploader;
+use virtual_board::tools::sim::{self, tshark};
 
 type Board = Rc<RefCell<VirtualBoard>>;
 
@@ -112,7 +112,7 @@ fn aborted(r: Result<(), Error>) -> Option<CoeAbortCode> {
 /// A segmented SDO upload of the module description (0x2001), longer than the 128-byte
 /// mailbox can carry in one response: the server answers the initiate upload with the
 /// size and the client fetches the text in segments. The client is the project's own
-/// ([`virtual_board::sdo_client`]) on ethercrab's register access, because ethercrab 0.7.1's
+/// ([`virtual_board::rig::sdo_client`]) on ethercrab's register access, because ethercrab 0.7.1's
 /// `sdo_read` rejects every upload segment response; the test also pins that limitation.
 #[test]
 fn segmented_upload_of_the_module_description() {
@@ -146,7 +146,7 @@ fn segmented_upload_of_the_module_description() {
                 sd.sdo_read::<u32>(0x1018, 2).await.unwrap(),
                 IDENTITY.product_code
             );
-            // ethercrab 0.7.1 cannot take the segments (see virtual_board::sdo_client).
+            // ethercrab 0.7.1 cannot take the segments (see virtual_board::rig::sdo_client).
             let ethercrab = sd
                 .sdo_read::<heapless::String<512>>(MODULE_DESCRIPTION_INDEX, 0)
                 .await;

@@ -1,4 +1,4 @@
-//! SYSTEM TEST: the virtual board on a Linux network interface ([`virtual_board::iface`])
+//! SYSTEM TEST: the virtual board on a Linux network interface ([`virtual_board::tools::iface`])
 //! with ethercrab's own raw-socket networking on the other end of a veth pair.
 //!
 //! Needs root (network namespaces, raw sockets) and `ip`; skipped with a message
@@ -20,10 +20,10 @@ use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
-use virtual_board::board::{BoardConfig, VirtualBoard};
-use virtual_board::iface::{serve, RawSocket, ServeOptions};
-use virtual_board::sii_builder::minimal_io_device;
-use virtual_board::sim::responder::EchoResponder;
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::sii_builder::minimal_io_device;
+use virtual_board::tools::iface::{serve, RawSocket, ServeOptions};
+use virtual_board::tools::sim::responder::EchoResponder;
 
 fn ip(args: &str) -> Result<(), String> {
     let out = Command::new("ip")
@@ -188,5 +188,5 @@ fn ethercrab_drives_the_board_over_a_veth_pair() {
     assert!(u16::from_le_bytes([o.echoed[0], o.echoed[1]]) >= 0x4000);
     let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("system-iface-veth.pcap");
     std::fs::write(&path, &o.pcap).unwrap();
-    virtual_board::sim::tshark::assert_clean(&path);
+    virtual_board::tools::sim::tshark::assert_clean(&path);
 }

@@ -1,17 +1,17 @@
 //! SYSTEM TESTS of the mailbox link as masters use it, beyond what a master's SDO API does:
 //! replies left unread, the repeat request, state changes in between. ethercrab (in process)
 //! brings the virtual board with the firmware's slave application to PRE-OP; the rest is raw
-//! mailbox access ([`virtual_board::sdo_client::MailboxClient`]).
+//! mailbox access ([`virtual_board::rig::sdo_client::MailboxClient`]).
 
 use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage, SubDeviceRef};
 use firmware::device::DEVICE;
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::board::{BoardConfig, VirtualBoard};
-use virtual_board::master::{in_process_timeouts, tx_rx_task};
-use virtual_board::sdo_client::{sdo_request, sdo_response, MailboxClient, MAILBOX_TYPE_COE};
-use virtual_board::sim;
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
+use virtual_board::rig::sdo_client::{sdo_request, sdo_response, MailboxClient, MAILBOX_TYPE_COE};
+use virtual_board::tools::sim;
 
 type Board = Rc<RefCell<VirtualBoard>>;
 

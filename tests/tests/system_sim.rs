@@ -1,7 +1,7 @@
-//! SYSTEM TEST: the `cargo xtask sim` runner ([`virtual_board::sim`]) end to end, with
+//! SYSTEM TEST: the `cargo xtask sim` runner ([`virtual_board::tools::sim`]) end to end, with
 //! ethercrab in process.
 
-use virtual_board::sim::{self, Line, SimConfig, Target};
+use virtual_board::tools::sim::{self, Line, SimConfig, Target};
 
 fn collect(lines: &mut Vec<Line>) -> impl FnMut(Line) + '_ {
     move |l| {
@@ -49,7 +49,7 @@ fn runner_walks_the_esm_with_the_echo_responder() {
     let (path, frames) = report.pcap.clone().unwrap();
     assert_eq!(path, pcap);
     assert!(frames > 200);
-    virtual_board::sim::tshark::assert_clean(&pcap);
+    virtual_board::tools::sim::tshark::assert_clean(&pcap);
 }
 
 /// `cargo xtask sim` with the firmware: the ESM walk, SDO values and the loop-back
@@ -85,5 +85,5 @@ fn runner_loops_back_through_the_firmware() {
         (100_000.0..500_000.0).contains(&a.latency_ns),
         "latency {a}"
     );
-    virtual_board::sim::tshark::assert_clean(&pcap);
+    virtual_board::tools::sim::tshark::assert_clean(&pcap);
 }

@@ -9,7 +9,7 @@
 
 use crate::util::Result;
 use std::path::PathBuf;
-use virtual_board::sim::{self, Line, SimConfig, Target};
+use virtual_board::tools::sim::{self, Line, SimConfig, Target};
 
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = AFTER_HELP)]
@@ -93,7 +93,7 @@ pub fn run(args: &Args) -> Result {
     cfg.validate().map_err(|e| e.to_string())?;
     if let Some(name) = &cfg.iface {
         // Check the interface before anything else, for a clear message.
-        virtual_board::iface::RawSocket::open(name).map_err(|e| e.to_string())?;
+        virtual_board::tools::iface::RawSocket::open(name).map_err(|e| e.to_string())?;
     }
     let target = if args.echo {
         Target::echo()
@@ -108,7 +108,7 @@ pub fn run(args: &Args) -> Result {
         }
     };
     if cfg.iface.is_some() {
-        let stop = virtual_board::iface::ctrl_c_flag();
+        let stop = virtual_board::tools::iface::ctrl_c_flag();
         sim::run_on_interface(&cfg, target, stop, &mut print).map_err(|e| e.to_string())?;
         if let Some(path) = &cfg.pcap {
             check_pcap(path)?;

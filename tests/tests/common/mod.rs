@@ -1,8 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use virtual_board::esc::{parse_frame, Esc, EscConfig, FrameBuilder, ParsedDatagram};
-use virtual_board::sii_builder::minimal_io_device;
+use virtual_board::models::esc::{parse_frame, Esc, EscConfig, FrameBuilder, ParsedDatagram};
+use virtual_board::rig::sii_builder::minimal_io_device;
 
 /// An ESC loaded with the minimal test device image.
 pub fn esc() -> Esc {

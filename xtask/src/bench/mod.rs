@@ -1,7 +1,7 @@
 //! `cargo xtask bench`: the performance figures of BRIEF section 6, measured, in one table.
 //!
 //! 1. PDI bus cost: SPI transactions and bytes per process-data cycle, SDO exchange and ESM
-//!    transition, counted on the virtual board's SPI front end ([`virtual_board::bus_cost`]).
+//!    transition, counted on the virtual board's SPI front end ([`virtual_board::tools::bus_cost`]).
 //! 2. CPU cost of the firmware's hot paths on a Cortex-M3 (QEMU + the project's instruction
 //!    counting plugin, [`cm3`]).
 //! 3. Minimum DC cycle and SYNC0 -> DAC latency from 1 and 2 ([`model`] for the constants).
@@ -18,9 +18,9 @@ use crate::util::Result;
 use crate::{build, image, size};
 use report::{Group, Row, Verdict};
 use std::path::PathBuf;
-use virtual_board::board::{BoardConfig, VirtualBoard};
-use virtual_board::bus_cost::{self, BusCost, BusReport};
-use virtual_board::sim::{self, SimConfig, SimReport};
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::tools::bus_cost::{self, BusCost, BusReport};
+use virtual_board::tools::sim::{self, SimConfig, SimReport};
 
 #[derive(clap::Args, Debug, Clone, Default)]
 #[command(after_long_help = AFTER_HELP)]
@@ -764,8 +764,8 @@ fn loopback_rows(sim: &SimReport) -> Result<Vec<Row>> {
 
 /// Input and DAC output over the last periods of each frequency's window.
 fn traces(sim: &SimReport, _seconds: f64) -> Result<Vec<plot::Trace>> {
-    use virtual_board::adc::Signal;
-    use virtual_board::loopback::Staircase;
+    use virtual_board::models::adc::Signal;
+    use virtual_board::tools::loopback::Staircase;
     let cfg = SimConfig::default();
     let mut out = Vec::new();
     for (f, r) in &sim.loopback {

@@ -7,12 +7,12 @@
 //! the virtual time of each event: SYNC0/SYNC1 edges first, then the (level) IRQ line
 //! while it stays asserted, then `poll`.
 
-use crate::adc::{Ad7689, AdcSpi, SharedAdc};
-use crate::clock::Clock;
-use crate::dac::{Ad5663, DacSpi, LdacPin, SharedDac};
-use crate::esc::{Esc, EscConfig, SyncEdge, SyncSignal};
-use crate::pcap::PcapWriter;
-use crate::spi::{EscSpi, SharedEsc};
+use crate::models::adc::{Ad7689, AdcSpi, SharedAdc};
+use crate::models::dac::{Ad5663, DacSpi, LdacPin, SharedDac};
+use crate::models::esc::{Esc, EscConfig, SyncEdge, SyncSignal};
+use crate::models::spi::{EscSpi, SharedEsc};
+use crate::rig::clock::Clock;
+use crate::tools::pcap::PcapWriter;
 use std::cell::RefCell;
 use std::rc::Rc;
 

@@ -6,7 +6,7 @@
 //! after the 24th are ignored (and counted). Output: `code / 65536 * 2.5 V * 4`
 //! (2.5 V external reference and the board's x4 amplifier).
 
-use crate::clock::Clock;
+use crate::rig::clock::Clock;
 use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 use std::cell::RefCell;

@@ -3,7 +3,7 @@
 //! SII image generated from it by `coe_core::sii` (the image the ESC model loads and the
 //! master reads).
 
-use crate::firmware_cpu::Device;
+use crate::rig::firmware_cpu::Device;
 use coe_core::device::DeviceDescription;
 use firmware::device::{app_config, process_data, DEVICE};
 

@@ -8,11 +8,11 @@
 //! let md = MainDevice::new(pdu_loop, timeouts, config);
 //! futures_lite::future::block_on(futures_lite::future::or(
 //!     async { /* use md */ },
-//!     virtual_board::master::tx_rx_task(board.clone(), tx, rx),
+//!     virtual_board::rig::master::tx_rx_task(board.clone(), tx, rx),
 //! ));
 //! ```
 
-use crate::board::VirtualBoard;
+use crate::rig::board::VirtualBoard;
 use ethercrab::{PduRx, PduTx, Timeouts};
 use std::cell::RefCell;
 use std::future::Future;

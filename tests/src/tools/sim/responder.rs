@@ -1,4 +1,4 @@
-//! A minimal PDI-side responder for the test SII ([`crate::sii_builder::minimal_io_device`]):
+//! A minimal PDI-side responder for the test SII ([`crate::rig::sii_builder::minimal_io_device`]):
 //! it acknowledges every AL control request, copies the SM2 output word to the SM3 input
 //! word (an echo), and has no mailbox.
 //!
@@ -6,9 +6,9 @@
 //! without depending on the slave application. It talks to the ESC model through the
 //! byte-exact SPI front end, like a real PDI CPU would.
 
-use crate::board::{BoardIo, PdiCpu};
-use crate::esc::regs;
-use crate::spi::EscSpi;
+use crate::models::esc::regs;
+use crate::models::spi::EscSpi;
+use crate::rig::board::{BoardIo, PdiCpu};
 use embedded_hal::spi::{Operation, SpiDevice};
 
 /// Reads `n` bytes with command 3 (wait byte, 0xFF termination), 2-byte addressing;

@@ -3,7 +3,7 @@
 //! process-data watchdog.
 //!
 //! The model has two sides, as the chip has: the EtherCAT side (frames, see
-//! [`Esc::process_frame`]) and the PDI side (the SPI front end in [`crate::spi`] and the
+//! [`Esc::process_frame`]) and the PDI side (the SPI front end in [`crate::models::spi`] and the
 //! direct [`Esc::pdi_read`]/[`Esc::pdi_write`] helpers). Every access goes through one
 //! routine, [`Esc::access`], which applies register write masks, read/write side effects
 //! and the SyncManager buffer rules (Beckhoff ESC datasheet Section I chapter 8).
@@ -131,11 +131,11 @@ pub struct Esc {
     /// Frames processed.
     pub frames: u64,
     /// Counters of the SPI front end.
-    pub spi_stats: crate::spi::SpiStats,
+    pub spi_stats: crate::models::spi::SpiStats,
     /// Record every SPI transaction into `spi_log`.
     pub spi_record: bool,
     /// Recorded SPI transactions (when `spi_record` is set).
-    pub spi_log: Vec<crate::spi::SpiRecord>,
+    pub spi_log: Vec<crate::models::spi::SpiRecord>,
 }
 
 #[derive(Default)]

@@ -12,7 +12,7 @@
 //! read in frame N + 2. The first two conversions after power-up (the one power-up
 //! starts, and the one started at the end of frame 0) are dummies and return 0.
 
-use crate::clock::Clock;
+use crate::rig::clock::Clock;
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 use std::cell::RefCell;
 use std::convert::Infallible;

@@ -1,12 +1,12 @@
 //! `cargo xtask sim`: the virtual board driven by a real master.
 //!
 //! Two ways to run it:
-//! - [`run_in_process`]: ethercrab in the same process ([`crate::master::tx_rx_task`]),
+//! - [`run_in_process`]: ethercrab in the same process ([`crate::rig::master::tx_rx_task`]),
 //!   on virtual time. It walks the ESM (printing each state), reads the identity and an
 //!   object dictionary summary over SDO, then runs the thesis loop-back experiment: a sine
 //!   into an analog input, the master copies that input to an analog output every cycle,
-//!   and the DAC model's output is analysed ([`crate::loopback`]).
-//! - [`run_on_interface`]: the board on a Linux network interface ([`crate::iface`]), for
+//!   and the DAC model's output is analysed ([`crate::tools::loopback`]).
+//! - [`run_on_interface`]: the board on a Linux network interface ([`crate::tools::iface`]), for
 //!   any external master, on wall-clock time.
 //!
 //! What runs on the board's PDI side is a [`Target`]: the firmware's slave application
@@ -16,11 +16,11 @@ pub mod firmware_device;
 pub mod responder;
 pub mod tshark;
 
-use crate::adc::Signal;
-use crate::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
-use crate::iface::{self, RawSocket, ServeOptions, ServeStats};
-use crate::loopback::{self, Analysis, AnalysisOptions};
-use crate::master::tx_rx_task;
+use crate::models::adc::Signal;
+use crate::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
+use crate::rig::master::tx_rx_task;
+use crate::tools::iface::{self, RawSocket, ServeOptions, ServeStats};
+use crate::tools::loopback::{self, Analysis, AnalysisOptions};
 use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{
@@ -204,7 +204,7 @@ impl Target {
     pub fn echo() -> Self {
         Self {
             description: "echo responder (test SII, no CoE; not the firmware)".into(),
-            sii: crate::sii_builder::minimal_io_device(),
+            sii: crate::rig::sii_builder::minimal_io_device(),
             make_cpu: Box::new(|_| Box::new(responder::EchoResponder::new())),
         }
     }
@@ -217,10 +217,10 @@ pub fn firmware_target() -> Result<Target, String> {
         description: device.description.clone(),
         sii: device.sii.clone(),
         make_cpu: Box::new(move |io| {
-            Box::new(crate::firmware_cpu::FirmwareCpu::new(
+            Box::new(crate::rig::firmware_cpu::FirmwareCpu::new(
                 io,
                 &device,
-                crate::adc::T_CYC_NS,
+                crate::models::adc::T_CYC_NS,
             ))
         }),
     })
@@ -332,7 +332,7 @@ pub struct SimReport {
     /// Where the pcap went, and how many frames it holds.
     pub pcap: Option<(PathBuf, usize)>,
     /// Every DAC load of the run (for plots of the loop-back; windows in `loopback`).
-    pub dac_updates: Vec<crate::dac::DacUpdate>,
+    pub dac_updates: Vec<crate::models::dac::DacUpdate>,
 }
 
 /// A failure that ends a run.
@@ -564,7 +564,7 @@ pub fn run_in_process(
         .map_err(|_| SimError("PDU storage already split".into()))?;
     let md = MainDevice::new(
         pdu_loop,
-        crate::master::in_process_timeouts(),
+        crate::rig::master::in_process_timeouts(),
         MainDeviceConfig {
             dc_static_sync_iterations: 100,
             ..Default::default()
@@ -593,8 +593,8 @@ pub fn run_in_process(
         let esc = b.esc().borrow();
         SimError(format!(
             "{e} (the board shows AL status {:#06x}, AL status code {:#06x})",
-            esc.peek_u16(crate::esc::regs::AL_STATUS),
-            esc.peek_u16(crate::esc::regs::AL_STATUS_CODE)
+            esc.peek_u16(crate::models::esc::regs::AL_STATUS),
+            esc.peek_u16(crate::models::esc::regs::AL_STATUS_CODE)
         ))
     })
 }

@@ -12,7 +12,7 @@
 //!
 //! Needs `CAP_NET_RAW` (root). Linux only.
 
-use crate::board::VirtualBoard;
+use crate::rig::board::VirtualBoard;
 use std::ffi::CString;
 use std::io;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
@@ -275,7 +275,10 @@ pub fn serve(
             break;
         }
         if now >= next_progress {
-            stats.al_status = board.esc().borrow().peek_u16(crate::esc::regs::AL_STATUS);
+            stats.al_status = board
+                .esc()
+                .borrow()
+                .peek_u16(crate::models::esc::regs::AL_STATUS);
             progress(&stats);
             next_progress += opts.progress_every;
         }
@@ -295,7 +298,10 @@ pub fn serve(
         sock.send(&reply)?;
         stats.frames += 1;
     }
-    stats.al_status = board.esc().borrow().peek_u16(crate::esc::regs::AL_STATUS);
+    stats.al_status = board
+        .esc()
+        .borrow()
+        .peek_u16(crate::models::esc::regs::AL_STATUS);
     Ok(stats)
 }
 

@@ -2,7 +2,7 @@
 //! counters, the repeat request) and a minimal CoE SDO upload client on it ([`SdoUploader`]:
 //! initiate upload, then upload segments until the last one; ETG.1000.6 5.6.2.2/5.6.2.3),
 //! both on ethercrab's register reads and writes through the in-process rig
-//! ([`crate::master`]).
+//! ([`crate::rig::master`]).
 //!
 //! The upload client exists because ethercrab 0.7.1's `SubDeviceRef::sdo_read` cannot
 //! complete a segmented upload: its mailbox response parser (`mailbox/coe/mod.rs`,

@@ -4,7 +4,7 @@
 //! builds just enough for a master to identify the device, size the process image from
 //! the PDO categories and configure SyncManagers/FMMUs.
 
-use crate::esc::sii_crc8;
+use crate::models::esc::sii_crc8;
 
 /// A SyncManager entry of category 41.
 #[derive(Clone, Copy, Debug)]

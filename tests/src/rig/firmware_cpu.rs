@@ -25,11 +25,11 @@
 //! both input registers (LDAC register 0: nothing changes), and the SYNC0 task only
 //! pulses LDAC, so both channels change together at the edge.
 
-use crate::adc::AdcSpi;
-use crate::board::{BoardIo, PdiCpu};
-use crate::dac::{DacSpi, LdacPin};
-use crate::esc::SyncEdge;
-use crate::spi::EscSpi;
+use crate::models::adc::AdcSpi;
+use crate::models::dac::{DacSpi, LdacPin};
+use crate::models::esc::SyncEdge;
+use crate::models::spi::EscSpi;
+use crate::rig::board::{BoardIo, PdiCpu};
 use ad7689::Ad7689;
 use et1100::{Et1100, SpiPdi};
 use firmware::app::adc_scan::SCAN_CONFIG;

@@ -1,6 +1,6 @@
 //! PDI bus cost of the firmware's slave application: SPI transactions and bytes per
 //! process-data cycle, per mailbox SDO exchange and per ESM transition, counted on the
-//! byte-exact SPI front end ([`crate::spi::SpiStats`]) while a scripted master drives the
+//! byte-exact SPI front end ([`crate::models::spi::SpiStats`]) while a scripted master drives the
 //! board's ESC from the EtherCAT side (register writes and reads without frames, so only the
 //! PDI side is counted).
 //!
@@ -12,10 +12,10 @@
 //! the request read from SM0 and the reply written to SM1, each up to the buffer's last byte
 //! (reading/writing the last byte is what frees/fills an ESC mailbox).
 
-use crate::board::{BoardConfig, VirtualBoard};
-use crate::esc::regs;
-use crate::sim::Target;
-use crate::spi::SpiRecord;
+use crate::models::esc::regs;
+use crate::models::spi::SpiRecord;
+use crate::rig::board::{BoardConfig, VirtualBoard};
+use crate::tools::sim::Target;
 
 /// Mailbox layout the scripted master configures (the device's SII values).
 const MBX_OUT: u16 = 0x1000;
@@ -452,7 +452,7 @@ mod tests {
 
     #[test]
     fn firmware_costs_are_counted_and_consistent() {
-        let target = crate::sim::firmware_target().unwrap();
+        let target = crate::tools::sim::firmware_target().unwrap();
         let r = measure(target, 100_000, 20).unwrap();
         for c in &r.costs {
             assert!(c.transactions >= 1.0, "{}: no SPI traffic", c.name);
@@ -478,7 +478,7 @@ mod tests {
             pd.accesses
         );
         // Reruns count the same bytes.
-        let again = measure(crate::sim::firmware_target().unwrap(), 100_000, 20).unwrap();
+        let again = measure(crate::tools::sim::firmware_target().unwrap(), 100_000, 20).unwrap();
         assert_eq!(r, again);
     }
 
@@ -487,7 +487,7 @@ mod tests {
     /// written as its frame and SM1's last byte (or the whole buffer when it fills it).
     #[test]
     fn segmented_upload_is_measured() {
-        let r = measure(crate::sim::firmware_target().unwrap(), 100_000, 10).unwrap();
+        let r = measure(crate::tools::sim::firmware_target().unwrap(), 100_000, 10).unwrap();
         assert!(r.not_measured.is_empty(), "{:?}", r.not_measured);
         let seg = r
             .costs

@@ -17,7 +17,7 @@
 //! 0x030E b4); data bytes clocked after the termination byte set 0x030E b5.
 //! Writes are committed as one access when SPI_SEL goes high.
 
-use crate::esc::{regs, Esc};
+use crate::models::esc::{regs, Esc};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 use std::cell::RefCell;
 use std::convert::Infallible;

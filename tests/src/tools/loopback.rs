@@ -23,8 +23,8 @@
 //!
 //! Pure Rust, `f64`, no dependencies.
 
-use crate::adc::Signal;
-use crate::dac::{DacUpdate, GAIN, VREF};
+use crate::models::adc::Signal;
+use crate::models::dac::{DacUpdate, GAIN, VREF};
 use std::f64::consts::PI;
 use std::fmt;
 
