@@ -25,7 +25,7 @@
 
 mod complete;
 pub(crate) use complete::Layout;
-mod info;
+pub mod info;
 
 use crate::abort::SdoAbortCode;
 use crate::esm::AlState;
@@ -776,7 +776,7 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         };
         // Even fragment sizes keep the u16 indices of an OD list whole.
         let chunk = reply.len().saturating_sub(INFO_OVERHEAD) & !1;
-        let Some(fragments) = wire::sdo_info::fragment_count(total, chunk) else {
+        let Some(fragments) = info::fragment_count(total, chunk) else {
             return Reply::None;
         };
         let pending = InfoPending {

@@ -371,7 +371,7 @@ proptest! {
         let mut joined = Vec::new();
         let mut chunk = vec![0u8; per_fragment];
         while joined.len() < total {
-            let k = repr.emit_fragment(joined.len(), &mut chunk).unwrap();
+            let k = coe_core::sdo_server::info::emit_fragment(&repr, joined.len(), &mut chunk).unwrap();
             prop_assert!(k > 0);
             joined.extend_from_slice(&chunk[..k]);
         }

@@ -96,7 +96,8 @@ fn parsers(data: &[u8]) {
             );
         }
         let mut chunk = [0u8; 7];
-        let _ = r.emit_fragment(usize::from(data.first().copied().unwrap_or(0)), &mut chunk);
+        let offset = usize::from(data.first().copied().unwrap_or(0));
+        let _ = coe_core::sdo_server::info::emit_fragment(&r, offset, &mut chunk);
     }
     let _ = SdoInfoHeaderRepr::parse(&SdoInfo::new_unchecked(data));
     for op in 0..=8u8 {

@@ -1,15 +1,96 @@
 //! SDO Information service responses (ETG.1000.6 5.6.3) generated as a byte stream from the
 //! object dictionary description, so a response of any length can be cut into fragments
-//! without a buffer: each fragment regenerates the stream through a
-//! [`FragmentWriter`] that keeps only its own window. The layouts are the wire layer's
-//! ([`crate::wire::sdo_info`]); this module only supplies the values.
+//! without a buffer: each fragment regenerates the stream through a [`FragmentWriter`] that
+//! keeps only its own window. The layouts are the wire layer's ([`crate::wire::sdo_info`],
+//! written through its [`ServiceDataSink`]); this module supplies the values and the
+//! fragmentation.
 
 use crate::abort::SdoAbortCode;
 use crate::od::{Access, DataType, EntryDesc, ObjectDictionary, Value};
 use crate::wire::{
-    write_od_list, EntryDescriptionHead, EntryValue, FragmentWriter, OdListType, SdoInfoOpCode,
-    SdoInfoRepr, ValueInfo,
+    self, write_od_list, EntryDescriptionHead, EntryValue, OdListType, SdoInfoOpCode, SdoInfoRepr,
+    ServiceDataSink, ValueInfo,
 };
+
+/// Writes a window of a byte stream: bytes before `skip` and past the end of `out` are
+/// counted but dropped. Lets a response of any length be produced one fragment at a time
+/// without a buffer for the whole response.
+#[derive(Debug)]
+pub struct FragmentWriter<'a> {
+    skip: usize,
+    out: &'a mut [u8],
+    pos: usize,
+}
+
+impl<'a> FragmentWriter<'a> {
+    /// A window that keeps stream bytes `skip .. skip + out.len()`.
+    pub fn new(skip: usize, out: &'a mut [u8]) -> FragmentWriter<'a> {
+        FragmentWriter { skip, out, pos: 0 }
+    }
+
+    /// Appends `n` zero bytes (padding of a value shorter than its entry).
+    pub fn push_zeros(&mut self, n: usize) {
+        let start = self.pos;
+        let end = start.saturating_add(n);
+        self.pos = end;
+        let lo = start.max(self.skip);
+        let hi = end.min(self.skip.saturating_add(self.out.len()));
+        if lo < hi {
+            if let Some(dst) = self.out.get_mut(lo - self.skip..hi - self.skip) {
+                dst.fill(0);
+            }
+        }
+    }
+
+    /// Stream bytes seen so far (the total length once everything is pushed).
+    pub fn position(&self) -> usize {
+        self.pos
+    }
+
+    /// Bytes written into `out`.
+    pub fn written(&self) -> usize {
+        self.pos.saturating_sub(self.skip).min(self.out.len())
+    }
+}
+
+impl ServiceDataSink for FragmentWriter<'_> {
+    fn push(&mut self, bytes: &[u8]) {
+        let start = self.pos;
+        let end = start.saturating_add(bytes.len());
+        self.pos = end;
+        let lo = start.max(self.skip);
+        let hi = end.min(self.skip.saturating_add(self.out.len()));
+        if lo < hi {
+            let dst = self.out.get_mut(lo - self.skip..hi - self.skip);
+            let src = bytes.get(lo - start..hi - start);
+            if let (Some(dst), Some(src)) = (dst, src) {
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d = *s;
+                }
+            }
+        }
+    }
+}
+
+/// Writes service data bytes `offset .. offset + out.len()` of `repr` (clipped to the end
+/// of the data) into `out` and returns how many were written: the payload of one fragment.
+/// The caller writes the fragment's header with [`wire::SdoInfoHeaderRepr`].
+pub fn emit_fragment(repr: &SdoInfoRepr<'_>, offset: usize, out: &mut [u8]) -> wire::Result<usize> {
+    repr.check()?;
+    let mut w = FragmentWriter::new(offset, out);
+    repr.write(&mut w);
+    Ok(w.written())
+}
+
+/// The number of fragments a service data stream of `total` bytes needs when each fragment
+/// carries at most `per_fragment` bytes (at least 1; `None` if `per_fragment` is 0 or the
+/// count does not fit the u16 fragments-left field).
+pub fn fragment_count(total: usize, per_fragment: usize) -> Option<u16> {
+    if per_fragment == 0 {
+        return None;
+    }
+    u16::try_from(total.div_ceil(per_fragment).max(1)).ok()
+}
 
 /// What an SDO Information request asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -198,5 +279,93 @@ pub(crate) fn stream_chunk(
     match generate(query, od, &mut w) {
         Ok(()) => w.written(),
         Err(_) => 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::{SdoInfo, SdoInfoHeaderRepr};
+
+    #[test]
+    fn fragments_reassemble_to_the_whole() {
+        // OD list response of 40 objects = 2 + 80 bytes, cut into 14-byte fragments.
+        let mut list = [0u8; 80];
+        for (i, pair) in list.chunks_exact_mut(2).enumerate() {
+            pair.copy_from_slice(&(0x2000u16 + i as u16).to_le_bytes());
+        }
+        let repr = SdoInfoRepr::OdListResponse {
+            list_type: OdListType::AllObjects,
+            list: &list,
+        };
+        let total = repr.service_data_len();
+        assert_eq!(total, 82);
+        let per = 14;
+        let count = fragment_count(total, per).unwrap();
+        assert_eq!(count, 6);
+        let mut whole = [0u8; 82];
+        let mut offset = 0;
+        for k in 0..count {
+            let mut frame = [0xa5u8; 4 + 14];
+            let mut p = SdoInfo::new_unchecked(&mut frame[..]);
+            let left = count - 1 - k;
+            SdoInfoHeaderRepr {
+                opcode: repr.opcode(),
+                incomplete: left > 0,
+                fragments_left: left,
+            }
+            .emit(&mut p)
+            .unwrap();
+            let n = emit_fragment(&repr, offset, p.payload_mut()).unwrap();
+            assert_eq!(n, per.min(total - offset));
+            assert_eq!(frame[0], if left > 0 { 0x82 } else { 0x02 });
+            assert_eq!(u16::from_le_bytes([frame[2], frame[3]]), left);
+            whole[offset..offset + n].copy_from_slice(&frame[4..4 + n]);
+            offset += n;
+        }
+        assert_eq!(offset, total);
+        assert_eq!(whole[..2], [0x01, 0x00]);
+        assert_eq!(whole[2..], list);
+        assert_eq!(
+            SdoInfoRepr::parse_service_data(SdoInfoOpCode::GetOdListResponse, &whole),
+            Ok(repr)
+        );
+        // Past the end nothing is written.
+        let mut out = [0xa5u8; 4];
+        assert_eq!(emit_fragment(&repr, 82, &mut out), Ok(0));
+        assert_eq!(emit_fragment(&repr, 1000, &mut out), Ok(0));
+        assert_eq!(out, [0xa5; 4]);
+    }
+
+    #[test]
+    fn fragment_writer_windows() {
+        let mut out = [0u8; 3];
+        let mut w = FragmentWriter::new(2, &mut out);
+        w.push(&[1, 2]);
+        w.push(&[3]);
+        w.push(&[4, 5, 6]);
+        assert_eq!(w.position(), 6);
+        assert_eq!(w.written(), 3);
+        assert_eq!(out, [3, 4, 5]);
+        let mut none: [u8; 0] = [];
+        let mut w = FragmentWriter::new(usize::MAX, &mut none);
+        w.push(&[1; 8]);
+        assert_eq!(w.written(), 0);
+        // Zeros go through the same window.
+        let mut out = [0xa5u8; 3];
+        let mut w = FragmentWriter::new(1, &mut out);
+        w.push(&[7, 8]);
+        w.push_zeros(1);
+        w.push(&[9, 9]);
+        assert_eq!((w.position(), w.written()), (5, 3));
+        assert_eq!(out, [8, 0, 9]);
+        let mut out = [0xa5u8; 2];
+        let mut w = FragmentWriter::new(3, &mut out);
+        w.push_zeros(4);
+        assert_eq!((w.position(), w.written()), (4, 1));
+        assert_eq!(out, [0, 0xa5]);
+        assert_eq!(fragment_count(0, 10), Some(1));
+        assert_eq!(fragment_count(10, 0), None);
+        assert_eq!(fragment_count(usize::MAX, 1), None);
     }
 }

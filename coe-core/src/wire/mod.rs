@@ -46,8 +46,8 @@ pub use mailbox::{
 };
 pub use sdo::{Direction, InitData, Sdo, SdoRepr};
 pub use sdo_info::{
-    write_od_list, EntryDescriptionHead, EntryValue, FragmentWriter, OdListType, SdoInfo,
-    SdoInfoHeaderRepr, SdoInfoOpCode, SdoInfoRepr, ValueInfo,
+    write_od_list, EntryDescriptionHead, EntryValue, OdListType, SdoInfo, SdoInfoHeaderRepr,
+    SdoInfoOpCode, SdoInfoRepr, ServiceDataSink, ValueInfo,
 };
 
 /// Why a buffer is not a valid frame.

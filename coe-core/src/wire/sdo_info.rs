@@ -24,8 +24,10 @@
 //! Names carry no NUL; their length follows from the mailbox length. A long response is
 //! split into fragments: every fragment has the header (incomplete set on all but the last,
 //! fragments left counting down to 0) followed by the next slice of the service data.
-//! [`SdoInfoRepr::emit_fragment`] writes such a slice; [`SdoInfoRepr::parse`] reads a whole
-//! (unfragmented or reassembled) message.
+//! [`SdoInfoRepr::write`] streams the service data into a [`ServiceDataSink`] (the SDO
+//! server's fragment writer, `crate::sdo_server::info::FragmentWriter`, keeps one
+//! fragment's slice of it); [`SdoInfoRepr::parse`] reads a whole (unfragmented or
+//! reassembled) message.
 
 use super::{get_u16, get_u32, get_u8, need, set_u16, set_u8, tail, tail_mut, Error, Result};
 use crate::abort::SdoAbortCode;
@@ -189,10 +191,10 @@ impl EntryDescriptionHead {
     /// Streams the service data: the fixed fields, the unit type and each value that the
     /// value info selects (`value` writes it and must push exactly
     /// [`value_len`]`(bit_length)` bytes), then the name.
-    pub fn write(
+    pub fn write<W: ServiceDataSink + ?Sized>(
         &self,
-        w: &mut FragmentWriter<'_>,
-        mut value: impl FnMut(EntryValue, &mut FragmentWriter<'_>),
+        w: &mut W,
+        mut value: impl FnMut(EntryValue, &mut W),
         name: &[u8],
     ) {
         w.push_u16(self.index);
@@ -214,8 +216,8 @@ impl EntryDescriptionHead {
 
 /// Streams the service data of a Get OD List response: the list type, then one u16 per
 /// index (for list type 0 the five counts).
-pub fn write_od_list(
-    w: &mut FragmentWriter<'_>,
+pub fn write_od_list<W: ServiceDataSink + ?Sized>(
+    w: &mut W,
     list_type: OdListType,
     indices: impl IntoIterator<Item = u16>,
 ) {
@@ -431,67 +433,34 @@ impl SdoInfoHeaderRepr {
     }
 }
 
-/// Writes a window of a byte stream: bytes before `skip` and past the end of `out` are
-/// counted but dropped. Lets a response of any length be produced one fragment at a time
-/// without a buffer for the whole response.
-#[derive(Debug)]
-pub struct FragmentWriter<'a> {
-    skip: usize,
+/// Receives the service data of an SDO Information message as a byte stream, in order:
+/// a whole frame's payload ([`SdoInfoRepr::emit`]) or, in the SDO server, the slice one
+/// fragment carries.
+pub trait ServiceDataSink {
+    /// Appends `bytes` to the stream.
+    fn push(&mut self, bytes: &[u8]);
+
+    /// Appends a little-endian u16.
+    fn push_u16(&mut self, value: u16) {
+        self.push(&value.to_le_bytes())
+    }
+}
+
+/// The sink of [`SdoInfoRepr::emit`] and [`SdoInfoRepr::service_data_len`]: writes the
+/// stream from the start of `out`, counts what does not fit.
+struct Cursor<'a> {
     out: &'a mut [u8],
     pos: usize,
 }
 
-impl<'a> FragmentWriter<'a> {
-    /// A window that keeps stream bytes `skip .. skip + out.len()`.
-    pub fn new(skip: usize, out: &'a mut [u8]) -> FragmentWriter<'a> {
-        FragmentWriter { skip, out, pos: 0 }
-    }
-
-    /// Appends `bytes` to the stream.
-    pub fn push(&mut self, bytes: &[u8]) {
-        let start = self.pos;
-        let end = start.saturating_add(bytes.len());
-        self.pos = end;
-        let lo = start.max(self.skip);
-        let hi = end.min(self.skip.saturating_add(self.out.len()));
-        if lo < hi {
-            let dst = self.out.get_mut(lo - self.skip..hi - self.skip);
-            let src = bytes.get(lo - start..hi - start);
-            if let (Some(dst), Some(src)) = (dst, src) {
-                for (d, s) in dst.iter_mut().zip(src) {
-                    *d = *s;
-                }
+impl ServiceDataSink for Cursor<'_> {
+    fn push(&mut self, bytes: &[u8]) {
+        if let Some(dst) = self.out.get_mut(self.pos..) {
+            for (d, s) in dst.iter_mut().zip(bytes) {
+                *d = *s;
             }
         }
-    }
-
-    /// Appends a little-endian u16.
-    pub fn push_u16(&mut self, value: u16) {
-        self.push(&value.to_le_bytes())
-    }
-
-    /// Appends `n` zero bytes (padding of a value shorter than its entry).
-    pub fn push_zeros(&mut self, n: usize) {
-        let start = self.pos;
-        let end = start.saturating_add(n);
-        self.pos = end;
-        let lo = start.max(self.skip);
-        let hi = end.min(self.skip.saturating_add(self.out.len()));
-        if lo < hi {
-            if let Some(dst) = self.out.get_mut(lo - self.skip..hi - self.skip) {
-                dst.fill(0);
-            }
-        }
-    }
-
-    /// Stream bytes seen so far (the total length once everything is pushed).
-    pub fn position(&self) -> usize {
-        self.pos
-    }
-
-    /// Bytes written into `out`.
-    pub fn written(&self) -> usize {
-        self.pos.saturating_sub(self.skip).min(self.out.len())
+        self.pos = self.pos.saturating_add(bytes.len());
     }
 }
 
@@ -736,7 +705,7 @@ impl<'a> SdoInfoRepr<'a> {
     /// Checks what the emitter cannot express: an OD list of odd length, optional values
     /// whose length is not ceil(bit_length / 8).
     #[inline(always)]
-    fn check(&self) -> Result<()> {
+    pub fn check(&self) -> Result<()> {
         match *self {
             SdoInfoRepr::OdListResponse { list, .. } if list.len() % 2 != 0 => {
                 Err(Error::Malformed)
@@ -770,12 +739,12 @@ impl<'a> SdoInfoRepr<'a> {
         }
     }
 
-    /// Generates the service data into `w` (unchecked: [`emit`](Self::emit) and
-    /// [`emit_fragment`](Self::emit_fragment) check first).
+    /// Streams the service data into `w`, unchecked: [`emit`](Self::emit) calls
+    /// [`check`](Self::check) first, and so must a caller that emits fragments.
     // Inlined: the server writes one known variant (object description, error), so only
     // that arm lands in its image.
     #[inline(always)]
-    pub(crate) fn write(&self, w: &mut FragmentWriter<'_>) {
+    pub fn write<W: ServiceDataSink + ?Sized>(&self, w: &mut W) {
         match *self {
             SdoInfoRepr::OdListRequest { list_type } => w.push_u16(list_type.into()),
             SdoInfoRepr::OdListResponse { list_type, list } => {
@@ -841,9 +810,12 @@ impl<'a> SdoInfoRepr<'a> {
     /// Length of the whole service data (all fragments together).
     #[inline(always)]
     pub fn service_data_len(&self) -> usize {
-        let mut w = FragmentWriter::new(0, &mut []);
+        let mut w = Cursor {
+            out: &mut [],
+            pos: 0,
+        };
         self.write(&mut w);
-        w.position()
+        w.pos
     }
 
     /// Header plus service data of an unfragmented frame.
@@ -863,29 +835,12 @@ impl<'a> SdoInfoRepr<'a> {
             fragments_left: 0,
         }
         .emit(packet)?;
-        self.write(&mut FragmentWriter::new(0, packet.payload_mut()));
+        self.write(&mut Cursor {
+            out: packet.payload_mut(),
+            pos: 0,
+        });
         Ok(())
     }
-
-    /// Writes service data bytes `offset .. offset + out.len()` (clipped to the end of the
-    /// data) into `out` and returns how many were written: the payload of one fragment. The
-    /// caller writes the fragment's header with [`SdoInfoHeaderRepr`].
-    pub fn emit_fragment(&self, offset: usize, out: &mut [u8]) -> Result<usize> {
-        self.check()?;
-        let mut w = FragmentWriter::new(offset, out);
-        self.write(&mut w);
-        Ok(w.written())
-    }
-}
-
-/// The number of fragments a service data stream of `total` bytes needs when each fragment
-/// carries at most `per_fragment` bytes (at least 1; `None` if `per_fragment` is 0 or the
-/// count does not fit the u16 fragments-left field).
-pub fn fragment_count(total: usize, per_fragment: usize) -> Option<u16> {
-    if per_fragment == 0 {
-        return None;
-    }
-    u16::try_from(total.div_ceil(per_fragment).max(1)).ok()
 }
 
 #[cfg(test)]
@@ -1223,88 +1178,6 @@ mod tests {
     }
 
     #[test]
-    fn fragments_reassemble_to_the_whole() {
-        // OD list response of 40 objects = 2 + 80 bytes, cut into 14-byte fragments.
-        let mut list = [0u8; 80];
-        for (i, pair) in list.chunks_exact_mut(2).enumerate() {
-            pair.copy_from_slice(&(0x2000u16 + i as u16).to_le_bytes());
-        }
-        let repr = SdoInfoRepr::OdListResponse {
-            list_type: OdListType::AllObjects,
-            list: &list,
-        };
-        let total = repr.service_data_len();
-        assert_eq!(total, 82);
-        let per = 14;
-        let count = fragment_count(total, per).unwrap();
-        assert_eq!(count, 6);
-        let mut whole = [0u8; 82];
-        let mut offset = 0;
-        for k in 0..count {
-            let mut frame = [0xa5u8; 4 + 14];
-            let mut p = SdoInfo::new_unchecked(&mut frame[..]);
-            let left = count - 1 - k;
-            SdoInfoHeaderRepr {
-                opcode: repr.opcode(),
-                incomplete: left > 0,
-                fragments_left: left,
-            }
-            .emit(&mut p)
-            .unwrap();
-            let n = repr.emit_fragment(offset, p.payload_mut()).unwrap();
-            assert_eq!(n, per.min(total - offset));
-            assert_eq!(frame[0], if left > 0 { 0x82 } else { 0x02 });
-            assert_eq!(u16::from_le_bytes([frame[2], frame[3]]), left);
-            whole[offset..offset + n].copy_from_slice(&frame[4..4 + n]);
-            offset += n;
-        }
-        assert_eq!(offset, total);
-        assert_eq!(whole[..2], [0x01, 0x00]);
-        assert_eq!(whole[2..], list);
-        assert_eq!(
-            SdoInfoRepr::parse_service_data(SdoInfoOpCode::GetOdListResponse, &whole),
-            Ok(repr)
-        );
-        // Past the end nothing is written.
-        let mut out = [0xa5u8; 4];
-        assert_eq!(repr.emit_fragment(82, &mut out), Ok(0));
-        assert_eq!(repr.emit_fragment(1000, &mut out), Ok(0));
-        assert_eq!(out, [0xa5; 4]);
-    }
-
-    #[test]
-    fn fragment_writer_windows() {
-        let mut out = [0u8; 3];
-        let mut w = FragmentWriter::new(2, &mut out);
-        w.push(&[1, 2]);
-        w.push(&[3]);
-        w.push(&[4, 5, 6]);
-        assert_eq!(w.position(), 6);
-        assert_eq!(w.written(), 3);
-        assert_eq!(out, [3, 4, 5]);
-        let mut none: [u8; 0] = [];
-        let mut w = FragmentWriter::new(usize::MAX, &mut none);
-        w.push(&[1; 8]);
-        assert_eq!(w.written(), 0);
-        // Zeros go through the same window.
-        let mut out = [0xa5u8; 3];
-        let mut w = FragmentWriter::new(1, &mut out);
-        w.push(&[7, 8]);
-        w.push_zeros(1);
-        w.push(&[9, 9]);
-        assert_eq!((w.position(), w.written()), (5, 3));
-        assert_eq!(out, [8, 0, 9]);
-        let mut out = [0xa5u8; 2];
-        let mut w = FragmentWriter::new(3, &mut out);
-        w.push_zeros(4);
-        assert_eq!((w.position(), w.written()), (4, 1));
-        assert_eq!(out, [0, 0xa5]);
-        assert_eq!(fragment_count(0, 10), Some(1));
-        assert_eq!(fragment_count(10, 0), None);
-        assert_eq!(fragment_count(usize::MAX, 1), None);
-    }
-
-    #[test]
     fn truncated() {
         for n in 0..HEADER_LEN {
             assert_eq!(
@@ -1378,7 +1251,7 @@ mod tests {
             entry.emit(&mut SdoInfo::new_unchecked(&mut out[..])),
             Err(Error::Malformed)
         );
-        assert_eq!(entry.emit_fragment(0, &mut out), Err(Error::Malformed));
+        assert_eq!(entry.check(), Err(Error::Malformed));
         if let SdoInfoRepr::EntryDescriptionResponse {
             ref mut value_info,
             ref mut default,
