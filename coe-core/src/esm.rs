@@ -4,6 +4,10 @@
 //! [`transition_allowed`] is the transition matrix, [`decide`] the pure decision for an AL
 //! control write (matrix, error flag and acknowledge), and [`Esm`] keeps the state, the error
 //! flag, the AL status code ([`AlStatusCode`], register 0x0134) and the ID indication.
+//!
+//! These are the one definition of the ESM state and flags: ESC drivers (the `et1100` crate's
+//! `AlControl`/`AlStatus`) read them from here, since an ESC only stores what the
+//! application layer writes.
 
 use crate::al_status::AlStatusCode;
 

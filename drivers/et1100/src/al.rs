@@ -1,5 +1,12 @@
 //! Application layer registers: AL event request (0x0220), AL control (0x0120),
 //! AL status (0x0130) (ESC-II 2.6, 2.7; hardware-facts 1.3, 1.7).
+//!
+//! The state nibble and the error/ID flags of AL control and AL status are the EtherCAT
+//! state machine's (ETG.1000.6 6.4), which every ESC only stores: they are defined once, in
+//! the application-layer core ([`coe_core::esm`]), and read here. The register addresses
+//! and the event bits are the ESC's and stay in this crate.
+
+use coe_core::esm::{AlState, ERROR_FLAG, ID_FLAG, STATE_MASK};
 
 /// AL event request bits (0x0220..0x0222) as shifted out on MISO during the address phase
 /// of every SPI access (ESC-II 2.7.4; hardware-facts 1.3).
@@ -114,52 +121,6 @@ impl From<u32> for AlEvents {
     }
 }
 
-/// An EtherCAT state machine state (ETG.1000.6; hardware-facts 1.7). Open: values that are
-/// no state survive as [`AlState::Unknown`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum AlState {
-    /// 1: INIT.
-    Init,
-    /// 2: PRE-OPERATIONAL.
-    PreOp,
-    /// 3: BOOTSTRAP.
-    Boot,
-    /// 4: SAFE-OPERATIONAL.
-    SafeOp,
-    /// 8: OPERATIONAL.
-    Op,
-    /// Any other nibble value.
-    Unknown(u8),
-}
-
-impl From<u8> for AlState {
-    /// Takes bits 3:0.
-    fn from(v: u8) -> Self {
-        match v & 0x0F {
-            1 => AlState::Init,
-            2 => AlState::PreOp,
-            3 => AlState::Boot,
-            4 => AlState::SafeOp,
-            8 => AlState::Op,
-            other => AlState::Unknown(other),
-        }
-    }
-}
-
-impl From<AlState> for u8 {
-    fn from(s: AlState) -> Self {
-        match s {
-            AlState::Init => 1,
-            AlState::PreOp => 2,
-            AlState::Boot => 3,
-            AlState::SafeOp => 4,
-            AlState::Op => 8,
-            AlState::Unknown(v) => v & 0x0F,
-        }
-    }
-}
-
 /// AL control (0x0120, u16), written by the master (ESC-II 2.6.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -168,22 +129,22 @@ pub struct AlControl(pub u16);
 impl AlControl {
     /// Bits 3:0: the raw requested state.
     pub const fn state_bits(self) -> u8 {
-        (self.0 & 0x0F) as u8
+        (self.0 & STATE_MASK) as u8
     }
 
-    /// The requested state.
-    pub fn state(self) -> AlState {
-        AlState::from(self.state_bits())
+    /// The requested state; `None` for a nibble that names no state (AL status code 0x0012).
+    pub const fn state(self) -> Option<AlState> {
+        AlState::from_nibble(self.state_bits())
     }
 
     /// b4: error acknowledge.
     pub const fn error_ack(self) -> bool {
-        self.0 & 0x10 != 0
+        self.0 & ERROR_FLAG != 0
     }
 
     /// b5: device identification request.
     pub const fn id_request(self) -> bool {
-        self.0 & 0x20 != 0
+        self.0 & ID_FLAG != 0
     }
 }
 
@@ -194,35 +155,35 @@ pub struct AlStatus(pub u16);
 
 impl AlStatus {
     /// Builds a status from a state, the error flag (b4) and the ID-loaded flag (b5).
-    pub fn new(state: AlState, error: bool, id_loaded: bool) -> Self {
-        let mut v = u16::from(u8::from(state));
+    pub const fn new(state: AlState, error: bool, id_loaded: bool) -> Self {
+        let mut v = state.nibble() as u16;
         if error {
-            v |= 0x10;
+            v |= ERROR_FLAG;
         }
         if id_loaded {
-            v |= 0x20;
+            v |= ID_FLAG;
         }
         Self(v)
     }
 
     /// Bits 3:0: the raw state.
     pub const fn state_bits(self) -> u8 {
-        (self.0 & 0x0F) as u8
+        (self.0 & STATE_MASK) as u8
     }
 
-    /// The state.
-    pub fn state(self) -> AlState {
-        AlState::from(self.state_bits())
+    /// The state; `None` for a nibble that names no state.
+    pub const fn state(self) -> Option<AlState> {
+        AlState::from_nibble(self.state_bits())
     }
 
     /// b4: error flag.
     pub const fn error(self) -> bool {
-        self.0 & 0x10 != 0
+        self.0 & ERROR_FLAG != 0
     }
 
     /// b5: device identification loaded.
     pub const fn id_loaded(self) -> bool {
-        self.0 & 0x20 != 0
+        self.0 & ID_FLAG != 0
     }
 }
 
@@ -240,15 +201,17 @@ mod tests {
     }
 
     #[test]
-    fn states_round_trip() {
-        for v in 0..16u8 {
-            assert_eq!(u8::from(AlState::from(v)), v);
-        }
+    fn states_and_flags() {
         let s = AlStatus::new(AlState::SafeOp, true, false);
         assert_eq!(s.0, 0x14);
-        assert!(s.error() && !s.id_loaded() && s.state() == AlState::SafeOp);
+        assert!(s.error() && !s.id_loaded() && s.state() == Some(AlState::SafeOp));
+        assert_eq!(AlStatus::new(AlState::Bootstrap, false, true).0, 0x23);
         let c = AlControl(0x0022);
-        assert_eq!(c.state(), AlState::PreOp);
+        assert_eq!(c.state(), Some(AlState::PreOp));
         assert!(c.id_request() && !c.error_ack());
+        // A nibble that names no state survives as its bits.
+        let c = AlControl(0x0015);
+        assert_eq!((c.state(), c.state_bits()), (None, 5));
+        assert!(c.error_ack());
     }
 }

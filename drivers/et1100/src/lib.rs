@@ -24,6 +24,14 @@
 //!
 //! - `defmt`: derives `defmt::Format` for the public types.
 //!
+//! # Dependencies
+//!
+//! `coe-core` (no_std, no allocation, no ESC chip in it) for what the ESC only stores on
+//! behalf of the EtherCAT application layer: the ESM state of AL control/status
+//! ([`AlState`]) and the SyncManager control byte fields that the SII and ESI describe too
+//! (`coe_core::device::sm_control`). The ESC's own register map, event bits and register
+//! block layouts are defined here.
+//!
 //! # Minimum supported Rust version
 //!
 //! 1.85.
@@ -57,7 +65,7 @@
 //! let mut esc = Et1100::new(SpiPdi::new(spi));
 //!
 //! let control = esc.read_al_control()?;
-//! assert_eq!(control.state(), AlState::PreOp);
+//! assert_eq!(control.state(), Some(AlState::PreOp));
 //! esc.write_al_status(AlStatus::new(AlState::PreOp, false, false), 0x0000)?;
 //!
 //! let mut spi = esc.destroy().destroy();
@@ -81,7 +89,9 @@ mod sync_manager;
 mod unconfirmed;
 mod watchdog;
 
-pub use al::{AlControl, AlEvents, AlState, AlStatus};
+pub use al::{AlControl, AlEvents, AlStatus};
+/// The ESM state of AL control and AL status, defined by the application-layer core.
+pub use coe_core::esm::AlState;
 pub use dc::SyncActivation;
 pub use device::{DlStatus, EscInfo, Et1100};
 pub use eeprom::{EepromChunk, EepromStatus};

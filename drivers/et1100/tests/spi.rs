@@ -277,7 +277,7 @@ fn al_control_and_event_mask() {
         wr(&[0x10, 0x24], &[0, 0], &[0x01, 0x0F, 0x00, 0x00]),
     ]);
     let c = e.read_al_control().unwrap();
-    assert_eq!(c.state(), AlState::SafeOp);
+    assert_eq!(c.state(), Some(AlState::SafeOp));
     assert!(c.error_ack() && !c.id_request());
     e.set_event_mask(0x0F01).unwrap();
     done(e);
