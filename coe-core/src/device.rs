@@ -131,7 +131,12 @@ pub struct SyncManagerDesc {
     pub role: SmRole,
 }
 
-/// Control byte bits of a SyncManager.
+/// Control byte bits of a SyncManager (ESC register 0x0804 + 8n, SII SyncManager category
+/// byte 4, ESI `Sm/@ControlByte`; ETG.1000.4, ESC datasheet section II 2.14).
+///
+/// The one definition of these fields: they describe the device (SII, ESI, the checks of
+/// [`DeviceDescription::validate`]) as much as the ESC register, and this crate stays free of
+/// any ESC chip, so ESC drivers (the `et1100` crate's `SyncManager`) read them from here.
 pub mod sm_control {
     /// Mode field mask (b1:0).
     pub const MODE_MASK: u8 = 0x03;

@@ -1,5 +1,12 @@
 //! SyncManager register block (0x0800 + 8n, 8 bytes; ESC-I 8, ESC-II 2.14;
 //! hardware-facts 1.5).
+//!
+//! The control byte (+4) is also the SII's and the ESI's SyncManager "control byte"
+//! (ETG.2010, ETG.2000), so its fields are defined once, with the device description, in
+//! [`coe_core::device::sm_control`]; status, activate and PDI control exist only in the ESC
+//! and are defined here.
+
+use coe_core::device::sm_control;
 
 /// SyncManager operation mode (control bits 1:0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -94,35 +101,35 @@ impl SyncManager {
 
     /// Control bits 1:0.
     pub const fn mode(&self) -> SmMode {
-        match self.control & 0x03 {
-            0b00 => SmMode::Buffered,
-            0b10 => SmMode::Mailbox,
+        match self.control & sm_control::MODE_MASK {
+            sm_control::MODE_BUFFERED => SmMode::Buffered,
+            sm_control::MODE_MAILBOX => SmMode::Mailbox,
             other => SmMode::Reserved(other),
         }
     }
 
     /// Control bits 3:2.
     pub const fn direction(&self) -> SmDirection {
-        match (self.control >> 2) & 0x03 {
-            0b00 => SmDirection::EcatRead,
-            0b01 => SmDirection::EcatWrite,
-            other => SmDirection::Reserved(other),
+        match self.control & sm_control::DIR_MASK {
+            sm_control::DIR_ECAT_READ => SmDirection::EcatRead,
+            sm_control::DIR_ECAT_WRITE => SmDirection::EcatWrite,
+            other => SmDirection::Reserved(other >> 2),
         }
     }
 
     /// Control b4: interrupt in the ECAT event request register.
     pub const fn ecat_irq(&self) -> bool {
-        self.control & 0x10 != 0
+        self.control & sm_control::ECAT_IRQ != 0
     }
 
     /// Control b5: interrupt in the AL event request register.
     pub const fn pdi_irq(&self) -> bool {
-        self.control & 0x20 != 0
+        self.control & sm_control::PDI_IRQ != 0
     }
 
     /// Control b6: watchdog trigger enabled.
     pub const fn watchdog_trigger(&self) -> bool {
-        self.control & 0x40 != 0
+        self.control & sm_control::WATCHDOG != 0
     }
 
     /// Status b0: interrupt write (a buffer was written).
@@ -226,6 +233,11 @@ mod tests {
         };
         assert_eq!(sm.last_address(), None);
         assert_eq!(sm.mode(), SmMode::Reserved(3));
+        let sm = SyncManager {
+            control: 0x0E,
+            ..Default::default()
+        };
+        assert_eq!(sm.direction(), SmDirection::Reserved(3));
         assert_eq!(SyncManager::default().last_address(), None);
     }
 }
