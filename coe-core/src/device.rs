@@ -77,6 +77,17 @@ impl SmRole {
         }
     }
 
+    /// The role of an SII SyncM category type byte (`None`: 0 = unused, or unknown).
+    pub const fn from_sii_type(code: u8) -> Option<Self> {
+        match code {
+            1 => Some(Self::MailboxOut),
+            2 => Some(Self::MailboxIn),
+            3 => Some(Self::ProcessDataOut),
+            4 => Some(Self::ProcessDataIn),
+            _ => None,
+        }
+    }
+
     /// The ESI `Sm` element text.
     pub const fn esi_name(self) -> &'static str {
         match self {

@@ -18,6 +18,8 @@
 //! Categories written: Strings (10), General (30), FMMU (40), SyncM (41), TxPDO (50),
 //! RxPDO (51), DC (60).
 
+pub mod reader;
+
 use crate::device::{DescError, DeviceDescription, SmRole};
 use crate::od::ObjectDesc;
 use crate::pdo::{PdoDirection, PdoEntry};

@@ -380,7 +380,7 @@ fn rejects_what_does_not_fit() {
 }
 
 /// The directory of real device images, if this checkout sits next to the shared vectors.
-fn vectors_dir() -> Option<PathBuf> {
+pub(crate) fn vectors_dir() -> Option<PathBuf> {
     let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     manifest
         .ancestors()
