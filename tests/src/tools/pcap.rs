@@ -91,3 +91,76 @@ pub fn read_records(bytes: &[u8]) -> Option<Vec<(u64, Vec<u8>)>> {
     }
     Some(out)
 }
+
+/// Reads the packets of a pcapng capture (Wireshark's default format, as the real-world
+/// captures are stored) whose interface has link type Ethernet: Enhanced and Simple Packet
+/// Blocks, every section, either byte order. `None` when the bytes are not pcapng or a block
+/// runs past the end.
+pub fn read_pcapng(bytes: &[u8]) -> Option<Vec<Vec<u8>>> {
+    const SECTION_HEADER: u32 = 0x0A0D_0D0A;
+    const INTERFACE_DESCRIPTION: u32 = 1;
+    const SIMPLE_PACKET: u32 = 3;
+    const ENHANCED_PACKET: u32 = 6;
+    const BYTE_ORDER_MAGIC: u32 = 0x1A2B_3C4D;
+
+    let mut big_endian = false;
+    let u32_at = |big: bool, at: usize| -> Option<u32> {
+        let b: [u8; 4] = bytes.get(at..at + 4)?.try_into().ok()?;
+        Some(if big {
+            u32::from_be_bytes(b)
+        } else {
+            u32::from_le_bytes(b)
+        })
+    };
+    let u16_at = |big: bool, at: usize| -> Option<u16> {
+        let b: [u8; 2] = bytes.get(at..at + 2)?.try_into().ok()?;
+        Some(if big {
+            u16::from_be_bytes(b)
+        } else {
+            u16::from_le_bytes(b)
+        })
+    };
+    if u32_at(false, 0)? != SECTION_HEADER {
+        return None;
+    }
+    let mut link_types: Vec<u16> = Vec::new();
+    let mut packets = Vec::new();
+    let mut pos = 0;
+    while pos + 12 <= bytes.len() {
+        let kind = u32_at(big_endian, pos)?;
+        if kind == SECTION_HEADER {
+            big_endian = match u32_at(false, pos + 8)? {
+                BYTE_ORDER_MAGIC => false,
+                m if m.swap_bytes() == BYTE_ORDER_MAGIC => true,
+                _ => return None,
+            };
+            link_types.clear();
+        }
+        let len = usize::try_from(u32_at(big_endian, pos + 4)?).ok()?;
+        if len < 12 || pos + len > bytes.len() {
+            return None;
+        }
+        let body = pos + 8;
+        match kind {
+            INTERFACE_DESCRIPTION => link_types.push(u16_at(big_endian, body)?),
+            ENHANCED_PACKET => {
+                let interface = usize::try_from(u32_at(big_endian, body)?).ok()?;
+                let captured = usize::try_from(u32_at(big_endian, body + 12)?).ok()?;
+                let data = bytes.get(body + 20..body + 20 + captured)?;
+                if link_types.get(interface) == Some(&(LINKTYPE_ETHERNET as u16)) {
+                    packets.push(data.to_vec());
+                }
+            }
+            SIMPLE_PACKET => {
+                let original = usize::try_from(u32_at(big_endian, body)?).ok()?;
+                let data = bytes.get(body + 4..(body + 4 + original).min(pos + len - 4))?;
+                if link_types.first() == Some(&(LINKTYPE_ETHERNET as u16)) {
+                    packets.push(data.to_vec());
+                }
+            }
+            _ => {}
+        }
+        pos += len;
+    }
+    Some(packets)
+}
