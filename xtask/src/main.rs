@@ -6,6 +6,7 @@ mod bench;
 mod build;
 mod esi;
 mod flash;
+mod fuzz;
 mod image;
 mod setup;
 mod sim;
@@ -51,6 +52,9 @@ enum Command {
     Flash(flash::Args),
     /// Flash with probe-rs and show the firmware's defmt log over RTT.
     Run(flash::RunArgs),
+    /// Run the cargo-fuzz targets of tests/fuzz (seeded from the real-world captures) for a
+    /// while each; fails on a crash.
+    Fuzz(fuzz::Args),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +69,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(&args),
         Command::Flash(args) => flash::run(&args),
         Command::Run(args) => flash::run_and_monitor(&args),
+        Command::Fuzz(args) => fuzz::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

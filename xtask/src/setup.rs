@@ -57,6 +57,30 @@ pub fn flip_link() -> Result {
     exec(Command::new("cargo").args(["install", "--locked", "flip-link"]))
 }
 
+/// The cargo-fuzz version `cargo xtask fuzz` installs (pinned: its flags and output format
+/// are what the command parses).
+pub const CARGO_FUZZ_VERSION: &str = "0.13.2";
+
+/// cargo-fuzz, for `cargo xtask fuzz` (not part of [`all`]: only the fuzz command needs it).
+pub fn cargo_fuzz() -> Result {
+    let installed = Command::new("cargo")
+        .args(["fuzz", "--version"])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).contains(CARGO_FUZZ_VERSION))
+        .unwrap_or(false);
+    if installed {
+        return Ok(());
+    }
+    eprintln!("cargo-fuzz {CARGO_FUZZ_VERSION} is missing: installing it with cargo (once)");
+    exec(Command::new("cargo").args([
+        "install",
+        "--locked",
+        "cargo-fuzz",
+        "--version",
+        CARGO_FUZZ_VERSION,
+    ]))
+}
+
 /// Installs Debian packages when they are missing and we are allowed to (root, apt-get present).
 /// Returns whether all of them are available afterwards; failing to install is not an error,
 /// the callers skip what needs the package and say so.

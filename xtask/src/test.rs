@@ -1,7 +1,10 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, Result};
-use crate::{bench, build, esi, flash, setup};
+use crate::{bench, build, esi, flash, fuzz, setup};
+
+/// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
+const CI_FUZZ_SECONDS: u32 = 30;
 
 /// The `no_std` crates that must build for every embedded target.
 const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
@@ -59,5 +62,10 @@ pub fn run(args: &Args) -> Result {
     // The flash algorithm for thumbv7m-none-eabi, its target description loaded the way
     // probe-rs loads it, and the exact flashing commands, without a probe.
     flash::run(&flash::Args::dry_run())?;
+    // Every fuzz target for a short while, seeded from the real captures: a crash fails CI.
+    fuzz::run(&fuzz::Args {
+        seconds: CI_FUZZ_SECONDS,
+        ..Default::default()
+    })?;
     Ok(())
 }

@@ -5,7 +5,7 @@
 //! Input layout: byte 0 = state selector, byte 1 = read-mailbox size, byte 2 = clock step,
 //! then frames separated by the length byte in front of each.
 //!
-//! Run: `cd coe-core/fuzz && cargo +nightly fuzz run sdo_server` (see the `[[bin]]` entries
+//! Run: `cargo xtask fuzz --target coe_sdo_server` (see the `[[bin]]` entries
 //! in this crate's Cargo.toml).
 #![no_main]
 
