@@ -315,6 +315,11 @@ impl AdcSpi {
     pub fn new(adc: SharedAdc) -> Self {
         Self { adc }
     }
+
+    /// The ADC behind this port.
+    pub fn adc(&self) -> &SharedAdc {
+        &self.adc
+    }
 }
 
 impl ErrorType for AdcSpi {

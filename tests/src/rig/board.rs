@@ -65,6 +65,18 @@ pub trait PdiCpu {
     /// The timer deadline of [`PdiCpu::next_timer_ns`] is reached; the CPU must move the
     /// deadline forward (or return `None`).
     fn on_timer(&mut self, _io: &mut BoardIo) {}
+    /// Whether the CPU executes on its own between events (an instruction-level emulation
+    /// of the MCU running the firmware image) instead of being called at them. The board
+    /// then lets it run up to every instant before its clock moves there
+    /// ([`PdiCpu::run_until`]), and does not call `on_irq`/`poll`: such a CPU sees the IRQ
+    /// line through its own pins. SYNC edges are still delivered through `on_sync0`/`on_sync1`
+    /// (at their time, after `run_until` reached it).
+    fn runs_continuously(&self) -> bool {
+        false
+    }
+    /// A continuously running CPU executes up to virtual time `t_ns` (the board's clock is
+    /// about to move there).
+    fn run_until(&mut self, _io: &mut BoardIo, _t_ns: u64) {}
 }
 
 /// A CPU that does nothing (an unprogrammed board).
@@ -242,6 +254,7 @@ impl VirtualBoard {
                 (Some(a), Some(b)) => a.min(b),
                 (Some(a), None) | (None, Some(a)) => a,
             };
+            self.run_cpu_until(t);
             if sync == Some(t) {
                 let now = self.now_ns();
                 let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
@@ -266,11 +279,19 @@ impl VirtualBoard {
                 }
             }
         }
+        self.run_cpu_until(target);
         let now = self.esc.borrow().now_ns();
         let edges = self.esc.borrow_mut().advance(target.saturating_sub(now));
         self.clock.set_ns(target);
         for e in edges {
             self.deliver(e);
+        }
+    }
+
+    /// Lets a continuously running CPU catch up with the instant the clock moves to next.
+    fn run_cpu_until(&mut self, t: u64) {
+        if self.cpu.runs_continuously() {
+            self.cpu.run_until(&mut self.io, t);
         }
     }
 
@@ -288,8 +309,12 @@ impl VirtualBoard {
         }
     }
 
-    /// Runs the IRQ handler while the line is asserted, then `poll`.
+    /// Runs the IRQ handler while the line is asserted, then `poll` (a continuously running
+    /// CPU serves the line itself).
     fn service(&mut self) {
+        if self.cpu.runs_continuously() {
+            return;
+        }
         let mut calls = 0;
         while self.esc.borrow().irq() {
             if calls == self.cfg.max_irq_calls {

@@ -1,0 +1,283 @@
+//! The co-simulated LPC1754 as the virtual board's CPU: the release image runs from reset on
+//! [`crate::cpu::Core`], wired to the board's ET1100, AD5663 and AD7689 models through
+//! [`crate::machine::Machine`], on the board's virtual time.
+
+use crate::cpu::{Core, EngineMem, Fault};
+use crate::image::{Crp, Image, ImageError};
+use crate::machine::{ExceptionStats, Machine, Report, ResetCause, Traffic, CPI_DEN, CPI_NUM};
+use crate::nvic::exc;
+use crate::rtt::Rtt;
+use std::cell::RefCell;
+use std::fmt::Write as _;
+use std::rc::Rc;
+use virtual_board::models::esc::SyncEdge;
+use virtual_board::rig::board::{BoardIo, PdiCpu};
+
+/// Longest stretch the board's ESC model lags behind the CPU: the board stops at least this
+/// often while the CPU runs (SPI accesses see ESC time within it).
+pub const BOARD_STEP_NS: u64 = 10_000;
+
+/// How to start the chip.
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// PCONP after reset instead of UM10360's reset value (what a bootloader leaves).
+    pub pconp_at_reset: Option<u32>,
+    /// Print the firmware's defmt log to stderr as it comes.
+    pub echo_log: bool,
+    /// From this virtual time on, interrupts stay disabled for ever (PRIMASK = 1 forced):
+    /// a stuck critical section, for the watchdog test.
+    pub lock_up_at_ns: Option<u64>,
+}
+
+/// What the co-simulation shows about the image (the "image facts").
+#[derive(Clone, Debug, Default)]
+pub struct Facts {
+    /// Instructions executed.
+    pub instructions: u64,
+    /// CPU cycles (instructions x CPI + exception entry/return + sleep).
+    pub cycles: u64,
+    /// Cycles asleep in WFI.
+    pub sleep_cycles: u64,
+    /// Virtual time (ns).
+    pub time_ns: u64,
+    /// Deepest stack use (bytes) and the stack's size.
+    pub stack_used: u32,
+    /// See [`Facts::stack_used`].
+    pub stack_size: u32,
+    /// Per exception number: name and figures.
+    pub exceptions: Vec<(u32, String, ExceptionStats)>,
+    /// Crossings to the board's chips.
+    pub traffic: Traffic,
+    /// Problems the models reported.
+    pub reports: Vec<Report>,
+    /// The core's fault, if any.
+    pub fault: Option<Fault>,
+    /// Resets (cause, time).
+    pub resets: Vec<(ResetCause, u64)>,
+    /// The CRP level of the image.
+    pub crp: Option<Crp>,
+    /// CCLK at the end (Hz).
+    pub cclk_hz: u64,
+}
+
+impl Facts {
+    /// CPU load: cycles not asleep.
+    pub fn cpu_load(&self) -> f64 {
+        if self.cycles == 0 {
+            return 0.0;
+        }
+        (self.cycles - self.sleep_cycles) as f64 / self.cycles as f64
+    }
+
+    /// The facts as text (one line each).
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "image: {} instructions, {} cycles (CPI {CPI_NUM}/{CPI_DEN} + exception entry/return), {:.6} s virtual at CCLK {} MHz",
+            self.instructions,
+            self.cycles,
+            self.time_ns as f64 * 1e-9,
+            self.cclk_hz / 1_000_000
+        );
+        let _ = writeln!(
+            s,
+            "image: CPU load {:.1} % (cycles not in WFI)",
+            100.0 * self.cpu_load()
+        );
+        let _ = writeln!(
+            s,
+            "image: deepest stack {} B of {} B",
+            self.stack_used, self.stack_size
+        );
+        for (n, name, e) in &self.exceptions {
+            let _ = writeln!(
+                s,
+                "image: exception {n:>2} {name:<8} taken {:>8} times, entry..return {:.0} cycles mean, {} max",
+                e.count,
+                e.cycles as f64 / e.count.max(1) as f64,
+                e.max_cycles
+            );
+        }
+        let t = &self.traffic;
+        let _ = writeln!(
+            s,
+            "image: board traffic: {} ET1100 SPI bytes, {} AD5663 frames, {} LDAC pulses, {} AD7689 conversions, {} SYNC0 captures",
+            t.esc_bytes, t.dac_frames, t.ldac_pulses, t.adc_conversions, t.sync0_captures
+        );
+        for (cause, t) in &self.resets {
+            let _ = writeln!(s, "image: reset by {cause:?} at {:.6} s", *t as f64 * 1e-9);
+        }
+        for r in &self.reports {
+            let _ = writeln!(
+                s,
+                "image: REPORTED at {:.6} s: {}",
+                r.time_ns as f64 * 1e-9,
+                r.message
+            );
+        }
+        if let Some(f) = &self.fault {
+            let _ = writeln!(s, "image: {f}");
+        }
+        s
+    }
+}
+
+/// The name of exception `n` on the LPC17xx.
+pub fn exception_name(n: u32) -> String {
+    const IRQS: [&str; 35] = [
+        "WDT", "TIMER0", "TIMER1", "TIMER2", "TIMER3", "UART0", "UART1", "UART2", "UART3", "PWM1",
+        "I2C0", "I2C1", "I2C2", "SPI", "SSP0", "SSP1", "PLL0", "RTC", "EINT0", "EINT1", "EINT2",
+        "EINT3", "ADC", "BOD", "USB", "CAN", "DMA", "I2S", "ENET", "RIT", "MCPWM", "QEI", "PLL1",
+        "USBACT", "CANACT",
+    ];
+    match n {
+        exc::NMI => "NMI".into(),
+        exc::HARD_FAULT => "HardFault".into(),
+        exc::SVCALL => "SVCall".into(),
+        exc::PENDSV => "PendSV".into(),
+        exc::SYSTICK => "SysTick".into(),
+        n if n >= exc::IRQ0 => IRQS
+            .get((n - exc::IRQ0) as usize)
+            .map_or(format!("IRQ{}", n - exc::IRQ0), |s| (*s).to_string()),
+        n => format!("exc{n}"),
+    }
+}
+
+/// The co-simulated MCU.
+pub struct Cosim {
+    core: Core,
+    rtt: Rtt,
+    options: Options,
+    crp: Crp,
+    locked_up: bool,
+}
+
+impl Cosim {
+    /// The chip with `image` in flash, at power-on, on the board behind `io`. Fails as the
+    /// boot ROM would (a wrong vector checksum never starts).
+    pub fn new(image: Rc<Image>, io: BoardIo, options: Options) -> Result<Self, ImageError> {
+        let crp = image.boot_rom_check()?;
+        let mut machine = Machine::new(io);
+        if let Some(p) = options.pconp_at_reset {
+            machine.pconp_at_reset = p;
+            machine.reset(ResetCause::SysResetReq);
+        }
+        let machine = Rc::new(RefCell::new(machine));
+        let core = Core::new(image.clone(), machine).map_err(ImageError::Elf)?;
+        let rtt = Rtt::new(&image.elf, image.rtt);
+        Ok(Self {
+            core,
+            rtt,
+            options,
+            crp,
+            locked_up: false,
+        })
+    }
+
+    /// The log lines so far.
+    pub fn log(&self) -> &[String] {
+        &self.rtt.lines
+    }
+
+    /// The fault of the core, if any.
+    pub fn fault(&self) -> Option<&Fault> {
+        self.core.fault.as_ref()
+    }
+
+    /// Problems the models reported.
+    pub fn reports(&self) -> Vec<Report> {
+        self.core.machine.borrow().reports.clone()
+    }
+
+    /// The figures so far.
+    pub fn facts(&self) -> Facts {
+        let m = self.core.machine.borrow();
+        let exceptions = m
+            .exceptions
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.count > 0)
+            .map(|(n, e)| (n as u32, exception_name(n as u32), e.clone()))
+            .collect();
+        Facts {
+            instructions: m.instructions,
+            cycles: m.cycles,
+            sleep_cycles: m.sleep_cycles,
+            time_ns: m.now_ns(),
+            stack_used: self.core.stack_high_water(),
+            stack_size: self.core.stack_size(),
+            exceptions,
+            traffic: m.traffic.clone(),
+            reports: m.reports.clone(),
+            fault: self.core.fault.clone(),
+            resets: self.core.resets.clone(),
+            crp: Some(self.crp),
+            cclk_hz: m.cclk_hz(),
+        }
+    }
+
+    fn drain_log(&mut self) {
+        let lines = self.rtt.drain(&mut EngineMem(&mut self.core.uc));
+        if self.options.echo_log {
+            for l in lines {
+                eprintln!("[firmware] {l}");
+            }
+        }
+    }
+
+    fn inject(&mut self, t_ns: u64) -> u64 {
+        match self.options.lock_up_at_ns {
+            Some(at) if !self.locked_up && t_ns >= at => {
+                let now = self.core.machine.borrow().now_ns();
+                if now < at {
+                    return at;
+                }
+                self.locked_up = true;
+                let _ = self
+                    .core
+                    .uc
+                    .reg_write(unicorn_engine::RegisterARM::PRIMASK, 1);
+                t_ns
+            }
+            _ => t_ns,
+        }
+    }
+
+    fn keep_locked(&mut self) {
+        if self.locked_up {
+            let _ = self
+                .core
+                .uc
+                .reg_write(unicorn_engine::RegisterARM::PRIMASK, 1);
+        }
+    }
+}
+
+impl PdiCpu for Cosim {
+    fn runs_continuously(&self) -> bool {
+        true
+    }
+
+    fn run_until(&mut self, _io: &mut BoardIo, t_ns: u64) {
+        let mut t = self.inject(t_ns);
+        loop {
+            self.keep_locked();
+            self.core.run_until(t);
+            if t >= t_ns {
+                break;
+            }
+            t = self.inject(t_ns);
+        }
+        self.drain_log();
+    }
+
+    fn on_sync0(&mut self, _io: &mut BoardIo, _edge: &SyncEdge) {
+        let mut m = self.core.machine.borrow_mut();
+        m.sync0_edge(&mut EngineMem(&mut self.core.uc));
+    }
+
+    fn next_timer_ns(&self) -> Option<u64> {
+        Some(self.core.machine.borrow().now_ns() + BOARD_STEP_NS)
+    }
+}

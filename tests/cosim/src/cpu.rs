@@ -1,0 +1,591 @@
+//! The Cortex-M3 core on unicorn (Thumb-2 execution) with the ARMv7-M exception model done
+//! here, since unicorn's M-profile mode takes no exceptions (cosim-notes): stacking of the
+//! 8-word frame (with the STKALIGN pad), EXC_RETURN in LR, IPSR, the vector fetch through
+//! VTOR, exception return caught where unicorn reports it (interrupt number 8 with PC =
+//! EXC_RETURN), tail-chaining, preemption by priority against PRIMASK, BASEPRI and FAULTMASK,
+//! WFI as sleep until the next event.
+//!
+//! Time: every block adds its instructions x CPI ([`crate::machine::CPI_NUM`]) before it
+//! runs; peripherals' events due by then are served in the block hook (without leaving the
+//! engine), which also stops the engine at the slice's end or when an exception becomes
+//! takeable. Pended interrupts are thus taken at the next block boundary (a few
+//! instructions late, never inside an IT block).
+
+use crate::image::Image;
+use crate::machine::{
+    Machine, Memory, ResetCause, Stop, ENTRY_CYCLES, RETURN_CYCLES, TAIL_CHAIN_CYCLES,
+};
+use std::cell::RefCell;
+use std::fmt;
+use std::rc::Rc;
+use unicorn_engine::{Arch, HookType, MemType, Mode, Prot, RegisterARM, Unicorn};
+
+/// The machine as the engine's hooks reach it.
+pub type Shared = Rc<RefCell<Machine>>;
+
+/// The engine with the machine as its data.
+pub type Engine = Unicorn<'static, Shared>;
+
+/// Local SRAM (16 KB).
+pub const SRAM: (u32, u32) = (0x1000_0000, 0x4000);
+/// AHB SRAM bank 0 (16 KB).
+pub const AHB_SRAM: (u32, u32) = (0x2007_C000, 0x4000);
+/// The pattern painted over the stack to find its deepest use.
+pub const STACK_PAINT: u32 = 0xC5C5_C5C5;
+
+/// Engine memory for the machine's DMA.
+pub(crate) struct EngineMem<'a, 'b>(pub(crate) &'a mut Unicorn<'b, Shared>);
+
+impl Memory for EngineMem<'_, '_> {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> bool {
+        self.0.mem_read(u64::from(addr), buf).is_ok()
+    }
+    fn write(&mut self, addr: u32, data: &[u8]) -> bool {
+        let ram = |(b, n): (u32, u32)| addr >= b && addr + data.len() as u32 <= b + n;
+        ram(SRAM) && self.0.mem_write(u64::from(addr), data).is_ok()
+            || ram(AHB_SRAM) && self.0.mem_write(u64::from(addr), data).is_ok()
+    }
+}
+
+/// A fault of the core (the run reports it and the core stops).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Fault {
+    /// What happened.
+    pub cause: String,
+    /// PC at the fault.
+    pub pc: u32,
+    /// The function at PC, if known.
+    pub function: Option<String>,
+    /// SP and the 16 words above it.
+    pub sp: u32,
+    /// The stack words.
+    pub stack: Vec<u32>,
+    /// Virtual time (ns).
+    pub time_ns: u64,
+}
+
+impl fmt::Display for Fault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "HardFault: {} at PC {:#010x}", self.cause, self.pc)?;
+        if let Some(func) = &self.function {
+            write!(f, " ({func})")?;
+        }
+        write!(
+            f,
+            ", {:.6} s; SP {:#010x}, stack:",
+            self.time_ns as f64 * 1e-9,
+            self.sp
+        )?;
+        for (i, w) in self.stack.iter().enumerate() {
+            if i % 8 == 0 {
+                write!(f, "\n  {:#010x}:", self.sp + 4 * i as u32)?;
+            }
+            write!(f, " {w:08x}")?;
+        }
+        Ok(())
+    }
+}
+
+fn reg(uc: &Unicorn<'_, Shared>, r: RegisterARM) -> u32 {
+    uc.reg_read(r).unwrap_or(0) as u32
+}
+
+fn set(uc: &mut Unicorn<'_, Shared>, r: RegisterARM, v: u32) {
+    let _ = uc.reg_write(r, u64::from(v));
+}
+
+/// Rebuilds unicorn's cached translation flags after an IPSR change (the handler-mode flag
+/// decides whether `bx lr` with EXC_RETURN is an exception return; unicorn 2.1.5 does not
+/// rebuild them on an IPSR/XPSR write, but does on an APSR_NZCV write).
+fn rebuild_flags(uc: &mut Unicorn<'_, Shared>) {
+    let apsr = reg(uc, RegisterARM::APSR);
+    set(uc, RegisterARM::APSR_NZCV, apsr & 0xF000_0000);
+}
+
+fn masks(uc: &Unicorn<'_, Shared>) -> (bool, u8, bool) {
+    (
+        reg(uc, RegisterARM::PRIMASK) & 1 != 0,
+        reg(uc, RegisterARM::BASEPRI) as u8,
+        reg(uc, RegisterARM::FAULTMASK) & 1 != 0,
+    )
+}
+
+fn read_word(uc: &Unicorn<'_, Shared>, addr: u32) -> Option<u32> {
+    let mut b = [0u8; 4];
+    uc.mem_read(u64::from(addr), &mut b).ok()?;
+    Some(u32::from_le_bytes(b))
+}
+
+/// The core.
+pub struct Core {
+    /// The engine.
+    pub uc: Engine,
+    /// The machine.
+    pub machine: Shared,
+    /// Asleep in WFI.
+    pub sleeping: bool,
+    /// The fault that stopped the core.
+    pub fault: Option<Fault>,
+    /// Resets taken (cause, time ns).
+    pub resets: Vec<(ResetCause, u64)>,
+    image: Rc<Image>,
+    /// Lowest SP seen at exception entries and returns.
+    pub lowest_sp: u32,
+}
+
+impl Core {
+    /// The engine with the image in flash, RAM, the peripheral bus and the hooks; the core
+    /// at its reset vector.
+    pub fn new(image: Rc<Image>, machine: Shared) -> Result<Self, String> {
+        fn err(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
+            move |e| format!("unicorn: {what}: {e:?}")
+        }
+        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine.clone())
+            .map_err(err("open"))?;
+        uc.mem_map(0, image.flash.len() as u64, Prot::READ | Prot::EXEC)
+            .map_err(err("flash"))?;
+        uc.mem_write(0, &image.flash)
+            .map_err(err("flash contents"))?;
+        for (base, size) in [SRAM, AHB_SRAM] {
+            uc.mem_map(u64::from(base), u64::from(size), Prot::ALL)
+                .map_err(err("SRAM"))?;
+        }
+        // One slot per APB peripheral (16 KB each), the FIO block, the GPDMA, the SCS.
+        let mut slots: Vec<(u32, u32)> = (0..64)
+            .map(|i| (0x4000_0000 + i * 0x4000, 0x4000))
+            .collect();
+        slots.push((0x2009_C000, 0x4000));
+        slots.push((0x5000_4000, 0x1000));
+        slots.push((0xE000_E000, 0x1000));
+        for (base, size) in slots {
+            uc.mmio_map(
+                u64::from(base),
+                u64::from(size),
+                Some(move |uc: &mut Unicorn<'_, Shared>, off: u64, size: usize| {
+                    let m = uc.get_data().clone();
+                    let v = m
+                        .borrow_mut()
+                        .cpu_read(&mut EngineMem(uc), base + off as u32, size);
+                    u64::from(v)
+                }),
+                Some(
+                    move |uc: &mut Unicorn<'_, Shared>, off: u64, size: usize, v: u64| {
+                        let m = uc.get_data().clone();
+                        m.borrow_mut().cpu_write(
+                            &mut EngineMem(uc),
+                            base + off as u32,
+                            size,
+                            v as u32,
+                        );
+                    },
+                ),
+            )
+            .map_err(err("peripheral map"))?;
+        }
+        uc.add_block_hook(1, 0, block_hook)
+            .map_err(err("block hook"))?;
+        uc.add_mem_hook(
+            HookType::MEM_UNMAPPED | HookType::MEM_PROT,
+            1,
+            0,
+            |uc: &mut Unicorn<'_, Shared>, kind: MemType, addr: u64, size: usize, value: i64| {
+                let what = match kind {
+                    MemType::READ_UNMAPPED => format!("read of unmapped {addr:#010x} ({size} B)"),
+                    MemType::WRITE_UNMAPPED => {
+                        format!("write of {value:#x} to unmapped {addr:#010x} ({size} B)")
+                    }
+                    MemType::FETCH_UNMAPPED | MemType::FETCH_PROT => {
+                        if (0x1FFF_0000..0x2000_0000).contains(&addr) {
+                            format!("call into the boot ROM at {addr:#010x} (IAP/ROM not modelled)")
+                        } else {
+                            format!("instruction fetch from {addr:#010x}")
+                        }
+                    }
+                    MemType::WRITE_PROT => format!("write of {value:#x} to flash at {addr:#010x}"),
+                    other => format!("{other:?} at {addr:#010x}"),
+                };
+                let m = uc.get_data().clone();
+                m.borrow_mut().stop = Some(Stop::Fault(what));
+                false
+            },
+        )
+        .map_err(err("memory hook"))?;
+        uc.add_intr_hook(intr_hook).map_err(err("interrupt hook"))?;
+        let mut core = Self {
+            uc,
+            machine,
+            sleeping: false,
+            fault: None,
+            resets: Vec::new(),
+            image,
+            lowest_sp: u32::MAX,
+        };
+        core.paint_stack();
+        core.reset_core()?;
+        Ok(core)
+    }
+
+    fn paint_stack(&mut self) {
+        let top = self.image.initial_sp();
+        if top > SRAM.0 && top <= SRAM.0 + SRAM.1 {
+            let n = (top - SRAM.0) as usize;
+            let bytes: Vec<u8> = STACK_PAINT
+                .to_le_bytes()
+                .iter()
+                .copied()
+                .cycle()
+                .take(n)
+                .collect();
+            let _ = self.uc.mem_write(u64::from(SRAM.0), &bytes);
+        }
+    }
+
+    /// Deepest stack use since power-on: bytes below the initial SP that are no longer the
+    /// paint.
+    pub fn stack_high_water(&self) -> u32 {
+        let top = self.image.initial_sp();
+        if top <= SRAM.0 || top > SRAM.0 + SRAM.1 {
+            return 0;
+        }
+        let n = (top - SRAM.0) as usize;
+        let mut buf = vec![0u8; n];
+        if self.uc.mem_read(u64::from(SRAM.0), &mut buf).is_err() {
+            return 0;
+        }
+        let first_used = buf
+            .chunks(4)
+            .position(|w| w != STACK_PAINT.to_le_bytes())
+            .unwrap_or(n / 4);
+        (n - 4 * first_used) as u32
+    }
+
+    /// Stack size: the local SRAM below the initial SP (flip-link layout).
+    pub fn stack_size(&self) -> u32 {
+        self.image.initial_sp().saturating_sub(SRAM.0)
+    }
+
+    fn reset_core(&mut self) -> Result<(), String> {
+        let sp = self.image.initial_sp();
+        let pc = self.image.word(4);
+        let uc = &mut self.uc;
+        set(uc, RegisterARM::CONTROL, 0);
+        set(uc, RegisterARM::PRIMASK, 0);
+        set(uc, RegisterARM::BASEPRI, 0);
+        set(uc, RegisterARM::FAULTMASK, 0);
+        set(uc, RegisterARM::XPSR, 1 << 24);
+        rebuild_flags(uc);
+        set(uc, RegisterARM::MSP, sp);
+        set(uc, RegisterARM::SP, sp);
+        set(uc, RegisterARM::LR, 0xFFFF_FFFF);
+        set(uc, RegisterARM::PC, pc | 1);
+        self.sleeping = false;
+        self.machine.borrow_mut().entries.clear();
+        if pc & 1 == 0 {
+            return Err(format!("reset vector {pc:#010x} is not a Thumb address"));
+        }
+        Ok(())
+    }
+
+    /// A chip reset (watchdog, SYSRESETREQ).
+    pub fn reset(&mut self, cause: ResetCause) {
+        let now = {
+            let mut m = self.machine.borrow_mut();
+            m.reset(cause);
+            m.now_ns()
+        };
+        self.resets.push((cause, now));
+        if let Err(e) = self.reset_core() {
+            self.record_fault(e);
+        }
+    }
+
+    fn record_fault(&mut self, cause: String) {
+        let pc = reg(&self.uc, RegisterARM::PC);
+        let sp = reg(&self.uc, RegisterARM::SP);
+        let stack = (0..16)
+            .map(|i| read_word(&self.uc, sp + 4 * i).unwrap_or(0))
+            .collect();
+        let function = self
+            .image
+            .symbolize(pc)
+            .map(|(name, off)| format!("{name}+{off:#x}"));
+        let time_ns = self.machine.borrow().now_ns();
+        self.fault = Some(Fault {
+            cause,
+            pc,
+            function,
+            sp,
+            stack,
+            time_ns,
+        });
+    }
+
+    /// Takes every exception that preempts now (stacking, vector fetch).
+    fn take_exceptions(&mut self) {
+        for _ in 0..8 {
+            let (primask, basepri, faultmask) = masks(&self.uc);
+            let Some(e) = self
+                .machine
+                .borrow()
+                .scs
+                .preempting(primask, basepri, faultmask)
+            else {
+                return;
+            };
+            self.sleeping = false;
+            if let Err(cause) = self.enter(e) {
+                self.record_fault(cause);
+                return;
+            }
+        }
+    }
+
+    fn enter(&mut self, e: u32) -> Result<(), String> {
+        let uc = &mut self.uc;
+        let in_handler = reg(uc, RegisterARM::IPSR) & 0x1FF != 0;
+        let psp = !in_handler && reg(uc, RegisterARM::CONTROL) & 2 != 0;
+        let mut sp = reg(uc, RegisterARM::SP);
+        let mut xpsr = reg(uc, RegisterARM::XPSR);
+        let align = self.machine.borrow().scs.stack_align_8();
+        if align && sp & 4 != 0 {
+            sp -= 4;
+            xpsr |= 1 << 9;
+        } else {
+            xpsr &= !(1 << 9);
+        }
+        sp -= 32;
+        let frame = [
+            reg(uc, RegisterARM::R0),
+            reg(uc, RegisterARM::R1),
+            reg(uc, RegisterARM::R2),
+            reg(uc, RegisterARM::R3),
+            reg(uc, RegisterARM::R12),
+            reg(uc, RegisterARM::LR),
+            reg(uc, RegisterARM::PC) & !1,
+            xpsr,
+        ];
+        let bytes: Vec<u8> = frame.iter().flat_map(|w| w.to_le_bytes()).collect();
+        uc.mem_write(u64::from(sp), &bytes).map_err(|_| {
+            format!("stacking for exception {e} to {sp:#010x} failed (stack overflow?)")
+        })?;
+        set(uc, RegisterARM::SP, sp);
+        let exc_return = if in_handler {
+            0xFFFF_FFF1
+        } else if psp {
+            0xFFFF_FFFD
+        } else {
+            0xFFFF_FFF9
+        };
+        let vector_at = {
+            let mut m = self.machine.borrow_mut();
+            m.add_cycles(ENTRY_CYCLES);
+            m.scs.activate(e)
+        };
+        let handler = read_word(uc, vector_at)
+            .ok_or_else(|| format!("vector of exception {e} at {vector_at:#010x} unreadable"))?;
+        if handler & 1 == 0 {
+            return Err(format!(
+                "vector of exception {e} is {handler:#010x}, not a Thumb address"
+            ));
+        }
+        set(uc, RegisterARM::IPSR, e);
+        set(uc, RegisterARM::EPSR, 1 << 24);
+        rebuild_flags(uc);
+        set(uc, RegisterARM::LR, exc_return);
+        set(uc, RegisterARM::PC, handler);
+        let sp_now = reg(uc, RegisterARM::SP);
+        self.lowest_sp = self.lowest_sp.min(sp_now);
+        let mut m = self.machine.borrow_mut();
+        let cycles = m.cycles - ENTRY_CYCLES;
+        m.entries.push((e, cycles));
+        Ok(())
+    }
+
+    /// Runs until virtual time `t_ns` (or a fault).
+    pub fn run_until(&mut self, t_ns: u64) {
+        for _ in 0..10_000_000u64 {
+            {
+                let mut m = self.machine.borrow_mut();
+                m.refresh_inputs();
+                m.service_due(&mut EngineMem(&mut self.uc));
+            }
+            let stop = self.machine.borrow_mut().stop.take();
+            match stop {
+                Some(Stop::Reset(cause)) => {
+                    self.reset(cause);
+                    continue;
+                }
+                Some(Stop::Fault(cause)) => {
+                    self.record_fault(cause);
+                }
+                _ => {}
+            }
+            let now = self.machine.borrow().now_ns();
+            if now >= t_ns {
+                return;
+            }
+            if self.fault.is_some() {
+                // A faulted core sits in its fault loop; the peripherals (and the
+                // watchdog) go on.
+                let next = self.machine.borrow().next_event_ns().min(t_ns);
+                self.machine.borrow_mut().sleep_until(next);
+                continue;
+            }
+            self.take_exceptions();
+            if self.sleeping {
+                let (_, basepri, faultmask) = masks(&self.uc);
+                if self.machine.borrow().scs.wakes_from_wfi(basepri, faultmask) {
+                    self.sleeping = false;
+                    continue;
+                }
+                let next = self.machine.borrow().next_event_ns().min(t_ns);
+                self.machine.borrow_mut().sleep_until(next);
+                continue;
+            }
+            self.machine.borrow_mut().deadline_ns = t_ns;
+            let pc = reg(&self.uc, RegisterARM::PC);
+            let result = self.uc.emu_start(u64::from(pc | 1), 0, 0, 0);
+            let stop = self.machine.borrow_mut().stop.take();
+            match (result, stop) {
+                (_, Some(Stop::Fault(cause))) => self.record_fault(cause),
+                (_, Some(Stop::Reset(cause))) => self.reset(cause),
+                (Ok(()), Some(Stop::Deadline | Stop::Preempt)) => {}
+                (Ok(()), None) => {
+                    let pc = reg(&self.uc, RegisterARM::PC);
+                    let mut b = [0u8; 2];
+                    let wfi = self
+                        .uc
+                        .mem_read(u64::from(pc.wrapping_sub(2)), &mut b)
+                        .is_ok()
+                        && u16::from_le_bytes(b) == 0xBF30;
+                    if wfi {
+                        self.sleeping = true;
+                    } else {
+                        self.record_fault(format!("the engine stopped at {pc:#010x}"));
+                    }
+                }
+                (Err(e), _) => self.record_fault(format!("unicorn: {e:?}")),
+            }
+        }
+        self.record_fault("the run loop did not reach the slice's end".into());
+    }
+
+    /// Exception return (from the interrupt hook).
+    fn exception_return(uc: &mut Unicorn<'_, Shared>, exc_return: u32) -> Result<(), String> {
+        let m = uc.get_data().clone();
+        let (primask, basepri, faultmask) = masks(uc);
+        let chained = {
+            let mut m = m.borrow_mut();
+            if m.scs.current() == 0 {
+                return Err(format!("exception return ({exc_return:#x}) in thread mode"));
+            }
+            if let Some(e) = m.scs.deactivate() {
+                m.exception_returned(e);
+            }
+            m.check_preempt = m.scs.any_pending();
+            let next = m.scs.preempting(primask, basepri, faultmask);
+            if let Some(e) = next {
+                m.add_cycles(TAIL_CHAIN_CYCLES);
+                let at = m.cycles - TAIL_CHAIN_CYCLES;
+                m.entries.push((e, at));
+                Some((e, m.scs.activate(e)))
+            } else {
+                m.add_cycles(RETURN_CYCLES);
+                None
+            }
+        };
+        if let Some((e, vector_at)) = chained {
+            // Tail-chaining: the frame stays, the next handler runs with the same LR.
+            let handler = read_word(uc, vector_at).unwrap_or(0);
+            set(uc, RegisterARM::IPSR, e);
+            rebuild_flags(uc);
+            set(uc, RegisterARM::LR, exc_return | 1);
+            set(uc, RegisterARM::PC, handler);
+            return Ok(());
+        }
+        let to_thread = exc_return & 8 != 0;
+        let use_psp = exc_return & 4 != 0;
+        let sp = if use_psp {
+            reg(uc, RegisterARM::PSP)
+        } else {
+            reg(uc, RegisterARM::MSP)
+        };
+        let mut b = [0u8; 32];
+        uc.mem_read(u64::from(sp), &mut b)
+            .map_err(|_| format!("unstacking from {sp:#010x} failed"))?;
+        let w = |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().expect("4 bytes"));
+        let xpsr = w(7);
+        if to_thread != (xpsr & 0x1FF == 0) {
+            return Err(format!(
+                "EXC_RETURN {exc_return:#x} does not match the stacked IPSR {}",
+                xpsr & 0x1FF
+            ));
+        }
+        if use_psp {
+            set(uc, RegisterARM::CONTROL, reg(uc, RegisterARM::CONTROL) | 2);
+        }
+        set(uc, RegisterARM::XPSR, xpsr & !(1 << 9));
+        rebuild_flags(uc);
+        let new_sp = sp + 32 + if xpsr & (1 << 9) != 0 { 4 } else { 0 };
+        set(uc, RegisterARM::SP, new_sp);
+        set(uc, RegisterARM::R0, w(0));
+        set(uc, RegisterARM::R1, w(1));
+        set(uc, RegisterARM::R2, w(2));
+        set(uc, RegisterARM::R3, w(3));
+        set(uc, RegisterARM::R12, w(4));
+        set(uc, RegisterARM::LR, w(5));
+        set(uc, RegisterARM::PC, w(6) | 1);
+        Ok(())
+    }
+}
+
+fn block_hook(uc: &mut Unicorn<'_, Shared>, addr: u64, size: u32) {
+    let m = uc.get_data().clone();
+    let mut m = m.borrow_mut();
+    if m.stop.is_some() {
+        let _ = uc.emu_stop();
+        return;
+    }
+    if m.now_ns() >= m.deadline_ns {
+        m.stop = Some(Stop::Deadline);
+        let _ = uc.emu_stop();
+        return;
+    }
+    if m.check_preempt {
+        let (primask, basepri, faultmask) = masks(uc);
+        if m.scs.preempting(primask, basepri, faultmask).is_some() {
+            m.stop = Some(Stop::Preempt);
+            let _ = uc.emu_stop();
+            return;
+        }
+    }
+    let n = m.block_instructions(addr as u32, size, || {
+        uc.mem_read_as_vec(addr, size as usize).unwrap_or_default()
+    });
+    m.run_instructions(n);
+    if m.next_event_ns() <= m.now_ns() {
+        m.service_due(&mut EngineMem(uc));
+    }
+}
+
+fn intr_hook(uc: &mut Unicorn<'_, Shared>, intno: u32) {
+    const EXCP_UDEF: u32 = 1;
+    const EXCP_SWI: u32 = 2;
+    const EXCP_BKPT: u32 = 7;
+    const EXCP_EXCEPTION_EXIT: u32 = 8;
+    let m = uc.get_data().clone();
+    let result = match intno {
+        EXCP_EXCEPTION_EXIT => {
+            let exc_return = reg(uc, RegisterARM::PC) | 1;
+            Core::exception_return(uc, exc_return)
+        }
+        EXCP_UDEF => Err("undefined instruction (UDF: panic-probe's halt, or a bad opcode)".into()),
+        EXCP_BKPT => Err("BKPT without a debugger".into()),
+        EXCP_SWI => Err("SVC (no SVCall handler is modelled)".into()),
+        other => Err(format!("CPU exception {other} from the engine")),
+    };
+    if let Err(cause) = result {
+        m.borrow_mut().stop = Some(Stop::Fault(cause));
+        let _ = uc.emu_stop();
+    }
+}

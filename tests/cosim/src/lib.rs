@@ -1,0 +1,26 @@
+//! An instruction-level co-simulator of the LPC1754 that runs the unmodified release image
+//! of the firmware on the virtual board, so real EtherCAT masters drive the binary a user
+//! flashes (issue 12).
+//!
+//! **Licence: GPL-2.0-only**, because it links the unicorn engine (GPL-2.0). It is a
+//! test-only crate: nothing else in the workspace depends on it; `cargo xtask sim --image`
+//! and `cargo xtask bench` run its binary.
+//!
+//! | module       | what                                                                  |
+//! |--------------|-----------------------------------------------------------------------|
+//! | [`image`]    | the ELF as the flash holds it; the boot ROM's checksum and CRP checks |
+//! | [`cpu`]      | the Cortex-M3 on unicorn with the ARMv7-M exception model             |
+//! | [`nvic`]     | NVIC, SCB, SysTick: pending, active, priorities, masks                |
+//! | [`periph`]   | SYSCON, PINSEL, GPIO, SPI, SSP, timers, GPDMA, WDT from UM10360        |
+//! | [`machine`]  | the bus, time, events, and the board wiring of the pin map            |
+//! | [`rtt`]      | the firmware's defmt log over RTT                                      |
+//! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
+
+pub mod cosim;
+pub mod cpu;
+pub mod image;
+pub mod machine;
+pub mod nvic;
+pub mod periph;
+pub mod rtt;
+pub mod run;

@@ -1,0 +1,1034 @@
+//! The LPC1754 around the core: the peripheral bus (address map of UM10360 chapter 2), the
+//! time base (CPU cycles at the CCLK that SYSCON gives), the event schedule, and the board
+//! wiring of hardware-facts 10.A: which pin, in which PINSEL function, reaches which chip
+//! model of the virtual board.
+//!
+//! Routing is strict: a legacy SPI byte reaches the ET1100 only while SPI_SEL (P0.16, GPIO)
+//! is low and P0.15/P0.17/P0.18 carry SCK/MISO/MOSI (function 3); SSP0 frames reach the
+//! AD5663 only on P1.20/P1.24 (function 3) while SYNC (P2.2) is low; SSP1 frames reach the
+//! AD7689 only on P0.7/P0.8/P0.9 (function 2) while CNV is low; CNV is MAT2.0 only on P0.6
+//! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3. Anything else moves no data
+//! and is reported, as is any access to a peripheral whose PCONP bit is off.
+
+use crate::nvic::{irq, Scs};
+use crate::periph::gpdma::{After, Gpdma, Transfer};
+use crate::periph::gpio::{Gpio, GpioInt};
+use crate::periph::pincon::PinConnect;
+use crate::periph::spi::Spi;
+use crate::periph::ssp::Ssp;
+use crate::periph::syscon::{Clocked, Syscon, PCONP_RESET};
+use crate::periph::timer::Timer;
+use crate::periph::wdt::Wdt;
+use crate::periph::{Peripheral, Tick};
+use embedded_hal::digital::OutputPin;
+use embedded_hal::spi::{Operation, SpiDevice};
+use std::collections::HashMap;
+use virtual_board::models::spi::SpiSession;
+use virtual_board::rig::board::BoardIo;
+
+/// Cycles per instruction of the time model: the Cortex-M3 at 100 MHz with 5 flash wait
+/// states behind the LPC17xx flash accelerator (the same assumption as `cargo xtask bench`'s
+/// QEMU rows): CPI = 5/4.
+pub const CPI_NUM: u64 = 5;
+/// See [`CPI_NUM`].
+pub const CPI_DEN: u64 = 4;
+/// Exception entry (Cortex-M3 TRM 5.5.1: 12 cycles), return (10), tail-chain (6).
+pub const ENTRY_CYCLES: u64 = 12;
+/// See [`ENTRY_CYCLES`].
+pub const RETURN_CYCLES: u64 = 10;
+/// See [`ENTRY_CYCLES`].
+pub const TAIL_CHAIN_CYCLES: u64 = 6;
+
+/// Pins of the board (hardware-facts 10.A).
+pub mod pins {
+    /// (port, pin).
+    pub type Pin = (u8, u8);
+    /// ET1100 SPI_CLK / SPI_DO (MISO) / SPI_DI (MOSI): legacy SPI function 3.
+    pub const ESC_SCK: Pin = (0, 15);
+    /// See [`ESC_SCK`].
+    pub const ESC_MISO: Pin = (0, 17);
+    /// See [`ESC_SCK`].
+    pub const ESC_MOSI: Pin = (0, 18);
+    /// ET1100 SPI_SEL (GPIO).
+    pub const ESC_SEL: Pin = (0, 16);
+    /// ET1100 SPI_IRQ (GPIO input, active low).
+    pub const ESC_IRQ: Pin = (0, 22);
+    /// ET1100 EEPROM_LOADED (GPIO input).
+    pub const ESC_EEPROM_LOADED: Pin = (2, 4);
+    /// ET1100 SYNC0 -> CAP1.0 (function 3).
+    pub const ESC_SYNC0: Pin = (1, 18);
+    /// AD5663 SCLK / DIN on SSP0 (function 3).
+    pub const DAC_SCK: Pin = (1, 20);
+    /// See [`DAC_SCK`].
+    pub const DAC_DIN: Pin = (1, 24);
+    /// AD5663 SYNC (GPIO).
+    pub const DAC_SYNC: Pin = (2, 2);
+    /// AD5663 LDAC (GPIO).
+    pub const DAC_LDAC: Pin = (2, 3);
+    /// AD7689 CNV = MAT2.0 (function 3).
+    pub const ADC_CNV: Pin = (0, 6);
+    /// AD7689 SCK / SDO / DIN on SSP1 (function 2).
+    pub const ADC_SCK: Pin = (0, 7);
+    /// See [`ADC_SCK`].
+    pub const ADC_SDO: Pin = (0, 8);
+    /// See [`ADC_SCK`].
+    pub const ADC_DIN: Pin = (0, 9);
+}
+
+/// A peripheral slot of the address map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// 0x4000_0000.
+    Wdt,
+    /// TIMER0 0x4000_4000, TIMER1 0x4000_8000, TIMER2 0x4009_0000, TIMER3 0x4009_4000.
+    Timer(usize),
+    /// 0x4002_0000.
+    Spi,
+    /// 0x4002_8000.
+    GpioInt,
+    /// 0x4002_C000.
+    PinConnect,
+    /// 0x4003_0000.
+    Ssp1,
+    /// 0x4008_8000.
+    Ssp0,
+    /// 0x400F_C000.
+    Syscon,
+    /// 0x2009_C000.
+    Gpio,
+    /// 0x5000_4000.
+    Gpdma,
+    /// 0xE000_E000.
+    Scs,
+    /// A peripheral the co-simulator does not model (its base).
+    Unmodelled(u32),
+}
+
+impl Region {
+    /// The region an APB/AHB slot base maps to.
+    pub fn of_base(base: u32) -> Region {
+        match base {
+            0x4000_0000 => Region::Wdt,
+            0x4000_4000 => Region::Timer(0),
+            0x4000_8000 => Region::Timer(1),
+            0x4009_0000 => Region::Timer(2),
+            0x4009_4000 => Region::Timer(3),
+            0x4002_0000 => Region::Spi,
+            0x4002_8000 => Region::GpioInt,
+            0x4002_C000 => Region::PinConnect,
+            0x4003_0000 => Region::Ssp1,
+            0x4008_8000 => Region::Ssp0,
+            0x400F_C000 => Region::Syscon,
+            0x2009_C000 => Region::Gpio,
+            0x5000_4000 => Region::Gpdma,
+            0xE000_E000 => Region::Scs,
+            other => Region::Unmodelled(other),
+        }
+    }
+
+    fn clocked(self) -> Option<Clocked> {
+        Some(match self {
+            Region::Wdt => Clocked::Wdt,
+            Region::Timer(n) => Clocked::Timer(n as u8),
+            Region::Spi => Clocked::Spi,
+            Region::Ssp0 => Clocked::Ssp0,
+            Region::Ssp1 => Clocked::Ssp1,
+            Region::Gpio | Region::GpioInt => Clocked::Gpio,
+            Region::Gpdma => Clocked::Gpdma,
+            _ => return None,
+        })
+    }
+}
+
+/// What memory the machine's DMA and reports reach (RAM and flash live in the engine).
+pub trait Memory {
+    /// Reads `buf.len()` bytes at `addr`; false when unmapped.
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> bool;
+    /// Writes; false when unmapped or read-only.
+    fn write(&mut self, addr: u32, data: &[u8]) -> bool;
+}
+
+/// Why the CPU stopped running.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// The time slice ended.
+    Deadline,
+    /// An exception is to be taken.
+    Preempt,
+    /// The chip resets (watchdog, SYSRESETREQ).
+    Reset(ResetCause),
+    /// A fault the run reports.
+    Fault(String),
+}
+
+/// What reset the chip.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResetCause {
+    /// The watchdog timed out (WDTOF).
+    Watchdog,
+    /// AIRCR.SYSRESETREQ.
+    SysResetReq,
+}
+
+/// Per-exception figures: cycles from entry to return (nested exceptions included).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ExceptionStats {
+    /// Returns seen.
+    pub count: u64,
+    /// Cycles between entry and return, summed.
+    pub cycles: u64,
+    /// The longest entry-to-return.
+    pub max_cycles: u64,
+}
+
+/// A reported problem, once per message.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Report {
+    /// Virtual time of the first occurrence (ns).
+    pub time_ns: u64,
+    /// The message.
+    pub message: String,
+}
+
+/// Bytes and frames that crossed to the board's chips.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Traffic {
+    /// ET1100 SPI bytes exchanged.
+    pub esc_bytes: u64,
+    /// AD5663 frames (SYNC-low periods) delivered.
+    pub dac_frames: u64,
+    /// AD7689 conversions started (CNV rising edges).
+    pub adc_conversions: u64,
+    /// SYNC0 edges captured by CAP1.0.
+    pub sync0_captures: u64,
+    /// LDAC falling edges.
+    pub ldac_pulses: u64,
+}
+
+/// The chip without the core.
+pub struct Machine {
+    /// Board handles.
+    pub io: BoardIo,
+    now_ps: u64,
+    cycle_ps: u64,
+    /// CPU cycles since power-on (instructions x CPI + exception overhead + sleep).
+    pub cycles: u64,
+    insn_rem: u64,
+    /// Instructions executed.
+    pub instructions: u64,
+    /// Cycles spent asleep in WFI.
+    pub sleep_cycles: u64,
+    /// When the current slice ends.
+    pub deadline_ns: u64,
+    /// Why the CPU must stop at the next block boundary.
+    pub stop: Option<Stop>,
+    /// Something is pending: the block hook checks the masks.
+    pub check_preempt: bool,
+    next_event_ns: u64,
+    /// NVIC, SCB, SysTick.
+    pub scs: Scs,
+    /// SYSCON.
+    pub syscon: Syscon,
+    pincon: PinConnect,
+    gpio: Gpio,
+    gpioint: GpioInt,
+    spi: Spi,
+    ssp0: Ssp,
+    ssp1: Ssp,
+    timers: [Timer; 4],
+    gpdma: Gpdma,
+    wdt: Wdt,
+    esc_session: Option<SpiSession>,
+    dac_frame: Option<Vec<u8>>,
+    adc_mosi: Vec<u8>,
+    cnv_high: bool,
+    outputs_last: [bool; 3],
+    /// Reported problems.
+    pub reports: Vec<Report>,
+    /// Crossings to the board.
+    pub traffic: Traffic,
+    block_insns: HashMap<(u32, u32), u64>,
+    /// PCONP to start from after a reset (tests: what a bootloader leaves).
+    pub pconp_at_reset: u32,
+    /// Active exceptions with their entry cycle, innermost last.
+    pub entries: Vec<(u32, u64)>,
+    /// Per exception number.
+    pub exceptions: Vec<ExceptionStats>,
+}
+
+impl Machine {
+    /// A chip at power-on on `io`'s board.
+    pub fn new(io: BoardIo) -> Self {
+        let mut m = Self {
+            io,
+            now_ps: 0,
+            cycle_ps: 0,
+            cycles: 0,
+            insn_rem: 0,
+            instructions: 0,
+            sleep_cycles: 0,
+            deadline_ns: 0,
+            stop: None,
+            check_preempt: false,
+            next_event_ns: u64::MAX,
+            scs: Scs::new(),
+            syscon: Syscon::new(PCONP_RESET, 1),
+            pincon: PinConnect::new(),
+            gpio: Gpio::new(),
+            gpioint: GpioInt::new(),
+            spi: Spi::new(),
+            ssp0: Ssp::new(),
+            ssp1: Ssp::new(),
+            timers: Default::default(),
+            gpdma: Gpdma::new(),
+            wdt: Wdt::new(false),
+            esc_session: None,
+            dac_frame: None,
+            adc_mosi: Vec::new(),
+            cnv_high: false,
+            outputs_last: [true; 3],
+            reports: Vec::new(),
+            traffic: Traffic::default(),
+            block_insns: HashMap::new(),
+            pconp_at_reset: PCONP_RESET,
+            entries: Vec::new(),
+            exceptions: vec![ExceptionStats::default(); 64],
+        };
+        m.now_ps = m.io.now_ns() * 1000;
+        m.update_cycle_time();
+        m.refresh_inputs();
+        m
+    }
+
+    /// A chip reset: every peripheral to its reset state (WDTOF kept after a watchdog
+    /// reset), RAM and the board untouched.
+    pub fn reset(&mut self, cause: ResetCause) {
+        self.end_sessions();
+        let watchdog = cause == ResetCause::Watchdog;
+        // RSID: WDTR b2 after a watchdog reset.
+        self.syscon = Syscon::new(self.pconp_at_reset, if watchdog { 4 } else { 0 });
+        self.scs = Scs::new();
+        self.pincon = PinConnect::new();
+        self.gpio = Gpio::new();
+        self.gpioint = GpioInt::new();
+        self.spi = Spi::new();
+        self.ssp0 = Ssp::new();
+        self.ssp1 = Ssp::new();
+        self.timers = Default::default();
+        self.gpdma = Gpdma::new();
+        self.wdt = Wdt::new(watchdog);
+        self.stop = None;
+        self.check_preempt = false;
+        self.cnv_high = false;
+        self.update_cycle_time();
+        self.refresh_inputs();
+        self.reschedule();
+    }
+
+    fn end_sessions(&mut self) {
+        if let Some(s) = self.esc_session.take() {
+            self.io.esc.esc().borrow_mut().spi_end(s);
+        }
+        self.dac_frame = None;
+        self.adc_mosi.clear();
+    }
+
+    /// Exception `e` returned: its entry-to-return cycles are counted (with the return).
+    pub fn exception_returned(&mut self, e: u32) {
+        if let Some(i) = self.entries.iter().rposition(|(x, _)| *x == e) {
+            let (_, start) = self.entries.remove(i);
+            let c = self.cycles + RETURN_CYCLES - start;
+            let s = &mut self.exceptions[e as usize];
+            s.count += 1;
+            s.cycles += c;
+            s.max_cycles = s.max_cycles.max(c);
+        }
+    }
+
+    /// Reports a problem (once per message).
+    pub fn report(&mut self, message: String) {
+        if !self.reports.iter().any(|r| r.message == message) {
+            self.reports.push(Report {
+                time_ns: self.now_ns(),
+                message,
+            });
+        }
+    }
+
+    // ------------------------------------------------------------------ time
+
+    /// Virtual time (ns).
+    pub fn now_ns(&self) -> u64 {
+        self.now_ps / 1000
+    }
+
+    fn update_cycle_time(&mut self) {
+        self.cycle_ps = 1_000_000_000_000 / self.syscon.cclk_hz().max(1);
+    }
+
+    /// The CPU clock now.
+    pub fn cclk_hz(&self) -> u64 {
+        self.syscon.cclk_hz()
+    }
+
+    /// Accounts `n` instructions.
+    pub fn run_instructions(&mut self, n: u64) {
+        self.instructions += n;
+        let q = n * CPI_NUM + self.insn_rem;
+        self.insn_rem = q % CPI_DEN;
+        self.add_cycles(q / CPI_DEN);
+    }
+
+    /// Accounts `c` cycles (exception overhead).
+    pub fn add_cycles(&mut self, c: u64) {
+        self.cycles += c;
+        self.now_ps += c * self.cycle_ps;
+    }
+
+    /// Sleeps (WFI) until `t_ns`.
+    pub fn sleep_until(&mut self, t_ns: u64) {
+        let t_ps = t_ns * 1000;
+        if t_ps > self.now_ps {
+            let c = (t_ps - self.now_ps).div_ceil(self.cycle_ps);
+            self.cycles += c;
+            self.sleep_cycles += c;
+            self.now_ps += c * self.cycle_ps;
+        }
+    }
+
+    /// The next scheduled event (ns).
+    pub fn next_event_ns(&self) -> u64 {
+        self.next_event_ns
+    }
+
+    /// Instructions in a block (cached per address and size).
+    pub fn block_instructions(
+        &mut self,
+        addr: u32,
+        size: u32,
+        code: impl FnOnce() -> Vec<u8>,
+    ) -> u64 {
+        *self.block_insns.entry((addr, size)).or_insert_with(|| {
+            let bytes = code();
+            let mut n = 0;
+            let mut i = 0;
+            while i + 1 < bytes.len() {
+                let hw = u16::from_le_bytes([bytes[i], bytes[i + 1]]);
+                // 32-bit Thumb-2 encodings start with 0b11101, 0b11110 or 0b11111.
+                i += if hw >> 11 >= 0b11101 { 4 } else { 2 };
+                n += 1;
+            }
+            n
+        })
+    }
+
+    // ------------------------------------------------------------------ events
+
+    fn tick_for(&self, region: Region) -> Tick {
+        Tick {
+            now_ns: self.now_ns(),
+            pclk_hz: region
+                .clocked()
+                .map_or(self.syscon.cclk_hz(), |c| self.syscon.pclk_hz(c)),
+        }
+    }
+
+    fn reschedule(&mut self) {
+        let cycle_ns = |c: u64, m: &Self| -> u64 {
+            let now_c = m.cycles;
+            m.now_ns() + (c.saturating_sub(now_c) * m.cycle_ps).div_ceil(1000)
+        };
+        let mut next = u64::MAX;
+        for e in [
+            self.spi.next_event(),
+            self.ssp0.next_event(),
+            self.ssp1.next_event(),
+            self.timers[0].next_event(),
+            self.timers[1].next_event(),
+            self.timers[2].next_event(),
+            self.timers[3].next_event(),
+            self.wdt.next_event(),
+            self.scs.systick.next_wrap().map(|c| cycle_ns(c, self)),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            next = next.min(e);
+        }
+        self.next_event_ns = next;
+    }
+
+    /// Serves everything due at the current time; `mem` is the engine's memory (DMA).
+    pub fn service_due(&mut self, mem: &mut dyn Memory) {
+        for _ in 0..64 {
+            if self.next_event_ns > self.now_ns() {
+                break;
+            }
+            self.service_events(mem);
+        }
+    }
+
+    fn service_events(&mut self, mem: &mut dyn Memory) {
+        if self
+            .scs
+            .systick
+            .next_wrap()
+            .is_some_and(|c| self.cycles >= c)
+        {
+            self.scs.systick.wrap(self.cycles);
+            if self.scs.systick.interrupts() {
+                self.scs.set_pending(crate::nvic::exc::SYSTICK);
+            }
+        }
+        let t = self.tick_for(Region::Wdt);
+        self.wdt.on_event(t);
+        if self.wdt.take_reset_request() {
+            self.stop = Some(Stop::Reset(ResetCause::Watchdog));
+        }
+        let t = self.tick_for(Region::Spi);
+        self.spi.on_event(t);
+        for n in 0..4 {
+            let t = self.tick_for(Region::Timer(n));
+            self.timers[n].on_event(t);
+        }
+        let t = self.tick_for(Region::Ssp0);
+        self.ssp0.on_event(t);
+        let t = self.tick_for(Region::Ssp1);
+        self.ssp1.on_event(t);
+        self.settle(mem);
+    }
+
+    /// After any change: frames to the devices, pins, DMA, interrupt lines, schedule.
+    pub fn settle(&mut self, mem: &mut dyn Memory) {
+        for _ in 0..16 {
+            let mut moved = self.exchange_ssp0();
+            moved |= self.exchange_ssp1();
+            self.update_cnv();
+            moved |= self.run_dma(mem);
+            if !moved {
+                break;
+            }
+        }
+        self.update_irq_lines();
+        self.reschedule();
+    }
+
+    fn update_irq_lines(&mut self) {
+        let lines = [
+            (irq::WDT, self.wdt.irq()),
+            (irq::TIMER0, self.timers[0].irq()),
+            (irq::TIMER0 + 1, self.timers[1].irq()),
+            (irq::TIMER0 + 2, self.timers[2].irq()),
+            (irq::TIMER0 + 3, self.timers[3].irq()),
+            (irq::SPI, self.spi.irq()),
+            (irq::SSP0, self.ssp0.irq()),
+            (irq::SSP1, self.ssp1.irq()),
+            (irq::EINT3, self.gpioint.irq()),
+            (irq::DMA, self.gpdma.irq()),
+        ];
+        for (n, level) in lines {
+            self.scs.set_line(n, level);
+        }
+        self.check_preempt = self.scs.any_pending();
+    }
+
+    // ------------------------------------------------------------------ pins
+
+    fn func(&self, p: pins::Pin) -> u8 {
+        self.pincon.func(p.0, p.1)
+    }
+
+    fn routed(&mut self, what: &str, need: &[(pins::Pin, u8, &str)]) -> bool {
+        let mut ok = true;
+        for &(p, f, name) in need {
+            let have = self.func(p);
+            if have != f {
+                ok = false;
+                self.report(format!(
+                    "{what}: P{}.{} is PINSEL function {have}, not {f} ({name}): the transfer \
+                     moves no data",
+                    p.0, p.1
+                ));
+            }
+        }
+        ok
+    }
+
+    /// The GPIO output level of a pin used as GPIO (None: not GPIO or not an output).
+    fn gpio_out(&self, p: pins::Pin) -> Option<bool> {
+        (self.func(p) == 0 && self.gpio.is_output(p.0, p.1))
+            .then(|| self.gpio.level(p.0, p.1, true))
+    }
+
+    /// Inputs from the board into the pins: ESC IRQ (active low), EEPROM_LOADED.
+    pub fn refresh_inputs(&mut self) {
+        let (irq, loaded) = {
+            let esc = self.io.esc.esc().borrow();
+            (esc.irq(), esc.pdi_operational())
+        };
+        let (p, n) = pins::ESC_IRQ;
+        self.gpio.set_input(p, n, !irq);
+        if self.func(pins::ESC_IRQ) == 0 {
+            self.gpioint.sample(p, n, !irq);
+        }
+        let (p, n) = pins::ESC_EEPROM_LOADED;
+        self.gpio.set_input(p, n, loaded);
+        let level = self.gpioint.irq();
+        self.scs.set_line(irq::EINT3, level);
+        self.check_preempt |= self.scs.any_pending();
+    }
+
+    /// Output pins after a GPIO write: SPI_SEL, SYNC, LDAC edges to the chips.
+    fn outputs_changed(&mut self) {
+        let levels = [
+            self.gpio_out(pins::ESC_SEL).unwrap_or(true),
+            self.gpio_out(pins::DAC_SYNC).unwrap_or(true),
+            self.gpio_out(pins::DAC_LDAC).unwrap_or(true),
+        ];
+        let now = self.now_ns();
+        self.io.clock.set_ns(now);
+        let [sel, sync, ldac] = levels;
+        let [sel0, sync0, ldac0] = self.outputs_last;
+        if sel != sel0 {
+            let mut esc = self.io.esc.esc().borrow_mut();
+            if !sel {
+                self.esc_session = Some(esc.spi_begin());
+            } else if let Some(s) = self.esc_session.take() {
+                esc.spi_end(s);
+            }
+        }
+        if sync != sync0 {
+            if !sync {
+                self.dac_frame = Some(Vec::new());
+            } else if let Some(bytes) = self.dac_frame.take() {
+                if !bytes.is_empty() {
+                    self.traffic.dac_frames += 1;
+                    let _ = self
+                        .io
+                        .dac
+                        .transaction(&mut [Operation::Write(bytes.as_slice())]);
+                }
+            }
+        }
+        if ldac != ldac0 {
+            if !ldac {
+                self.traffic.ldac_pulses += 1;
+                let _ = self.io.ldac.set_low();
+            } else {
+                let _ = self.io.ldac.set_high();
+            }
+        }
+        self.outputs_last = levels;
+        self.refresh_inputs();
+    }
+
+    /// A SYNC0 rising edge from the ESC at the current time.
+    pub fn sync0_edge(&mut self, mem: &mut dyn Memory) {
+        if self.func(pins::ESC_SYNC0) != 3 {
+            let f = self.func(pins::ESC_SYNC0);
+            self.report(format!(
+                "SYNC0 edge: P1.18 is PINSEL function {f}, not 3 (CAP1.0): no capture"
+            ));
+            return;
+        }
+        if !self.syscon.powered(Clocked::Timer(1)) {
+            self.report("SYNC0 edge: TIMER1 is not powered (PCONP bit 2): no capture".into());
+            return;
+        }
+        self.traffic.sync0_captures += 1;
+        let t = self.tick_for(Region::Timer(1));
+        self.timers[1].capture(t, 0, true);
+        self.settle(mem);
+    }
+
+    fn spi_byte(&mut self) {
+        let Some(mosi) = self.spi.take_started() else {
+            return;
+        };
+        if !self.syscon.powered(Clocked::Spi) {
+            return;
+        }
+        let selected = self.esc_session.is_some();
+        if !selected {
+            self.spi.complete_with(0xFF);
+            return;
+        }
+        let routed = self.routed(
+            "legacy SPI byte to the ET1100",
+            &[
+                (pins::ESC_SCK, 3, "SCK"),
+                (pins::ESC_MISO, 3, "MISO"),
+                (pins::ESC_MOSI, 3, "MOSI"),
+            ],
+        );
+        let esc_mode = self.io.esc.esc().borrow().peek_u8(0x0150) & 3;
+        if self.spi.mode() != esc_mode {
+            self.report(format!(
+                "legacy SPI in mode {} but the ET1100 is configured for mode {esc_mode} (0x0150): \
+                 the transfer moves no data",
+                self.spi.mode()
+            ));
+        }
+        if !routed || self.spi.mode() != esc_mode || self.spi.bits() != 8 {
+            self.spi.complete_with(0xFF);
+            return;
+        }
+        let miso = {
+            let mut esc = self.io.esc.esc().borrow_mut();
+            let s = self.esc_session.as_mut().expect("selected");
+            esc.spi_byte(s, mosi)
+        };
+        self.traffic.esc_bytes += 1;
+        self.spi.complete_with(miso);
+    }
+
+    fn exchange_ssp0(&mut self) -> bool {
+        let Some(word) = self.ssp0.take_finished() else {
+            return false;
+        };
+        let t = self.tick_for(Region::Ssp0);
+        let routed = self.dac_frame.is_some()
+            && self.routed(
+                "SSP0 frame to the AD5663",
+                &[(pins::DAC_SCK, 3, "SCK0"), (pins::DAC_DIN, 3, "MOSI0")],
+            );
+        if routed {
+            if self.ssp0.mode() != 1 && self.ssp0.mode() != 2 {
+                self.report(format!(
+                    "SSP0 in SPI mode {}: the AD5663 samples DIN on falling SCLK edges (mode 1 or 2)",
+                    self.ssp0.mode()
+                ));
+            } else if let Some(f) = self.dac_frame.as_mut() {
+                let bits = self.ssp0.frame_bits();
+                let bytes = bits.div_ceil(8);
+                for i in (0..bytes).rev() {
+                    f.push((u32::from(word) >> (8 * i)) as u8);
+                }
+            }
+        }
+        self.ssp0.receive(0);
+        self.ssp0.kick(t);
+        true
+    }
+
+    fn exchange_ssp1(&mut self) -> bool {
+        let Some(word) = self.ssp1.take_finished() else {
+            return false;
+        };
+        let t = self.tick_for(Region::Ssp1);
+        let mut rx = 0;
+        let selected = !self.cnv_high;
+        if selected
+            && self.routed(
+                "SSP1 frame to the AD7689",
+                &[
+                    (pins::ADC_SCK, 2, "SCK1"),
+                    (pins::ADC_SDO, 2, "MISO1"),
+                    (pins::ADC_DIN, 2, "MOSI1"),
+                ],
+            )
+        {
+            if self.ssp1.frame_bits() != 16 || self.ssp1.mode() != 0 {
+                self.report(format!(
+                    "SSP1 frames of {} bits in mode {}: the AD7689 read (no busy indicator) \
+                     needs 16-bit frames in mode 0",
+                    self.ssp1.frame_bits(),
+                    self.ssp1.mode()
+                ));
+            } else {
+                // The result of the last conversion (no readback: 16 bits, MSB first).
+                rx = self
+                    .io
+                    .adc
+                    .adc()
+                    .borrow()
+                    .conversions
+                    .last()
+                    .map_or(0, |c| c.code);
+                self.adc_mosi.extend_from_slice(&word.to_be_bytes());
+            }
+        }
+        self.ssp1.receive(rx);
+        self.ssp1.kick(t);
+        true
+    }
+
+    fn update_cnv(&mut self) {
+        let high = self.func(pins::ADC_CNV) == 3 && self.timers[2].match_output(0);
+        if high == self.cnv_high {
+            return;
+        }
+        self.cnv_high = high;
+        if high {
+            // The CNV rising edge ends the read and starts the next conversion.
+            self.io.clock.set_ns(self.now_ns());
+            let mosi = std::mem::take(&mut self.adc_mosi);
+            self.io.adc.adc().borrow_mut().frame(&mosi);
+            self.traffic.adc_conversions += 1;
+        }
+    }
+
+    // ------------------------------------------------------------------ DMA
+
+    fn dma_requests(&self) -> u32 {
+        let mut r = 0;
+        if self.ssp0.tx_dma_request() {
+            r |= 1;
+        }
+        if self.ssp0.rx_dma_request() {
+            r |= 2;
+        }
+        if self.ssp1.tx_dma_request() {
+            r |= 4;
+        }
+        if self.ssp1.rx_dma_request() {
+            r |= 8;
+        }
+        let sel = self.syscon.dmareqsel();
+        for n in 0..8u32 {
+            if sel & (1 << n) != 0 && self.timers[(n / 2) as usize].dma_request((n % 2) as usize) {
+                r |= 1 << (8 + n);
+            }
+        }
+        r
+    }
+
+    fn run_dma(&mut self, mem: &mut dyn Memory) -> bool {
+        if !self.syscon.powered(Clocked::Gpdma) {
+            return false;
+        }
+        let mut moved = false;
+        for _ in 0..64 {
+            let Some(x) = self.gpdma.next_transfer(self.dma_requests()) else {
+                break;
+            };
+            moved = true;
+            self.dma_move(mem, &x);
+            if let Some(line) = x.request {
+                if (8..16).contains(&line) {
+                    let n = line - 8;
+                    self.timers[(n / 2) as usize].clear_dma_request((n % 2) as usize);
+                }
+            }
+            match self.gpdma.transferred(&x) {
+                After::LoadItem(at) => {
+                    let mut b = [0u8; 16];
+                    if self.dma_read(mem, at, &mut b) {
+                        let w =
+                            |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+                        self.gpdma.load_item(x.channel, [w(0), w(1), w(2), w(3)]);
+                    } else {
+                        self.gpdma.error(x.channel);
+                    }
+                }
+                After::Continue | After::Stopped => {}
+            }
+        }
+        moved
+    }
+
+    fn dma_reachable(&mut self, addr: u32, channel: usize) -> bool {
+        // UNCONFIRMED (as the firmware's hw::adc_dma states): the GPDMA reaches the AHB SRAM
+        // and the peripherals, not the local SRAM or the flash.
+        if (0x1000_0000..0x1000_8000).contains(&addr) || addr < 0x0008_0000 {
+            self.report(format!(
+                "GPDMA channel {channel} accessed {addr:#010x} (local SRAM or flash), which the \
+                 GPDMA does not reach: bus error"
+            ));
+            return false;
+        }
+        true
+    }
+
+    fn on_bus(addr: u32) -> bool {
+        addr >= 0x4000_0000 || (0x2009_C000..0x200A_0000).contains(&addr)
+    }
+
+    fn dma_read(&mut self, mem: &mut dyn Memory, addr: u32, buf: &mut [u8]) -> bool {
+        if Self::on_bus(addr) {
+            let base = Self::slot(addr);
+            let v = self.bus_read_region(base, (addr - base) & !3);
+            let bytes = v.to_le_bytes();
+            let n = buf.len();
+            buf.copy_from_slice(&bytes[..n]);
+            true
+        } else {
+            mem.read(addr, buf)
+        }
+    }
+
+    fn dma_move(&mut self, mem: &mut dyn Memory, x: &Transfer) {
+        if !self.dma_reachable(x.src, x.channel) || !self.dma_reachable(x.dst, x.channel) {
+            self.gpdma.error(x.channel);
+            return;
+        }
+        let w = x.width as usize;
+        let mut buf = [0u8; 4];
+        if !self.dma_read(mem, x.src, &mut buf[..w]) {
+            self.gpdma.error(x.channel);
+            return;
+        }
+        if Self::on_bus(x.dst) {
+            let v = u32::from_le_bytes(buf);
+            let base = Self::slot(x.dst);
+            self.bus_write_region(base, (x.dst - base) & !3, v);
+        } else if !mem.write(x.dst, &buf[..w]) {
+            self.gpdma.error(x.channel);
+        }
+    }
+
+    // ------------------------------------------------------------------ bus
+
+    fn powered(&mut self, region: Region) -> bool {
+        match region.clocked() {
+            Some(c) if !self.syscon.powered(c) => {
+                self.report(format!(
+                    "access to {} while its PCONP bit {} is 0: the peripheral does not respond",
+                    c.name(),
+                    c.pconp_bit().unwrap_or(0)
+                ));
+                false
+            }
+            _ => true,
+        }
+    }
+
+    fn periph(&mut self, region: Region) -> Option<&mut dyn Peripheral> {
+        Some(match region {
+            Region::Wdt => &mut self.wdt,
+            Region::Timer(n) => &mut self.timers[n],
+            Region::Spi => &mut self.spi,
+            Region::GpioInt => &mut self.gpioint,
+            Region::PinConnect => &mut self.pincon,
+            Region::Ssp1 => &mut self.ssp1,
+            Region::Ssp0 => &mut self.ssp0,
+            Region::Syscon => &mut self.syscon,
+            Region::Gpio => &mut self.gpio,
+            Region::Gpdma => &mut self.gpdma,
+            Region::Scs | Region::Unmodelled(_) => return None,
+        })
+    }
+
+    /// A read by the CPU (or DMA) at `offset` in the slot at `base`.
+    pub fn bus_read_region(&mut self, base: u32, offset: u32) -> u32 {
+        let region = Region::of_base(base);
+        if region == Region::Scs {
+            return self.scs.read(offset, self.cycles);
+        }
+        if let Region::Unmodelled(b) = region {
+            self.stop = Some(Stop::Fault(format!(
+                "read of {:#010x}: a peripheral the co-simulator does not model",
+                b + offset
+            )));
+            return 0;
+        }
+        if !self.powered(region) {
+            return 0;
+        }
+        if region == Region::Gpio || region == Region::GpioInt {
+            self.refresh_inputs();
+        }
+        let t = self.tick_for(region);
+        self.periph(region).map_or(0, |p| p.read(t, offset))
+    }
+
+    /// A write by the CPU (or DMA).
+    pub fn bus_write_region(&mut self, base: u32, offset: u32, value: u32) {
+        let region = Region::of_base(base);
+        if region == Region::Scs {
+            let effect = self.scs.write(offset, 4, value, self.cycles);
+            if effect.reset_request {
+                self.stop = Some(Stop::Reset(ResetCause::SysResetReq));
+            }
+            self.check_preempt = self.scs.any_pending();
+            self.reschedule();
+            return;
+        }
+        if let Region::Unmodelled(b) = region {
+            self.stop = Some(Stop::Fault(format!(
+                "write of {value:#x} to {:#010x}: a peripheral the co-simulator does not model",
+                b + offset
+            )));
+            return;
+        }
+        if !self.powered(region) {
+            return;
+        }
+        let t = self.tick_for(region);
+        if let Some(p) = self.periph(region) {
+            p.write(t, offset, value);
+        }
+        match region {
+            Region::Syscon => {
+                if self.syscon.take_clock_change() {
+                    self.update_cycle_time();
+                }
+                let v: Vec<String> = self.syscon.violations.drain(..).collect();
+                for m in v {
+                    self.report(format!("SYSCON: {m}"));
+                }
+            }
+            Region::Spi => {
+                self.spi_byte();
+                let v: Vec<String> = self.spi.violations.drain(..).collect();
+                for m in v {
+                    self.report(format!("SPI: {m}"));
+                }
+            }
+            Region::Gpio => self.outputs_changed(),
+            Region::Wdt if self.wdt.take_reset_request() => {
+                self.stop = Some(Stop::Reset(ResetCause::Watchdog));
+            }
+            _ => {}
+        }
+    }
+
+    /// The slot base of a bus address (16 KB APB slots; the SCS is one 4 KB block).
+    fn slot(addr: u32) -> u32 {
+        if addr >= 0xE000_0000 {
+            addr & !0xFFF
+        } else {
+            addr & !0x3FFF
+        }
+    }
+
+    /// A CPU access of `size` bytes at `addr` (sub-word accesses as the APB's byte lanes).
+    pub fn cpu_read(&mut self, mem: &mut dyn Memory, addr: u32, size: usize) -> u32 {
+        let base = Self::slot(addr);
+        let shift = 8 * (addr & 3);
+        let v = self.bus_read_region(base, (addr - base) & !3) >> shift;
+        self.settle(mem);
+        match size {
+            1 => v & 0xFF,
+            2 => v & 0xFFFF,
+            _ => v,
+        }
+    }
+
+    /// A CPU write.
+    pub fn cpu_write(&mut self, mem: &mut dyn Memory, addr: u32, size: usize, value: u32) {
+        let base = Self::slot(addr);
+        let offset = addr - base;
+        if Region::of_base(base) == Region::Scs && size < 4 {
+            // Byte writes to the priority registers (NVIC IPR, SHPR).
+            let effect = self.scs.write(offset, size, value, self.cycles);
+            if effect.reset_request {
+                self.stop = Some(Stop::Reset(ResetCause::SysResetReq));
+            }
+            self.check_preempt = self.scs.any_pending();
+            return;
+        }
+        let shift = 8 * (addr & 3);
+        let mut v = value << shift;
+        if size < 4 && Region::of_base(base) == Region::Gpio {
+            let lane = (if size == 1 { 0xFFu32 } else { 0xFFFF }) << shift;
+            let old = self.bus_read_region(base, offset & !3);
+            let reg = offset & 0x1F;
+            if matches!(reg, 0x00 | 0x10 | 0x14) {
+                v = (old & !lane) | (v & lane);
+            }
+        }
+        self.bus_write_region(base, offset & !3, v);
+        self.settle(mem);
+    }
+}

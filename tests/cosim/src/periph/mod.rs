@@ -1,0 +1,49 @@
+//! Models of the LPC1754 peripherals the firmware touches (UM10360), each behind
+//! [`Peripheral`]. What crosses between peripherals (interrupt lines, DMA requests, pins,
+//! power and clocks) is routed by [`crate::machine`], not by the models themselves.
+
+pub mod gpdma;
+pub mod gpio;
+pub mod pincon;
+pub mod spi;
+pub mod ssp;
+pub mod syscon;
+pub mod timer;
+pub mod wdt;
+
+/// What a peripheral sees of the chip at an access or event: the time and its clock.
+#[derive(Clone, Copy, Debug)]
+pub struct Tick {
+    /// Virtual time (ns).
+    pub now_ns: u64,
+    /// The peripheral's PCLK (Hz), from SYSCON's PCLKSEL and CCLK.
+    pub pclk_hz: u64,
+}
+
+/// One peripheral: registers plus timed behaviour.
+pub trait Peripheral {
+    /// A register read at `offset` from the peripheral's base (word access).
+    fn read(&mut self, t: Tick, offset: u32) -> u32;
+    /// A register write.
+    fn write(&mut self, t: Tick, offset: u32, value: u32);
+    /// The next instant (ns) something happens on its own, if anything is scheduled.
+    fn next_event(&self) -> Option<u64> {
+        None
+    }
+    /// What is due at `t.now_ns` happens.
+    fn on_event(&mut self, _t: Tick) {}
+    /// The level of its interrupt line.
+    fn irq(&self) -> bool {
+        false
+    }
+}
+
+/// ns of `ticks` periods of a clock of `hz`, rounded up (the edge after).
+pub fn ticks_to_ns(ticks: u64, hz: u64) -> u64 {
+    (u128::from(ticks) * 1_000_000_000).div_ceil(u128::from(hz.max(1))) as u64
+}
+
+/// Whole periods of a clock of `hz` in `ns`.
+pub fn ns_to_ticks(ns: u64, hz: u64) -> u64 {
+    (u128::from(ns) * u128::from(hz) / 1_000_000_000) as u64
+}

@@ -1,0 +1,100 @@
+//! Running the image on the virtual board: where the image is, the sim's [`Target`] for it,
+//! and a handle to the co-simulator for its facts while the board owns it.
+
+use crate::cosim::{Cosim, Options};
+use crate::image::Image;
+use std::cell::RefCell;
+use std::path::PathBuf;
+use std::rc::Rc;
+use virtual_board::models::esc::SyncEdge;
+use virtual_board::rig::board::{BoardIo, PdiCpu};
+use virtual_board::tools::sim::{firmware_device, Target};
+
+/// The environment variable that names the release ELF (`cargo xtask test` sets it after
+/// building the image).
+pub const IMAGE_ENV: &str = "LPC1754_IMAGE";
+
+/// The release ELF: `$LPC1754_IMAGE`, else `cargo xtask build`'s output in the workspace's
+/// target directory. The image is never built here (a cargo build inside a running cargo
+/// would wait on its lock): run `cargo xtask build` first.
+pub fn image_path() -> PathBuf {
+    if let Some(p) = std::env::var_os(IMAGE_ENV) {
+        return PathBuf::from(p);
+    }
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .map(|d| if d.is_absolute() { d } else { root.join(d) })
+        .unwrap_or_else(|| root.join("target"));
+    target.join("thumbv7m-none-eabi/release/analog-io")
+}
+
+/// Loads the release image, with a clear message when it is missing.
+pub fn load_image() -> Result<Image, String> {
+    let path = image_path();
+    if !path.exists() {
+        return Err(format!(
+            "the release image {} does not exist: run `cargo xtask build` first (or set {IMAGE_ENV})",
+            path.display()
+        ));
+    }
+    Image::from_file(&path).map_err(|e| e.to_string())
+}
+
+/// The co-simulator shared between the board (as its CPU) and the caller (for facts).
+#[derive(Clone)]
+pub struct CosimHandle(pub Rc<RefCell<Option<Cosim>>>);
+
+impl CosimHandle {
+    /// Runs `f` on the co-simulator (None before the board built it).
+    pub fn with<R>(&self, f: impl FnOnce(&Cosim) -> R) -> Option<R> {
+        self.0.borrow().as_ref().map(f)
+    }
+}
+
+struct BoardCpu(CosimHandle);
+
+impl PdiCpu for BoardCpu {
+    fn runs_continuously(&self) -> bool {
+        true
+    }
+    fn run_until(&mut self, io: &mut BoardIo, t_ns: u64) {
+        if let Some(c) = self.0 .0.borrow_mut().as_mut() {
+            c.run_until(io, t_ns);
+        }
+    }
+    fn on_sync0(&mut self, io: &mut BoardIo, edge: &SyncEdge) {
+        if let Some(c) = self.0 .0.borrow_mut().as_mut() {
+            c.on_sync0(io, edge);
+        }
+    }
+    fn next_timer_ns(&self) -> Option<u64> {
+        self.0 .0.borrow().as_ref().and_then(|c| c.next_timer_ns())
+    }
+}
+
+/// The image on the co-simulator as the sim's PDI side, with the SII image generated from
+/// the firmware's description (the same as the host-compiled target's). Fails as the boot
+/// ROM would (wrong vector checksum) before any board exists.
+pub fn image_target(image: Image, options: Options) -> Result<(Target, CosimHandle), String> {
+    let crp = image.boot_rom_check().map_err(|e| e.to_string())?;
+    let device = firmware_device::device()?;
+    let handle = CosimHandle(Rc::new(RefCell::new(None)));
+    let h = handle.clone();
+    let image = Rc::new(image);
+    let target = Target {
+        description: format!(
+            "the release image on the LPC1754 co-simulator ({} B flash, CRP {crp:?}), {}",
+            image.flash_used, device.description
+        ),
+        sii: device.sii.clone(),
+        make_cpu: Box::new(move |io| {
+            match Cosim::new(image, io, options) {
+                Ok(c) => *h.0.borrow_mut() = Some(c),
+                Err(e) => eprintln!("co-simulator: {e}"),
+            }
+            Box::new(BoardCpu(h))
+        }),
+    };
+    Ok((target, handle))
+}
