@@ -15,12 +15,29 @@ pub const TARGETS: [&str; 3] = [
 /// `qemu-system-arm` runs the Cortex-M3 benchmark (`bench`, which fails without it).
 pub const DEBIAN_PACKAGES: [&str; 3] = ["tshark", "libxml2-utils", "qemu-system-arm"];
 
+/// Debian packages the image co-simulator (`tests/cosim`, part of the workspace) needs to
+/// build: unicorn-engine-sys builds unicorn's C sources with CMake and runs bindgen
+/// (libclang) at every build.
+pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
+
 /// Everything: targets, cargo tools and Debian packages.
 pub fn all() -> Result {
     targets()?;
     flip_link()?;
     debian(&DEBIAN_PACKAGES);
-    Ok(())
+    cosim()
+}
+
+/// What the co-simulator's build needs; an error naming the packages when they cannot be
+/// installed (the workspace does not build without them).
+pub fn cosim() -> Result {
+    if debian(&COSIM_PACKAGES) {
+        Ok(())
+    } else {
+        Err(format!(
+            "the image co-simulator (tests/cosim) needs the Debian packages {COSIM_PACKAGES:?} to build"
+        ))
+    }
 }
 
 /// Adds the rustup targets (a no-op when present).

@@ -12,6 +12,7 @@
 //! What runs on the board's PDI side is a [`Target`]: the firmware's slave application
 //! ([`firmware_target`]) or the transport test responder ([`responder::EchoResponder`]).
 
+pub mod cli;
 pub mod firmware_device;
 pub mod responder;
 pub mod tshark;

@@ -1,0 +1,88 @@
+//! `lpc1754-cosim`: the release image on the co-simulated LPC1754, driven by a real master.
+//!
+//! ```text
+//! lpc1754-cosim sim [the options of `cargo xtask sim`]   # what `cargo xtask sim --image` runs
+//! ```
+//!
+//! The image is `$LPC1754_IMAGE` (set by xtask after it built the image), else the release
+//! ELF in the workspace's target directory.
+
+use clap::{Parser, Subcommand};
+use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::run::{image_target, load_image, CosimHandle};
+use std::process::ExitCode;
+use virtual_board::tools::sim::cli::{self, SimArgs};
+
+#[derive(Parser)]
+#[command(
+    name = "lpc1754-cosim",
+    about = "The release image on the co-simulated LPC1754"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The virtual board with the image as its MCU, driven by a real master (the options
+    /// of `cargo xtask sim`), plus the image facts.
+    #[command(after_long_help = cli::AFTER_HELP)]
+    Sim {
+        #[command(flatten)]
+        args: SimArgs,
+        /// Print the firmware's defmt log (RTT) as it comes.
+        #[arg(long)]
+        log: bool,
+    },
+}
+
+fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
+    let handle: std::cell::RefCell<Option<CosimHandle>> = std::cell::RefCell::new(None);
+    cli::run(
+        args,
+        |echo| {
+            if echo {
+                return Err(
+                    "--echo runs the test responder, not the image: use `cargo xtask sim --echo`"
+                        .into(),
+                );
+            }
+            let image = load_image()?;
+            let options = Options {
+                echo_log: log,
+                ..Default::default()
+            };
+            let (target, h) = image_target(image, options)?;
+            *handle.borrow_mut() = Some(h);
+            Ok(Some(target))
+        },
+        &mut || {
+            if let Some(facts) = handle.borrow().as_ref().and_then(|h| h.with(|c| c.facts())) {
+                print!("{}", facts.summary());
+            }
+        },
+    )?;
+    let h = handle.borrow();
+    let facts = h.as_ref().and_then(|h| h.with(|c| c.facts()));
+    match facts {
+        Some(f) if f.fault.is_some() || !f.reports.is_empty() => {
+            Err("the image faulted or a model reported a problem (see above)".into())
+        }
+        _ => Ok(()),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Sim { args, log } => sim(&args, log),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
