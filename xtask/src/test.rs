@@ -29,7 +29,15 @@ pub fn run(args: &Args) -> Result {
             "warnings",
         ]))?;
     }
-    exec(cargo().args(["test", "--workspace"]))?;
+    // The LPC1754 image first: release build, checksum, CRP word and budget verified on
+    // the BIN; the co-simulator's system tests (tests/cosim) run this very ELF.
+    let image = build::build(&build::Args::default())?;
+    build::print_usage(&image.usage);
+    exec(
+        cargo()
+            .args(["test", "--workspace"])
+            .env("LPC1754_IMAGE", &image.elf),
+    )?;
     // coe-core as the firmware builds it (without the `real` feature, which the workspace
     // test run unifies back on), so the no-REAL paths are tested too.
     exec(cargo().args(["test", "-p", "coe-core", "--no-default-features"]))?;
@@ -44,8 +52,6 @@ pub fn run(args: &Args) -> Result {
         cmd.env("RUSTFLAGS", "-D warnings");
         exec(&mut cmd)?;
     }
-    // The LPC1754 image: release build, checksum, CRP word and budget verified on the BIN.
-    build::run(&build::Args::default())?;
     // The fallback ADC path (one interrupt per sample instead of the GPDMA), so it cannot rot.
     exec(
         cargo()
