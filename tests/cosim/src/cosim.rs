@@ -150,7 +150,8 @@ pub struct Cosim {
     rtt: Rtt,
     options: Options,
     crp: Crp,
-    locked_up: bool,
+    /// Resets seen when the lock-up was injected (the lock-up ends with the next reset).
+    locked_up: Option<usize>,
 }
 
 impl Cosim {
@@ -171,7 +172,7 @@ impl Cosim {
             rtt,
             options,
             crp,
-            locked_up: false,
+            locked_up: None,
         })
     }
 
@@ -228,12 +229,12 @@ impl Cosim {
 
     fn inject(&mut self, t_ns: u64) -> u64 {
         match self.options.lock_up_at_ns {
-            Some(at) if !self.locked_up && t_ns >= at => {
+            Some(at) if self.locked_up.is_none() && t_ns >= at => {
                 let now = self.core.machine.borrow().now_ns();
                 if now < at {
                     return at;
                 }
-                self.locked_up = true;
+                self.locked_up = Some(self.core.resets.len());
                 let _ = self
                     .core
                     .uc
@@ -245,7 +246,7 @@ impl Cosim {
     }
 
     fn keep_locked(&mut self) {
-        if self.locked_up {
+        if self.locked_up == Some(self.core.resets.len()) {
             let _ = self
                 .core
                 .uc

@@ -225,6 +225,9 @@ pub struct Machine {
     /// Something is pending: the block hook checks the masks.
     pub check_preempt: bool,
     next_event_ns: u64,
+    /// While events are served: their scheduled time (peripherals act at it, not at the
+    /// block boundary where the engine noticed them).
+    event_ns: Option<u64>,
     /// NVIC, SCB, SysTick.
     pub scs: Scs,
     /// SYSCON.
@@ -271,6 +274,7 @@ impl Machine {
             stop: None,
             check_preempt: false,
             next_event_ns: u64::MAX,
+            event_ns: None,
             scs: Scs::new(),
             syscon: Syscon::new(PCONP_RESET, 1),
             pincon: PinConnect::new(),
@@ -349,7 +353,7 @@ impl Machine {
     pub fn report(&mut self, message: String) {
         if !self.reports.iter().any(|r| r.message == message) {
             self.reports.push(Report {
-                time_ns: self.now_ns(),
+                time_ns: self.hw_ns(),
                 message,
             });
         }
@@ -357,9 +361,15 @@ impl Machine {
 
     // ------------------------------------------------------------------ time
 
-    /// Virtual time (ns).
+    /// Virtual time (ns) of the CPU.
     pub fn now_ns(&self) -> u64 {
         self.now_ps / 1000
+    }
+
+    /// The time the peripherals and the board see: an event's own time while it is served,
+    /// else the CPU's.
+    fn hw_ns(&self) -> u64 {
+        self.event_ns.unwrap_or_else(|| self.now_ns())
     }
 
     fn update_cycle_time(&mut self) {
@@ -426,7 +436,7 @@ impl Machine {
 
     fn tick_for(&self, region: Region) -> Tick {
         Tick {
-            now_ns: self.now_ns(),
+            now_ns: self.hw_ns(),
             pclk_hz: region
                 .clocked()
                 .map_or(self.syscon.cclk_hz(), |c| self.syscon.pclk_hz(c)),
@@ -464,7 +474,9 @@ impl Machine {
             if self.next_event_ns > self.now_ns() {
                 break;
             }
+            self.event_ns = Some(self.next_event_ns);
             self.service_events(mem);
+            self.event_ns = None;
         }
     }
 
@@ -585,7 +597,7 @@ impl Machine {
             self.gpio_out(pins::DAC_SYNC).unwrap_or(true),
             self.gpio_out(pins::DAC_LDAC).unwrap_or(true),
         ];
-        let now = self.now_ns();
+        let now = self.hw_ns();
         self.io.clock.set_ns(now);
         let [sel, sync, ldac] = levels;
         let [sel0, sync0, ldac0] = self.outputs_last;
@@ -761,7 +773,7 @@ impl Machine {
         self.cnv_high = high;
         if high {
             // The CNV rising edge ends the read and starts the next conversion.
-            self.io.clock.set_ns(self.now_ns());
+            self.io.clock.set_ns(self.hw_ns());
             let mosi = std::mem::take(&mut self.adc_mosi);
             self.io.adc.adc().borrow_mut().frame(&mosi);
             self.traffic.adc_conversions += 1;
@@ -994,6 +1006,7 @@ impl Machine {
 
     /// A CPU access of `size` bytes at `addr` (sub-word accesses as the APB's byte lanes).
     pub fn cpu_read(&mut self, mem: &mut dyn Memory, addr: u32, size: usize) -> u32 {
+        self.service_due(mem);
         let base = Self::slot(addr);
         let shift = 8 * (addr & 3);
         let v = self.bus_read_region(base, (addr - base) & !3) >> shift;
@@ -1007,6 +1020,7 @@ impl Machine {
 
     /// A CPU write.
     pub fn cpu_write(&mut self, mem: &mut dyn Memory, addr: u32, size: usize, value: u32) {
+        self.service_due(mem);
         let base = Self::slot(addr);
         let offset = addr - base;
         if Region::of_base(base) == Region::Scs && size < 4 {
