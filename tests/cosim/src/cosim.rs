@@ -176,6 +176,19 @@ impl Cosim {
         })
     }
 
+    /// Where the core is: PC and the function there.
+    pub fn where_is_pc(&self) -> String {
+        let pc = self
+            .core
+            .uc
+            .reg_read(unicorn_engine::RegisterARM::PC)
+            .unwrap_or(0) as u32;
+        match self.core.image().symbolize(pc) {
+            Some((f, off)) => format!("{pc:#010x} ({f}+{off:#x})"),
+            None => format!("{pc:#010x}"),
+        }
+    }
+
     /// The log lines so far.
     pub fn log(&self) -> &[String] {
         &self.rtt.lines

@@ -240,6 +240,11 @@ impl Core {
         }
     }
 
+    /// The image.
+    pub fn image(&self) -> &Image {
+        &self.image
+    }
+
     /// Deepest stack use since power-on: bytes below the initial SP that are no longer the
     /// paint.
     pub fn stack_high_water(&self) -> u32 {
