@@ -1,0 +1,93 @@
+//! The models' strictness, tested on patched copies of the release image (issue 12, "Must
+//! show"): each mistake a board would punish is reported by the co-simulator, naming the
+//! cause.
+
+use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::periph::syscon::PCONP_RESET;
+use lpc1754_cosim::run::{image_target, load_image};
+use std::cell::RefCell;
+use std::rc::Rc;
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+
+/// Boots a (patched) image on a board for `ns` and returns the reported messages.
+fn reports_after(image: lpc1754_cosim::image::Image, options: Options, ns: u64) -> Vec<String> {
+    let (target, handle) = image_target(image, options).expect("boot ROM checks");
+    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
+        target.sii,
+    ))));
+    let cpu = (target.make_cpu)(board.borrow().io());
+    board.borrow_mut().set_cpu(cpu);
+    board.borrow_mut().step(ns);
+    let facts = handle.with(|c| c.facts()).unwrap();
+    assert!(facts.fault.is_none(), "{}", facts.summary());
+    facts.reports.into_iter().map(|r| r.message).collect()
+}
+
+#[test]
+fn the_unpatched_image_reports_nothing() {
+    let reports = reports_after(load_image().unwrap(), Options::default(), 20_000_000);
+    assert!(reports.is_empty(), "{reports:?}");
+}
+
+/// A wrong vector checksum (word 0x1C): the boot ROM stays in ISP and the run fails with
+/// that message before anything runs.
+#[test]
+fn corrupted_vector_checksum() {
+    let mut image = load_image().unwrap();
+    image.flash[0x1C] ^= 0x01;
+    let err = image_target(image, Options::default())
+        .err()
+        .expect("refused");
+    assert!(
+        err.contains("vector checksum is wrong") && err.contains("stays in ISP"),
+        "{err}"
+    );
+}
+
+/// The pin map with P0.15 in function 2 (SCK0 of SSP0) instead of 3 (SCK of the legacy
+/// SPI): the ESC's clock goes elsewhere, no byte reaches the ET1100, and the report names the
+/// pin and the function.
+#[test]
+fn pinsel_routes_the_esc_spi_elsewhere() {
+    let mut image = load_image().unwrap();
+    // PIN_MAP's first rows as the image stores them: (pull, port, pin, function) per entry
+    // (P0.15 SCK: no pull, fn 3; P0.16 SEL: no pull, fn 0).
+    image
+        .patch_unique(&[2, 0, 15, 3, 2, 0, 16, 0], &[2, 0, 15, 2, 2, 0, 16, 0])
+        .expect("the pin map in the image");
+    let reports = reports_after(image, Options::default(), 20_000_000);
+    assert!(
+        reports
+            .iter()
+            .any(|r| r.contains("legacy SPI byte to the ET1100")
+                && r.contains("P0.15 is PINSEL function 2, not 3 (SCK)")
+                && r.contains("moves no data")),
+        "{reports:?}"
+    );
+}
+
+/// SSP1's power bit left off: the firmware's PCONP value without bit 10, and PCONP at
+/// reset without it too (as a bootloader that powers SSP1 down before starting the
+/// application leaves it; from a power-on reset SSP1 is powered). The ADC's port does not
+/// respond and the report names the peripheral and the bit.
+#[test]
+fn ssp1_power_bit_left_off() {
+    let mut image = load_image().unwrap();
+    // hw::clocks::enable_peripherals' PCONP bits: TIMER1, SPI, SSP1, GPIO, SSP0, TIMER2.
+    let bits: u32 = (1 << 2) | (1 << 8) | (1 << 10) | (1 << 15) | (1 << 21) | (1 << 22);
+    image
+        .patch_unique(&bits.to_le_bytes(), &(bits & !(1 << 10)).to_le_bytes())
+        .expect("the PCONP constant in the image");
+    let options = Options {
+        pconp_at_reset: Some(PCONP_RESET & !(1 << 10)),
+        ..Default::default()
+    };
+    let reports = reports_after(image, options, 20_000_000);
+    assert!(
+        reports
+            .iter()
+            .any(|r| r.contains("access to SSP1 while its PCONP bit 10 is 0")
+                && r.contains("does not respond")),
+        "{reports:?}"
+    );
+}
