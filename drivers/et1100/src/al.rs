@@ -8,116 +8,67 @@
 
 use coe_core::esm::{AlState, ERROR_FLAG, ID_FLAG, STATE_MASK};
 
-/// AL event request bits (0x0220..0x0222) as shifted out on MISO during the address phase
-/// of every SPI access (ESC-II 2.7.4; hardware-facts 1.3).
-///
-/// With 2-byte SPI addressing only 0x0220/0x0221 are shifted out, so bits 16..23
-/// (SyncManagers 8..15) read as 0; the ET1100 has 8 SyncManagers, so nothing is lost.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct AlEvents(u32);
+bitflags::bitflags! {
+    /// AL event request bits (0x0220..0x0222) as shifted out on MISO during the address
+    /// phase of every SPI access (ESC-II 2.7.4; hardware-facts 1.3).
+    ///
+    /// With 2-byte SPI addressing only 0x0220/0x0221 are shifted out, so bits 16..23
+    /// (SyncManagers 8..15) read as 0; the ET1100 has 8 SyncManagers, so nothing is lost.
+    /// Bits without a name (reserved) are kept as read.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+    pub struct AlEvents: u32 {
+        /// b0: AL control written by the master; cleared by reading 0x0120/0x0121.
+        const AL_CONTROL = 1 << 0;
+        /// b1: DC latch event; cleared by reading the latch status/time.
+        const DC_LATCH = 1 << 1;
+        /// b2: SYNC0 (if mapped with 0x0151 b3); cleared by reading 0x098E.
+        const SYNC0 = 1 << 2;
+        /// b3: SYNC1 (if mapped with 0x0151 b7); cleared by reading 0x098F.
+        const SYNC1 = 1 << 3;
+        /// b4: SyncManager activation register changed; cleared by reading 0x0806+8n.
+        const SM_ACTIVATION = 1 << 4;
+        /// b5: EEPROM emulation command pending.
+        const EEPROM_EMULATION = 1 << 5;
+        /// b6: process-data watchdog expired; cleared by reading 0x0440.
+        const WATCHDOG = 1 << 6;
+        /// b8: SyncManager 0 interrupt (see [`AlEvents::sm`] for the others).
+        const SM0 = 1 << 8;
+        /// b9: SyncManager 1 interrupt.
+        const SM1 = 1 << 9;
+        /// b10: SyncManager 2 interrupt.
+        const SM2 = 1 << 10;
+        /// b11: SyncManager 3 interrupt.
+        const SM3 = 1 << 11;
+        /// Reserved and further SyncManager bits: kept as read.
+        const _ = !0;
+    }
+}
 
 impl AlEvents {
-    /// b0: AL control written by the master; cleared by reading 0x0120/0x0121.
-    pub const AL_CONTROL: u32 = 1 << 0;
-    /// b1: DC latch event; cleared by reading the latch status/time.
-    pub const DC_LATCH: u32 = 1 << 1;
-    /// b2: SYNC0 (if mapped with 0x0151 b3); cleared by reading 0x098E.
-    pub const SYNC0: u32 = 1 << 2;
-    /// b3: SYNC1 (if mapped with 0x0151 b7); cleared by reading 0x098F.
-    pub const SYNC1: u32 = 1 << 3;
-    /// b4: SyncManager activation register changed; cleared by reading 0x0806+8n.
-    pub const SM_ACTIVATION: u32 = 1 << 4;
-    /// b5: EEPROM emulation command pending.
-    pub const EEPROM_EMULATION: u32 = 1 << 5;
-    /// b6: process-data watchdog expired; cleared by reading 0x0440.
-    pub const WATCHDOG: u32 = 1 << 6;
+    /// AL event bits 0..15 (AL control .. SyncManager 7): what a 2-byte SPI address phase
+    /// shifts out.
+    pub const LOW: Self = Self::from_bits_retain(0xFFFF);
 
-    /// The mask of SyncManager `n`'s interrupt bit (8 + n); 0 for `n >= 16`.
-    pub const fn sm_mask(n: u8) -> u32 {
+    /// The interrupt bit of SyncManager `n` (b8 + n); empty for `n >= 16`.
+    pub const fn sm(n: u8) -> Self {
         if n < 16 {
-            1 << (8 + n as u32)
+            Self::from_bits_retain(1 << (8 + n as u32))
         } else {
-            0
+            Self::empty()
         }
-    }
-
-    /// Wraps raw event bits.
-    pub const fn from_bits(bits: u32) -> Self {
-        Self(bits)
     }
 
     /// Builds the events from the little-endian MISO bytes of the address phase
     /// (0x0220, 0x0221 and, with 3-byte addressing, 0x0222).
     pub const fn from_le_bytes(b: [u8; 4]) -> Self {
-        Self(u32::from_le_bytes(b))
-    }
-
-    /// The raw bits (the layout of 0x0220).
-    pub const fn bits(self) -> u32 {
-        self.0
-    }
-
-    /// No event set.
-    pub const fn is_empty(self) -> bool {
-        self.0 == 0
-    }
-
-    /// All bits of a non-empty `mask` set (false for an empty mask).
-    pub const fn contains(self, mask: u32) -> bool {
-        self.0 & mask == mask && mask != 0
-    }
-
-    /// b0: AL control written.
-    pub const fn al_control(self) -> bool {
-        self.contains(Self::AL_CONTROL)
-    }
-
-    /// b1: DC latch event.
-    pub const fn dc_latch(self) -> bool {
-        self.contains(Self::DC_LATCH)
-    }
-
-    /// b2: SYNC0.
-    pub const fn sync0(self) -> bool {
-        self.contains(Self::SYNC0)
-    }
-
-    /// b3: SYNC1.
-    pub const fn sync1(self) -> bool {
-        self.contains(Self::SYNC1)
-    }
-
-    /// b4: SyncManager activation changed.
-    pub const fn sm_activation(self) -> bool {
-        self.contains(Self::SM_ACTIVATION)
-    }
-
-    /// b5: EEPROM emulation command.
-    pub const fn eeprom_emulation(self) -> bool {
-        self.contains(Self::EEPROM_EMULATION)
-    }
-
-    /// b6: process-data watchdog expired.
-    pub const fn watchdog(self) -> bool {
-        self.contains(Self::WATCHDOG)
-    }
-
-    /// b(8+n): SyncManager `n` interrupt (false for `n >= 16`).
-    pub const fn sm(self, n: u8) -> bool {
-        self.contains(Self::sm_mask(n))
+        Self::from_bits_retain(u32::from_le_bytes(b))
     }
 }
 
-impl From<AlEvents> for u32 {
-    fn from(e: AlEvents) -> Self {
-        e.0
-    }
-}
-
-impl From<u32> for AlEvents {
-    fn from(bits: u32) -> Self {
-        Self(bits)
+#[cfg(feature = "defmt")]
+impl defmt::Format for AlEvents {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "AlEvents({=u32:#x})", self.bits())
     }
 }
 
@@ -194,10 +145,17 @@ mod tests {
     #[test]
     fn events() {
         let e = AlEvents::from_le_bytes([0x51, 0x02, 0x00, 0x00]);
-        assert!(e.al_control() && e.sm_activation() && e.watchdog() && e.sm(1));
-        assert!(!e.sync0() && !e.sm(0) && !e.sm(16) && !e.dc_latch());
-        assert_eq!(AlEvents::sm_mask(16), 0);
-        assert!(!AlEvents::default().contains(0));
+        assert!(e.contains(AlEvents::AL_CONTROL | AlEvents::SM_ACTIVATION | AlEvents::WATCHDOG));
+        assert!(e.contains(AlEvents::SM1) && e.intersects(AlEvents::sm(1)));
+        assert!(!e.intersects(AlEvents::SYNC0 | AlEvents::SM0 | AlEvents::DC_LATCH));
+        assert_eq!(AlEvents::sm(2), AlEvents::SM2);
+        assert_eq!(AlEvents::sm(15).bits(), 1 << 23);
+        assert!(AlEvents::sm(16).is_empty());
+        // Reserved bits survive.
+        assert_eq!(
+            AlEvents::from_le_bytes([0x80, 0, 0, 0x01]).bits(),
+            0x0100_0080
+        );
     }
 
     #[test]

@@ -315,7 +315,8 @@ impl<P: Pdi> Et1100<P> {
 
     /// DC activation (0x0981).
     pub fn sync_activation(&mut self) -> Result<SyncActivation, Error<P::BusError>> {
-        self.read_u8(Register::DcActivation).map(SyncActivation)
+        self.read_u8(Register::DcActivation)
+            .map(SyncActivation::from_bits_retain)
     }
 
     /// SYNC0 cycle time in ns (0x09A0; 0 = single shot).

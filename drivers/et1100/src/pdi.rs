@@ -27,16 +27,12 @@ pub trait Pdi {
 
     /// Reads AL event bits 0..15 alone (0x0220/0x0221: AL control, DC, SYNC0/1, SM
     /// activation, EEPROM, watchdog, SM0..SM7, all the 8-SyncManager ET1100 has) in the
-    /// cheapest access the PDI offers; bits 16.. read as 0. The default masks
-    /// [`Pdi::events`].
+    /// cheapest access the PDI offers; bits 16.. read as 0 ([`AlEvents::LOW`]). The
+    /// default masks [`Pdi::events`].
     fn low_events(&mut self) -> Result<AlEvents, Error<Self::BusError>> {
-        self.events()
-            .map(|e| AlEvents::from_bits(e.bits() & LOW_EVENTS))
+        self.events().map(|e| e & AlEvents::LOW)
     }
 }
-
-/// AL event bits 0..15 (what a 2-byte SPI address phase shifts out).
-pub const LOW_EVENTS: u32 = 0xFFFF;
 
 impl<P: Pdi + ?Sized> Pdi for &mut P {
     type BusError = P::BusError;

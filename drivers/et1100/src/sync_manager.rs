@@ -54,8 +54,16 @@ pub struct SyncManager {
 impl SyncManager {
     /// Size of the register block.
     pub const SIZE: usize = 8;
+    /// Offset of the status byte.
+    pub const STATUS_OFFSET: u16 = 5;
+    /// Status b3: mailbox full.
+    pub const STATUS_MAILBOX_FULL: u8 = 0x08;
     /// Offset of the activate byte.
     pub const ACTIVATE_OFFSET: u16 = 6;
+    /// Activate b0: SyncManager enabled.
+    pub const ACTIVATE_ENABLE: u8 = 0x01;
+    /// Activate b1: repeat request (the master toggles it).
+    pub const ACTIVATE_REPEAT_REQUEST: u8 = 0x02;
     /// Offset of the PDI control byte.
     pub const PDI_CONTROL_OFFSET: u16 = 7;
     /// PDI control b0: deactivate the SyncManager.
@@ -144,7 +152,7 @@ impl SyncManager {
 
     /// Status b3: mailbox full.
     pub const fn mailbox_full(&self) -> bool {
-        self.status & 0x08 != 0
+        self.status & Self::STATUS_MAILBOX_FULL != 0
     }
 
     /// Status bits 5:4: last written buffer in 3-buffer mode (0..2; 3 = none written).
@@ -164,12 +172,12 @@ impl SyncManager {
 
     /// Activate b0: SyncManager enabled by the master.
     pub const fn enabled(&self) -> bool {
-        self.activate & 0x01 != 0
+        self.activate & Self::ACTIVATE_ENABLE != 0
     }
 
     /// Activate b1: repeat request (toggles on each request).
     pub const fn repeat_request(&self) -> bool {
-        self.activate & 0x02 != 0
+        self.activate & Self::ACTIVATE_REPEAT_REQUEST != 0
     }
 
     /// Activate b6: latch event ECAT.
@@ -200,7 +208,17 @@ impl SyncManager {
     /// The PDI control byte that acknowledges the pending repeat: b1 copied from activate b1,
     /// b0 (deactivate) kept, reserved bits 0.
     pub const fn repeat_ack_value(&self) -> u8 {
-        (self.pdi_control & Self::PDI_DEACTIVATE) | (self.activate & Self::PDI_REPEAT_ACK)
+        (self.pdi_control & Self::PDI_DEACTIVATE) | self.requested_repeat_ack()
+    }
+
+    /// Activate b1 moved to PDI control b1: the acknowledge that matches the master's
+    /// current repeat request (the other PDI control bits 0).
+    pub const fn requested_repeat_ack(&self) -> u8 {
+        if self.repeat_request() {
+            Self::PDI_REPEAT_ACK
+        } else {
+            0
+        }
     }
 }
 

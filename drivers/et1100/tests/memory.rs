@@ -1,6 +1,6 @@
 //! The memory-mapped PDI on a fake parallel bus that records every access.
 
-use et1100::{BusWidth, Error, Et1100, MemoryBus, MemoryPdi, Pdi, SyncManager};
+use et1100::{AlEvents, BusWidth, Error, Et1100, MemoryBus, MemoryPdi, Pdi, SyncManager};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Access {
@@ -78,7 +78,7 @@ fn sixteen_bit_bus_reads_events_then_data_without_touching_neighbours() {
     let mut buf = [0u8; 5];
     let ev = pdi.read(0x1001, &mut buf).unwrap();
     assert_eq!(buf, [1, 2, 3, 4, 5]);
-    assert!(ev.al_control() && ev.sm(2));
+    assert!(ev.contains(AlEvents::AL_CONTROL | AlEvents::SM2));
     let bus = pdi.destroy();
     assert_eq!(
         bus.log,

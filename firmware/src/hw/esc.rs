@@ -37,18 +37,18 @@ impl EscPort for EscPdi {
         if buf.is_empty() {
             return self.events();
         }
-        self.esc.read(addr, buf).map(u32::from)
+        self.esc.read(addr, buf).map(|e| e.bits())
     }
 
     fn write(&mut self, addr: u16, data: &[u8]) -> Result<u32, EscError> {
         if data.is_empty() {
             return self.events();
         }
-        self.esc.write(addr, data).map(u32::from)
+        self.esc.write(addr, data).map(|e| e.bits())
     }
 
     /// The NOP access (2 address bytes): AL event bits 0..15 (AL control, DC, SM0..SM7).
     fn events(&mut self) -> Result<u32, EscError> {
-        self.esc.events().map(u32::from)
+        self.esc.events().map(|e| e.bits())
     }
 }

@@ -11,16 +11,16 @@ where
     type Error = et1100::Error<P::BusError>;
 
     fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<u32, Self::Error> {
-        Et1100::read(self, addr, buf).map(u32::from)
+        Et1100::read(self, addr, buf).map(|e| e.bits())
     }
 
     fn write(&mut self, addr: u16, data: &[u8]) -> Result<u32, Self::Error> {
-        Et1100::write(self, addr, data).map(u32::from)
+        Et1100::write(self, addr, data).map(|e| e.bits())
     }
 
     fn events(&mut self) -> Result<u32, Self::Error> {
         // The application needs bits 0..11 only: the cheapest event access (SPI: 2 bytes).
-        Et1100::low_events(self).map(u32::from)
+        Et1100::low_events(self).map(|e| e.bits())
     }
 }
 
