@@ -6,11 +6,10 @@
 //! image is generated from it (`coe_core::sii`), and the ESI XML as well; change a value here
 //! and all of them follow.
 
-use crate::app::esc::SmExpect;
 use crate::app::mailbox::MAILBOX_SIZE;
 use crate::app::process_data::{Mapping, ProcessData, MAX_IMAGE, RX_PDOS, TX_PDOS};
 use crate::app::sync::MIN_CYCLE_TIME_NS;
-use crate::app::AppConfig;
+use crate::app::{AppConfig, SmExpect};
 use crate::od::{self, OD};
 use coe_core::device::{
     CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity, MailboxDesc,

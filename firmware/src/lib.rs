@@ -11,4 +11,6 @@ extern crate std;
 
 pub mod app;
 pub mod device;
+#[cfg(any(test, feature = "fake-esc"))]
+pub mod fake_esc;
 pub mod od;

@@ -41,7 +41,7 @@ mod rtic_app {
     use crate::hw;
     use crate::hw::adc::{AdcFront, AdcSource};
     use crate::hw::dac::Dac;
-    use crate::hw::esc::EscPdi;
+    use crate::hw::esc::Esc;
     use crate::hw::gpio::InPin;
     use crate::hw::gpio_irq::EscIrq;
     use crate::hw::timers::{Sync0Capture, Timer1Event};
@@ -78,7 +78,7 @@ mod rtic_app {
         dac: Dac,
         latch: DacLatch,
         stage_dac: &'static OutputStage,
-        esc: EscPdi,
+        esc: Esc,
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
         pdi: &'static mut PdiSide,

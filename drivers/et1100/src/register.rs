@@ -1,15 +1,30 @@
 //! ESC register addresses (Beckhoff ESC datasheet section II, "Register description";
 //! hardware-facts sections 1.1, 1.3-1.5).
 
-/// An ESC register address as seen from the PDI.
-///
-/// Indexed blocks (FMMU, SyncManager) have their first instance here; use
-/// [`Register::fmmu`] and [`Register::sync_manager`] for the others.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u16)]
-#[non_exhaustive]
-pub enum Register {
+/// Defines [`Register`] and [`Register::ALL`] from one list, so the list of every register
+/// cannot miss one.
+macro_rules! registers {
+    ($($(#[$doc:meta])* $name:ident = $addr:expr,)*) => {
+        /// An ESC register address as seen from the PDI.
+        ///
+        /// Indexed blocks (FMMU, SyncManager) have their first instance here; use
+        /// [`Register::fmmu`] and [`Register::sync_manager`] for the others.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        #[repr(u16)]
+        #[non_exhaustive]
+        pub enum Register {
+            $($(#[$doc])* $name = $addr,)*
+        }
+
+        impl Register {
+            /// Every register, in address order.
+            pub const ALL: &'static [Register] = &[$(Register::$name,)*];
+        }
+    };
+}
+
+registers! {
     /// ESC type (u8), ESC-II 2.1.1: 0x11 = ET1100, 0x12 = ET1200.
     Type = 0x0000,
     /// ESC revision (u8), ESC-II 2.1.2.
@@ -120,6 +135,12 @@ impl Register {
         self as u16
     }
 
+    /// The register at `addr` (the first byte of a register, or of the first FMMU or
+    /// SyncManager block), if it is one of [`Register::ALL`].
+    pub fn from_addr(addr: u16) -> Option<Self> {
+        Self::ALL.iter().copied().find(|r| r.addr() == addr)
+    }
+
     /// The address of FMMU `n` (16 bytes), or `None` for `n >= 16`.
     pub const fn fmmu(n: u8) -> Option<u16> {
         if n < Self::FMMU_COUNT {
@@ -158,5 +179,14 @@ mod tests {
         assert_eq!(Register::fmmu(2), Some(0x0620));
         assert_eq!(Register::fmmu(16), None);
         assert_eq!(u16::from(Register::AlStatusCode), 0x0134);
+    }
+
+    #[test]
+    fn all_registers_in_address_order() {
+        assert!(Register::ALL.windows(2).all(|w| w[0].addr() < w[1].addr()));
+        assert_eq!(Register::from_addr(0x0220), Some(Register::AlEventRequest));
+        assert_eq!(Register::from_addr(0x0808), None);
+        assert_eq!(Register::ALL.first(), Some(&Register::Type));
+        assert_eq!(Register::ALL.last(), Some(&Register::ProcessRam));
     }
 }

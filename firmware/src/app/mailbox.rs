@@ -32,11 +32,12 @@
 //!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
 //!   catches anything the events missed.
 
-use super::esc::{event, EscExt, EscPort, SmConfig};
+use super::EscResult;
 use coe_core::mailbox::MAILBOX_HEADER_LEN;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
 use coe_core::AlState;
+use et1100::{AlEvents, Et1100, Pdi, SyncManager};
 
 /// Mailbox size (SM0 and SM1 length) the firmware is built for.
 pub const MAILBOX_SIZE: usize = 128;
@@ -72,7 +73,7 @@ pub enum Service {
     },
     /// From these AL event bits, just seen, and the registers as last read (falls back to
     /// [`Service::Registers`] if they were never read).
-    Events(u32),
+    Events(AlEvents),
 }
 
 /// Mailbox service state.
@@ -82,7 +83,7 @@ pub struct MailboxLink {
     pending: usize,
     blocked: bool,
     sm1_busy: bool,
-    registers: Option<(SmConfig, SmConfig)>,
+    registers: Option<(SyncManager, SyncManager)>,
     replies: u32,
     repeats: u32,
 }
@@ -135,11 +136,11 @@ impl MailboxLink {
 
     /// The mailbox AL event bits to enable: SM0 while no reply waits, SM1 while one does
     /// or while a request waits in SM0 for SM1 to be read, or other frames wait for SM1.
-    pub fn event_mask(&self) -> u32 {
+    pub fn event_mask(&self) -> AlEvents {
         if self.pending != 0 || self.blocked || (self.sm1_busy && self.has_outgoing()) {
-            event::sm(1)
+            AlEvents::SM1
         } else {
-            event::sm(0)
+            AlEvents::SM0
         }
     }
 
@@ -158,11 +159,11 @@ impl MailboxLink {
     /// has work: a request in SM0 (bit 8) or a frame to send, with SM1 free (bit 9 seen
     /// since the last write, or never written). A request that must wait for SM1 sets the
     /// SM1 event mask ([`Self::event_mask`]).
-    pub fn needs_service(&mut self, events: u32) -> bool {
-        if events & event::sm(1) != 0 {
+    pub fn needs_service(&mut self, events: AlEvents) -> bool {
+        if events.contains(AlEvents::SM1) {
             self.sm1_busy = false;
         }
-        let request = events & event::sm(0) != 0;
+        let request = events.contains(AlEvents::SM0);
         if self.sm1_busy {
             if request && self.pending == 0 {
                 self.blocked = true;
@@ -189,26 +190,26 @@ impl MailboxLink {
     /// moment, which empties its buffer. The repeat acknowledge (SM1 PDI control b1) is set
     /// to SM1's repeat request bit: the master may have rewritten the SyncManager with
     /// another toggle state, and the difference is not a repeat request.
-    pub fn start<E: EscPort + ?Sized>(
+    pub fn start<P: Pdi>(
         &mut self,
-        esc: &mut E,
-        sm0: SmConfig,
-        sm1: SmConfig,
-    ) -> Result<(), E::Error> {
+        esc: &mut Et1100<P>,
+        sm0: SyncManager,
+        sm1: SyncManager,
+    ) -> EscResult<(), P> {
         if sm0.mailbox_full() {
-            esc.set_sm_pdi_control(0, SmConfig::PDI_DEACTIVATE)?;
-            esc.set_sm_pdi_control(0, 0)?;
+            esc.sm_pdi_control(0, SyncManager::PDI_DEACTIVATE)?;
+            esc.sm_pdi_control(0, 0)?;
         }
-        let ack = sm1.activate & SmConfig::REPEAT;
+        let ack = sm1.requested_repeat_ack();
         if sm1.mailbox_full() {
-            esc.set_sm_pdi_control(1, ack | SmConfig::PDI_DEACTIVATE)?;
+            esc.sm_pdi_control(1, ack | SyncManager::PDI_DEACTIVATE)?;
         }
-        if sm1.mailbox_full() || sm1.pdi_control & SmConfig::REPEAT != ack {
-            esc.set_sm_pdi_control(1, ack)?;
+        if sm1.mailbox_full() || sm1.pdi_control & SyncManager::PDI_REPEAT_ACK != ack {
+            esc.sm_pdi_control(1, ack)?;
         }
-        let empty = |sm: SmConfig| SmConfig {
-            status: sm.status & !SmConfig::STATUS_MAILBOX_FULL,
-            pdi_control: sm.pdi_control & !SmConfig::REPEAT | ack,
+        let empty = |sm: SyncManager| SyncManager {
+            status: sm.status & !SyncManager::STATUS_MAILBOX_FULL,
+            pdi_control: sm.pdi_control & !SyncManager::PDI_REPEAT_ACK | ack,
             ..sm
         };
         self.registers = Some((empty(sm0), empty(sm1)));
@@ -221,31 +222,31 @@ impl MailboxLink {
     /// Serves the mailbox: repeat request (if asked), waiting reply, a new request if SM0 is
     /// full, then the server's pending work. At most one request per call.
     #[allow(clippy::too_many_arguments)]
-    pub fn service<E: EscPort + ?Sized, A: ObjectAccess + ?Sized>(
+    pub fn service<P: Pdi, A: ObjectAccess + ?Sized>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         state: AlState,
         od: &ObjectDictionary,
         app: &mut A,
         now_ms: u32,
         how: Service,
-    ) -> Result<(), E::Error> {
+    ) -> EscResult<(), P> {
         if state == AlState::Init {
             return Ok(());
         }
         let (sm0, sm1, mut sm1_full, sm0_full) = match (how, self.registers) {
             (Service::Events(events), Some((sm0, sm1))) => {
-                let request = events & event::sm(0) != 0 || self.blocked;
+                let request = events.contains(AlEvents::SM0) || self.blocked;
                 (sm0, sm1, self.sm1_busy, request)
             }
             (how, _) => {
-                let sm1 = esc.sm(1)?;
+                let sm1 = esc.read_sm(1)?;
                 let check_repeat = how == Service::Registers { check_repeat: true };
-                if check_repeat && sm1.repeat_request() != sm1.repeat_ack() {
+                if check_repeat && sm1.repeat_requested() {
                     self.repeat(esc, &sm1)?;
                     return Ok(());
                 }
-                let sm0 = esc.sm(0)?;
+                let sm0 = esc.read_sm(0)?;
                 self.registers = Some((sm0, sm1));
                 (sm0, sm1, sm1.mailbox_full(), sm0.mailbox_full())
             }
@@ -261,11 +262,11 @@ impl MailboxLink {
         }
         if !sm1_full {
             if sm0_full && sm0.enabled() {
-                let len = usize::from(sm0.len).min(MAILBOX_SIZE);
+                let len = usize::from(sm0.length).min(MAILBOX_SIZE);
                 let mut request = [0u8; MAILBOX_SIZE];
                 let req = request.get_mut(..len).unwrap_or(&mut []);
                 read_request(esc, sm0.start, req)?;
-                let reply_len = usize::from(sm1.len).min(MAILBOX_SIZE);
+                let reply_len = usize::from(sm1.length).min(MAILBOX_SIZE);
                 self.buf = [0; MAILBOX_SIZE];
                 let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
                 if let Reply::Frame(n) = self.server.process(req, state, od, app, now_ms, out) {
@@ -282,13 +283,13 @@ impl MailboxLink {
         Ok(())
     }
 
-    fn send_background<E: EscPort + ?Sized>(
+    fn send_background<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         od: &ObjectDictionary,
-        sm1: &SmConfig,
-    ) -> Result<(), E::Error> {
-        let reply_len = usize::from(sm1.len).min(MAILBOX_SIZE);
+        sm1: &SyncManager,
+    ) -> EscResult<(), P> {
+        let reply_len = usize::from(sm1.length).min(MAILBOX_SIZE);
         self.buf = [0; MAILBOX_SIZE];
         let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
         if let Reply::Frame(n) = self.server.poll(od, out) {
@@ -299,8 +300,8 @@ impl MailboxLink {
     }
 
     /// Writes the waiting reply as the whole SM1 buffer.
-    fn flush<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
-        let len = usize::from(sm1.len).min(MAILBOX_SIZE);
+    fn flush<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> EscResult<(), P> {
+        let len = usize::from(sm1.length).min(MAILBOX_SIZE);
         let frame = self.buf.get(..len).unwrap_or(&[]);
         write_frame(esc, sm1.start, frame, self.pending)?;
         self.pending = 0;
@@ -309,16 +310,16 @@ impl MailboxLink {
         Ok(())
     }
 
-    fn repeat<E: EscPort + ?Sized>(&mut self, esc: &mut E, sm1: &SmConfig) -> Result<(), E::Error> {
-        let ack = sm1.pdi_control & SmConfig::REPEAT;
+    fn repeat<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> EscResult<(), P> {
+        let ack = sm1.pdi_control & SyncManager::PDI_REPEAT_ACK;
         // Empty now, or emptied below.
         self.sm1_busy = false;
         if sm1.mailbox_full() {
             // Empty SM1 by deactivating it from the PDI side, then activate it again.
-            esc.set_sm_pdi_control(1, ack | SmConfig::PDI_DEACTIVATE)?;
-            esc.set_sm_pdi_control(1, ack)?;
+            esc.sm_pdi_control(1, ack | SyncManager::PDI_DEACTIVATE)?;
+            esc.sm_pdi_control(1, ack)?;
         }
-        let len = usize::from(sm1.len).min(MAILBOX_SIZE);
+        let len = usize::from(sm1.length).min(MAILBOX_SIZE);
         let mut frame = [0u8; MAILBOX_SIZE];
         let out = frame.get_mut(..len).unwrap_or(&mut []);
         if let Some(n) = self.server.repeat(out).frame_len() {
@@ -326,8 +327,7 @@ impl MailboxLink {
             self.sm1_busy = true;
             self.replies = self.replies.wrapping_add(1);
         }
-        let requested = sm1.activate & SmConfig::REPEAT;
-        esc.set_sm_pdi_control(1, requested)?;
+        esc.sm_pdi_control(1, sm1.requested_repeat_ack())?;
         self.repeats = self.repeats.wrapping_add(1);
         Ok(())
     }
@@ -337,11 +337,7 @@ impl MailboxLink {
 /// then the rest of the header's length if it is longer, then the last byte, which frees the
 /// buffer. Bytes beyond the header's length (not read) are left as they are in `req`;
 /// whole-buffer reads when the frame fills it anyway.
-pub fn read_request<E: EscPort + ?Sized>(
-    esc: &mut E,
-    start: u16,
-    req: &mut [u8],
-) -> Result<(), E::Error> {
+pub fn read_request<P: Pdi>(esc: &mut Et1100<P>, start: u16, req: &mut [u8]) -> EscResult<(), P> {
     let len = req.len();
     if len <= FIRST_READ + 1 {
         return esc.read(start, req).map(drop);
@@ -365,12 +361,12 @@ pub fn read_request<E: EscPort + ?Sized>(
 
 /// Writes the first `n` bytes of `frame` (a whole SM1 buffer) at `start`, then its last
 /// byte, which marks the mailbox full; one access when the frame fills the buffer anyway.
-pub fn write_frame<E: EscPort + ?Sized>(
-    esc: &mut E,
+pub fn write_frame<P: Pdi>(
+    esc: &mut Et1100<P>,
     start: u16,
     frame: &[u8],
     n: usize,
-) -> Result<(), E::Error> {
+) -> EscResult<(), P> {
     let len = frame.len();
     let n = n.max(1);
     if n + 1 >= len {
@@ -387,7 +383,7 @@ pub fn write_frame<E: EscPort + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::esc::fake::FakeEsc;
+    use crate::fake_esc::FakeEsc;
 
     const OUT: u16 = 0x1000;
     const IN: u16 = 0x1080;
@@ -414,7 +410,7 @@ mod tests {
         assert!(esc.master_write_mailbox(f));
         let reads = esc.reads;
         let mut req = [0u8; MAILBOX_SIZE];
-        read_request(esc, OUT, &mut req).unwrap();
+        read_request(&mut esc.driver(), OUT, &mut req).unwrap();
         assert!(
             !FakeEsc::sm(esc, 0).mailbox_full(),
             "the last byte frees SM0"
@@ -457,15 +453,17 @@ mod tests {
         let mut esc = esc();
         // SM1 holds an unread reply and its repeat acknowledge is 1 from an earlier repeat;
         // the master has rewritten SM1 with repeat request 0; SM0 holds an unread request.
-        write_frame(&mut esc, IN, &frame(10, 10), 16).unwrap();
+        write_frame(&mut esc.driver(), IN, &frame(10, 10), 16).unwrap();
         assert!(esc.master_write_mailbox(&frame(10, 10)));
-        esc.set_sm_pdi_control(1, SmConfig::REPEAT).unwrap();
+        esc.driver()
+            .sm_pdi_control(1, SyncManager::PDI_REPEAT_ACK)
+            .unwrap();
         let (sm0, sm1) = (esc.sm(0), esc.sm(1));
         assert!(sm0.mailbox_full() && sm1.mailbox_full());
         assert_eq!((sm1.repeat_request(), sm1.repeat_ack()), (false, true));
 
         let mut link = MailboxLink::new();
-        link.start(&mut esc, sm0, sm1).unwrap();
+        link.start(&mut esc.driver(), sm0, sm1).unwrap();
         let (sm0, sm1) = (esc.sm(0), esc.sm(1));
         assert!(
             !sm0.mailbox_full(),
@@ -477,12 +475,12 @@ mod tests {
             "the acknowledge follows SM1's repeat request"
         );
         assert_eq!(
-            sm0.pdi_control & SmConfig::PDI_DEACTIVATE,
+            sm0.pdi_control & SyncManager::PDI_DEACTIVATE,
             0,
             "SM0 active again"
         );
         assert_eq!(
-            sm1.pdi_control & SmConfig::PDI_DEACTIVATE,
+            sm1.pdi_control & SyncManager::PDI_DEACTIVATE,
             0,
             "SM1 active again"
         );
@@ -490,7 +488,7 @@ mod tests {
 
         // Nothing to do when both are empty and the toggle states agree.
         let writes = esc.writes;
-        link.start(&mut esc, sm0, sm1).unwrap();
+        link.start(&mut esc.driver(), sm0, sm1).unwrap();
         assert_eq!(esc.writes, writes);
     }
 
@@ -500,7 +498,7 @@ mod tests {
         esc.master_sm(0, OUT, 17, 0x26, true);
         assert!(esc.master_write_mailbox(&frame(10, 10)[..17]));
         let mut req = [0u8; 17];
-        read_request(&mut esc, OUT, &mut req).unwrap();
+        read_request(&mut esc.driver(), OUT, &mut req).unwrap();
         assert_eq!(esc.reads, 1);
         assert!(!esc.sm(0).mailbox_full());
         assert_eq!(req[..], frame(10, 10)[..17]);
@@ -510,18 +508,18 @@ mod tests {
     fn frames_are_written_with_their_length_then_the_last_byte() {
         let mut esc = esc();
         let f = frame(10, 10);
-        write_frame(&mut esc, IN, &f, 16).unwrap();
+        write_frame(&mut esc.driver(), IN, &f, 16).unwrap();
         assert_eq!(esc.writes, 2);
         assert!(esc.sm(1).mailbox_full(), "the last byte marks SM1 full");
         let got = esc.master_read_mailbox().unwrap();
         assert_eq!(got[..16], f[..16]);
         assert_eq!(got[127], f[127]);
         // A frame that fills the buffer: one access.
-        write_frame(&mut esc, IN, &f, 127).unwrap();
+        write_frame(&mut esc.driver(), IN, &f, 127).unwrap();
         assert_eq!(esc.writes, 3);
         assert_eq!(esc.master_read_mailbox().unwrap(), f);
         // A zero length still marks the buffer full.
-        write_frame(&mut esc, IN, &f, 0).unwrap();
+        write_frame(&mut esc.driver(), IN, &f, 0).unwrap();
         assert!(esc.sm(1).mailbox_full());
     }
 }

@@ -43,7 +43,6 @@ pub mod adc_scan;
 pub mod dac;
 pub mod diagnostics;
 pub mod div;
-pub mod esc;
 pub mod mailbox;
 pub mod objects;
 pub mod outputs;
@@ -57,13 +56,14 @@ pub mod timebase;
 #[cfg(test)]
 mod tests;
 
+use coe_core::device::sm_control;
 use coe_core::esm::{Esm, Transition};
 use coe_core::od::ObjectDictionary;
 use coe_core::{AlState, AlStatusCode};
 use diagnostics::{
     EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
 };
-use esc::{event, reg, EscExt, EscPort, SmConfig, SmExpect};
+use et1100::{AlEvents, AlStatus, Et1100, Pdi, Register, SmMode, SyncManager, WatchdogStatus};
 use mailbox::{MailboxLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
 use objects::AppData;
 use outputs::OutputStage;
@@ -71,6 +71,22 @@ pub use outputs::{DacAction, DacLatch, DacPair};
 use process_data::{ProcessData, SlotValues};
 use sampler::{Sample, Sampler};
 use sync::{check_sync, SyncInputs, SyncMode, SyncVerdict};
+
+/// The result of an ESC access through the `et1100` driver on the PDI `P`.
+pub type EscResult<T, P> = Result<T, et1100::Error<<P as Pdi>::BusError>>;
+
+/// What the application expects of a SyncManager (from the device description).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SmExpect {
+    /// Start address.
+    pub start: u16,
+    /// Length (mailboxes; the process-data lengths follow the PDO configuration).
+    pub len: u16,
+    /// Control byte; compared on the mode and direction bits (and for mailboxes the whole
+    /// byte except the ECAT IRQ bit 4, which masters choose freely).
+    pub control: u8,
+}
 
 /// What the device description fixes for the application.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -91,7 +107,9 @@ pub struct PdiOutcome {
 }
 
 /// AL event bits always enabled.
-const BASE_EVENTS: u32 = event::AL_CONTROL | event::SM_ACTIVATION | event::WATCHDOG;
+const BASE_EVENTS: AlEvents = AlEvents::AL_CONTROL
+    .union(AlEvents::SM_ACTIVATION)
+    .union(AlEvents::WATCHDOG);
 
 /// The slave application (PDI side).
 pub struct SlaveApp {
@@ -99,7 +117,7 @@ pub struct SlaveApp {
     mailbox: MailboxLink,
     data: AppData,
     config: AppConfig,
-    mask: Option<u32>,
+    mask: Option<AlEvents>,
     sync0_seen: u32,
     /// Time of the next unconditional mailbox service (ns).
     mailbox_check_ns: u64,
@@ -154,7 +172,7 @@ impl SlaveApp {
     }
 
     /// Power-up: AL status INIT without error, event mask.
-    pub fn start<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+    pub fn start<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<(), P> {
         self.write_status(esc)?;
         self.update_mask(esc)
     }
@@ -162,15 +180,20 @@ impl SlaveApp {
     /// The ESC IRQ: reads the AL event bits once and serves AL control, watchdog, outputs
     /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1) when its
     /// event bits say it has work ([`MailboxLink::needs_service`]).
-    pub fn on_pdi_irq<E: EscPort + ?Sized>(
+    ///
+    /// The event bits come from [`Pdi::low_events`]: on the SPI PDI a NOP with 2 address
+    /// bytes, which shifts out 0x0220/0x0221 (AL control .. SM7). The 3-byte NOP would add
+    /// 0x0222 (SyncManagers 8..15), which the ET1100 does not have, for one more byte on the
+    /// bus in every cycle.
+    pub fn on_pdi_irq<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
-    ) -> Result<PdiOutcome, E::Error> {
-        let events = esc.events()?;
+    ) -> EscResult<PdiOutcome, P> {
+        let events = esc.low_events()?;
         let mut out = PdiOutcome::default();
-        if events & event::AL_CONTROL != 0 {
+        if events.contains(AlEvents::AL_CONTROL) {
             let from = self.esm.state();
             self.al_control(esc, stage, &mut out)?;
             if from == AlState::Init && self.esm.state() == AlState::PreOp {
@@ -178,17 +201,17 @@ impl SlaveApp {
                 self.arm_mailbox_check(now_ns);
             }
         }
-        if events & event::WATCHDOG != 0 {
+        if events.contains(AlEvents::WATCHDOG) {
             self.watchdog(esc, stage, &mut out)?;
         }
-        if events & event::sm(2) != 0 {
+        if events.contains(AlEvents::SM2) {
             self.outputs(esc, stage, now_ns, &mut out)?;
         }
-        let activation = events & event::SM_ACTIVATION != 0;
+        let activation = events.contains(AlEvents::SM_ACTIVATION);
         if activation {
-            // Reading the activate registers clears the event.
-            let mut all = [0u8; 32];
-            esc.read(reg::SM_BASE, &mut all)?;
+            // Reading the activate registers (SM0..SM3 in one access) clears the event.
+            let mut all = [0u8; 4 * SyncManager::SIZE];
+            esc.read(Register::SyncManager0.addr(), &mut all)?;
         }
         let mailbox_work = self.esm.state() != AlState::Init && self.mailbox.needs_service(events);
         if activation {
@@ -205,12 +228,12 @@ impl SlaveApp {
     /// inputs outside SM-synchronous cycles, and the mailbox (waiting reply, SDO
     /// Information fragments, Emergencies) when the event bits of the inputs write or the
     /// waiting work call for it, else every [`SAFETY_SERVICE_MS`].
-    pub fn poll<E: EscPort + ?Sized>(
+    pub fn poll<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
-    ) -> Result<PdiOutcome, E::Error> {
+    ) -> EscResult<PdiOutcome, P> {
         let mut out = PdiOutcome::default();
         let state = self.esm.state();
         let counts = stage.sync0_counts();
@@ -235,9 +258,9 @@ impl SlaveApp {
                 None if now_ns >= self.event_sample_ns => {
                     self.event_sample_ns =
                         now_ns.saturating_add(u64::from(EVENT_SAMPLE_MS) * 1_000_000);
-                    esc.events()?
+                    esc.low_events()?
                 }
-                None => 0,
+                None => AlEvents::empty(),
             };
             let work = self.mailbox.needs_service(events);
             if now_ns >= self.mailbox_check_ns {
@@ -255,11 +278,11 @@ impl SlaveApp {
 
     // ------------------------------------------------------------------ ESM
 
-    fn write_status<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
-        esc.write_al_status(self.esm.status(), self.esm.status_code_word())
+    fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<(), P> {
+        esc.write_al_status(AlStatus(self.esm.status()), self.esm.status_code_word())
     }
 
-    fn update_mask<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<(), E::Error> {
+    fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<(), P> {
         let mut mask = BASE_EVENTS;
         let state = self.esm.state();
         if state != AlState::Init {
@@ -267,22 +290,22 @@ impl SlaveApp {
         }
         if matches!(state, AlState::SafeOp | AlState::Op) && self.data.pd.rx_layout().byte_len() > 0
         {
-            mask |= event::sm(2);
+            mask |= AlEvents::SM2;
         }
         if self.mask != Some(mask) {
-            esc.write(reg::AL_EVENT_MASK, &mask.to_le_bytes())?;
+            esc.set_event_mask(mask.bits())?;
             self.mask = Some(mask);
         }
         Ok(())
     }
 
-    fn al_control<E: EscPort + ?Sized>(
+    fn al_control<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         out: &mut PdiOutcome,
-    ) -> Result<(), E::Error> {
-        let control = esc.read_u16(reg::AL_CONTROL)?;
+    ) -> EscResult<(), P> {
+        let control = esc.read_al_control()?.0;
         let had_error = self.esm.error();
         let decision = self.esm.request(control);
         if had_error && !self.esm.error() {
@@ -301,14 +324,14 @@ impl SlaveApp {
     }
 
     /// Checks and actions of `from -> to`; `Err((state, code))` refuses it.
-    fn transition<E: EscPort + ?Sized>(
+    fn transition<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         from: AlState,
         to: AlState,
         out: &mut PdiOutcome,
-    ) -> Result<Result<(), (AlState, AlStatusCode)>, E::Error> {
+    ) -> EscResult<Result<(), (AlState, AlStatusCode)>, P> {
         if from == AlState::Op {
             // Leaving OP: safe outputs at once, stale outputs never come back.
             self.data.outputs.enter_fault(stage);
@@ -317,9 +340,9 @@ impl SlaveApp {
         }
         match (from, to) {
             (AlState::Init, AlState::PreOp) => {
-                let mut regs = [SmConfig::default(); 2];
+                let mut regs = [SyncManager::default(); 2];
                 for (n, slot) in (0..2u8).zip(regs.iter_mut()) {
-                    let sm = esc.sm(n)?;
+                    let sm = esc.read_sm(n)?;
                     let expect = self.config.sm.get(usize::from(n)).copied();
                     if !expect.is_some_and(|e| mailbox_sm_ok(&sm, &e)) {
                         return Ok(Err((
@@ -350,15 +373,15 @@ impl SlaveApp {
         Ok(Ok(()))
     }
 
-    fn prepare_safeop<E: EscPort + ?Sized>(
+    fn prepare_safeop<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
-    ) -> Result<Result<(), AlStatusCode>, E::Error> {
-        let sm2 = esc.sm(2)?;
-        let sm3 = esc.sm(3)?;
-        let dc_activation = esc.read_u8(reg::DC_ACTIVATION)?;
-        let sync0_cycle_ns = esc.read_u32(reg::DC_SYNC0_CYCLE)?;
+    ) -> EscResult<Result<(), AlStatusCode>, P> {
+        let sm2 = esc.read_sm(2)?;
+        let sm3 = esc.read_sm(3)?;
+        let dc_activation = esc.sync_activation()?;
+        let sync0_cycle_ns = esc.sync0_cycle_ns()?;
         let (requested, requested_inputs) = self.data.sync.requests();
         let inputs = SyncInputs {
             requested,
@@ -366,7 +389,7 @@ impl SlaveApp {
             dc_activation,
             sync0_cycle_ns,
             has_outputs: self.data.pd.output_len() > 0,
-            sm2_three_buffer: sm2.three_buffer(),
+            sm2_three_buffer: sm2.mode() == SmMode::Buffered,
         };
         let mode = match check_sync(&inputs) {
             Ok(mode) => mode,
@@ -386,14 +409,14 @@ impl SlaveApp {
 
     // ------------------------------------------------------------ faults
 
-    fn watchdog<E: EscPort + ?Sized>(
+    fn watchdog<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         out: &mut PdiOutcome,
-    ) -> Result<(), E::Error> {
-        let status = esc.read_u16(reg::WD_STATUS_PD)?;
-        if status & 1 == 0 && self.esm.state() == AlState::Op {
+    ) -> EscResult<(), P> {
+        let status = esc.watchdog_status()?;
+        if status == WatchdogStatus::Expired && self.esm.state() == AlState::Op {
             self.local_error(esc, stage, AlStatusCode::SyncManagerWatchdog, out)?;
             let e = self
                 .data
@@ -404,12 +427,12 @@ impl SlaveApp {
         Ok(())
     }
 
-    fn sync_error<E: EscPort + ?Sized>(
+    fn sync_error<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         out: &mut PdiOutcome,
-    ) -> Result<(), E::Error> {
+    ) -> EscResult<(), P> {
         let counter = self.data.sync.error_counter().to_le_bytes();
         let e = self.data.diag.raise(
             ERR_COMMUNICATION,
@@ -424,13 +447,13 @@ impl SlaveApp {
     }
 
     /// OP -> SAFEOP with `code`, fault outputs.
-    fn local_error<E: EscPort + ?Sized>(
+    fn local_error<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         code: AlStatusCode,
         out: &mut PdiOutcome,
-    ) -> Result<(), E::Error> {
+    ) -> EscResult<(), P> {
         let from = self.esm.state();
         self.data.outputs.enter_fault(stage);
         self.data.sync.disarm();
@@ -442,13 +465,13 @@ impl SlaveApp {
 
     // ------------------------------------------------------------ process data
 
-    fn outputs<E: EscPort + ?Sized>(
+    fn outputs<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
         out: &mut PdiOutcome,
-    ) -> Result<(), E::Error> {
+    ) -> EscResult<(), P> {
         let state = self.esm.state();
         if !matches!(state, AlState::SafeOp | AlState::Op) {
             return Ok(());
@@ -458,7 +481,7 @@ impl SlaveApp {
         if image.is_empty() {
             return Ok(());
         }
-        esc.read(start, image)?;
+        esc.read_process_data(start, image)?;
         let in_op = state == AlState::Op;
         let verdict = self
             .data
@@ -505,7 +528,7 @@ impl SlaveApp {
 
     /// Publishes the samples of the cycle and writes them to SM3; returns the AL event bits
     /// of the write (`None` if nothing was written).
-    fn write_inputs<E: EscPort + ?Sized>(&mut self, esc: &mut E) -> Result<Option<u32>, E::Error> {
+    fn write_inputs<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<Option<AlEvents>, P> {
         self.data.sampler.publish();
         let values = SlotValues {
             ai: self.data.sampler.values(),
@@ -515,7 +538,7 @@ impl SlaveApp {
         let start = self.config.sm[3].start;
         if let Ok(image) = self.data.pd.pack_values(&values) {
             if !image.is_empty() {
-                return esc.write(start, image).map(Some);
+                return esc.write_process_data(start, image).map(Some);
             }
         }
         Ok(None)
@@ -529,14 +552,14 @@ impl SlaveApp {
         self.mailbox_check_ns = now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
     }
 
-    fn serve_mailbox<E: EscPort + ?Sized>(
+    fn serve_mailbox<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
         how: Service,
         out: &mut PdiOutcome,
-    ) -> Result<(), E::Error> {
+    ) -> EscResult<(), P> {
         let state = self.esm.state();
         let od = self.data.od();
         if matches!(how, Service::Registers { .. }) {
@@ -559,9 +582,9 @@ impl SlaveApp {
 
 /// A mailbox SyncManager against the device description: enabled, same start and length,
 /// same control byte apart from the ECAT IRQ bit (b4), which masters set as they like.
-fn mailbox_sm_ok(sm: &SmConfig, expect: &SmExpect) -> bool {
+fn mailbox_sm_ok(sm: &SyncManager, expect: &SmExpect) -> bool {
     sm.enabled()
         && sm.start == expect.start
-        && sm.len == expect.len
-        && (sm.control & !0x10) == (expect.control & !0x10)
+        && sm.length == expect.len
+        && (sm.control & !sm_control::ECAT_IRQ) == (expect.control & !sm_control::ECAT_IRQ)
 }

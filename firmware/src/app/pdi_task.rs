@@ -12,9 +12,9 @@
 //! retried on every activation until then, so a slow or late EEPROM load does not leave the
 //! module silent.
 
-use super::esc::EscPort;
 use super::outputs::{OutputStage, StageKind};
 use super::SlaveApp;
+use et1100::{Et1100, Pdi};
 
 /// Self-pends in a row while the IRQ line stays asserted after serving.
 pub const MAX_REPENDS: u8 = 16;
@@ -134,7 +134,7 @@ impl PdiTask {
 
     /// Starts the application if the PDI is ready and it has not started yet; `true` once
     /// started.
-    pub fn start<E: EscPort + ?Sized>(&mut self, esc: &mut E, pdi_ready: bool) -> bool {
+    pub fn start<P: Pdi>(&mut self, esc: &mut Et1100<P>, pdi_ready: bool) -> bool {
         if !self.started && pdi_ready {
             match self.app.start(esc) {
                 Ok(()) => self.started = true,
@@ -145,9 +145,9 @@ impl PdiTask {
     }
 
     /// One activation. `still_asserted` reads the line after the work is done.
-    pub fn run<E: EscPort + ?Sized>(
+    pub fn run<P: Pdi>(
         &mut self,
-        esc: &mut E,
+        esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
         wake: Wake,
@@ -189,12 +189,12 @@ impl PdiTask {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::esc::fake::FakeEsc;
-    use crate::app::esc::{event, reg};
     use crate::app::{DacLatch, DacPair};
     use crate::device::{app_config, process_data};
+    use crate::fake_esc::FakeEsc;
     use crate::od::OD;
     use coe_core::AlState;
+    use et1100::AlEvents;
 
     fn task() -> (PdiTask, FakeEsc, OutputStage) {
         let app = SlaveApp::new(&OD, app_config(), process_data());
@@ -220,11 +220,6 @@ mod tests {
         for (n, sm) in app_config().sm.iter().take(2).enumerate() {
             esc.master_sm(n as u8, sm.start, sm.len, sm.control, true);
         }
-    }
-
-    fn mask(esc: &FakeEsc) -> u32 {
-        let a = usize::from(reg::AL_EVENT_MASK);
-        u32::from_le_bytes(esc.mem[a..a + 4].try_into().unwrap())
     }
 
     #[test]
@@ -262,24 +257,27 @@ mod tests {
             pdi_ready: false,
             ..EDGE
         };
-        let done = t.run(&mut esc, &stage, 0, wake, || true);
+        let done = t.run(&mut esc.driver(), &stage, 0, wake, || true);
         assert_eq!(done, Done::default());
         assert!(!t.started());
         assert_eq!(esc.writes, 0);
-        assert_eq!(mask(&esc), 0);
+        assert!(esc.event_mask().is_empty());
     }
 
     #[test]
     fn starts_when_ready_and_retries_after_a_bus_error() {
         let (mut t, mut esc, stage) = task();
         esc.fail_next = true;
-        assert_eq!(t.run(&mut esc, &stage, 0, POLL, || false), Done::default());
+        assert_eq!(
+            t.run(&mut esc.driver(), &stage, 0, POLL, || false),
+            Done::default()
+        );
         assert!(!t.started());
         assert_eq!(t.bus_errors(), 1);
-        t.run(&mut esc, &stage, 0, POLL, || false);
+        t.run(&mut esc.driver(), &stage, 0, POLL, || false);
         assert!(t.started());
         assert_eq!(esc.al_status(), (0x01, 0));
-        assert_ne!(mask(&esc) & event::AL_CONTROL, 0);
+        assert!(esc.event_mask().contains(AlEvents::AL_CONTROL));
     }
 
     #[test]
@@ -287,7 +285,7 @@ mod tests {
         let (mut t, mut esc, stage) = task();
         mailbox_sms(&mut esc);
         esc.master_al_control(0x02);
-        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
         assert_eq!(t.app().state(), AlState::PreOp);
         assert_eq!(esc.al_status(), (0x02, 0));
         assert!(!done.pend_again);
@@ -298,14 +296,14 @@ mod tests {
         let (mut t, mut esc, stage) = task();
         mailbox_sms(&mut esc);
         esc.master_al_control(0x02);
-        t.run(&mut esc, &stage, 0, EDGE, || false);
+        t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
         // An SDO upload of 0x1000 arrives; only the background poll runs.
         let upload = [
             10, 0, 0, 0, 0x00, 0x13, 0x00, 0x20, 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0,
         ];
         assert!(esc.master_write_mailbox(&upload));
         esc.master_al_control(0x01);
-        t.run(&mut esc, &stage, 1_000, POLL, || true);
+        t.run(&mut esc.driver(), &stage, 1_000, POLL, || true);
         let reply = esc
             .master_read_mailbox()
             .expect("the poll served the mailbox");
@@ -318,14 +316,14 @@ mod tests {
     #[test]
     fn dc_mode_asks_for_a_preload_after_serving_events() {
         let (mut t, mut esc, stage) = task();
-        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
         assert!(!done.preload_outputs, "not in DC mode");
         stage.set_dc_mode(true);
-        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
         assert!(done.preload_outputs);
         assert!(!done.apply_outputs);
         // A pure poll serves no SM2 event: nothing new to preload.
-        let done = t.run(&mut esc, &stage, 0, POLL, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, POLL, || false);
         assert!(!done.preload_outputs);
     }
 
@@ -333,13 +331,13 @@ mod tests {
     fn a_stuck_line_is_served_a_bounded_number_of_times() {
         let (mut t, mut esc, stage) = task();
         let mut activations = 1;
-        let mut done = t.run(&mut esc, &stage, 0, EDGE, || true);
+        let mut done = t.run(&mut esc.driver(), &stage, 0, EDGE, || true);
         while done.pend_again {
             let wake = Wake {
                 edge: false,
                 ..EDGE
             };
-            done = t.run(&mut esc, &stage, 0, wake, || true);
+            done = t.run(&mut esc.driver(), &stage, 0, wake, || true);
             activations += 1;
             assert!(activations <= 1 + usize::from(MAX_REPENDS));
         }
@@ -350,18 +348,18 @@ mod tests {
     #[test]
     fn a_failed_access_still_applies_a_staged_fault() {
         let (mut t, mut esc, stage) = task();
-        t.run(&mut esc, &stage, 0, POLL, || false);
+        t.run(&mut esc.driver(), &stage, 0, POLL, || false);
         stage.set_dc_mode(true);
         stage.stage(DacPair::new(1, 2));
         esc.fail_next = true;
-        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
         // DC mode, outputs waiting for SYNC0: not applied early.
         assert!(!done.apply_outputs);
         assert_eq!(t.bus_errors(), 1);
         let mut latch = DacLatch::new();
         stage.enter_fault(&Default::default());
         esc.fail_next = true;
-        let done = t.run(&mut esc, &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
         assert!(done.apply_outputs);
         assert!(latch.apply_now(&stage).pair().is_some());
     }

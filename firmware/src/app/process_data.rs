@@ -16,12 +16,14 @@
 //!   its length not the size of the assigned RxPDOs (TxPDOs), or enabled/disabled against
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
-use super::esc::{sm_control, SmConfig, SmExpect};
 use super::objects::{RxSink, TxSource};
 use super::sampler::CHANNELS as AI_CHANNELS;
+use super::SmExpect;
+use coe_core::device::sm_control;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoMapping};
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
+use et1100::SyncManager;
 
 /// RxPDO mapping objects the module offers.
 pub const RX_PDOS: usize = 2;
@@ -278,8 +280,8 @@ impl ProcessData {
     pub fn prepare(
         &mut self,
         od: &ObjectDictionary,
-        sm2: &SmConfig,
-        sm3: &SmConfig,
+        sm2: &SyncManager,
+        sm3: &SyncManager,
         expect2: &SmExpect,
         expect3: &SmExpect,
     ) -> Result<(), AlStatusCode> {
@@ -415,15 +417,15 @@ impl ProcessData {
 }
 
 /// SM2/SM3 against the device description and the image length.
-fn sm_matches(sm: &SmConfig, expect: &SmExpect, len: usize) -> bool {
+fn sm_matches(sm: &SyncManager, expect: &SmExpect, len: usize) -> bool {
     let mask = sm_control::MODE_MASK | sm_control::DIR_MASK;
     if len == 0 {
-        return !sm.enabled() || sm.len == 0;
+        return !sm.enabled() || sm.length == 0;
     }
     sm.enabled()
         && sm.start == expect.start
         && sm.control & mask == expect.control & mask
-        && usize::from(sm.len) == len
+        && usize::from(sm.length) == len
 }
 
 #[cfg(test)]
@@ -441,12 +443,12 @@ mod tests {
             &[0x1A00],
         );
         let [_, _, e2, e3] = crate::device::app_config().sm;
-        let sm = |e: &SmExpect, len: usize| SmConfig {
+        let sm = |e: &SmExpect, len: usize| SyncManager {
             start: e.start,
-            len: len as u16,
+            length: len as u16,
             control: e.control,
-            activate: 1,
-            ..SmConfig::default()
+            activate: SyncManager::ACTIVATE_ENABLE,
+            ..SyncManager::default()
         };
         let (sm2, sm3) = (sm(&e2, pd.output_len()), sm(&e3, pd.input_len()));
         pd.prepare(&crate::od::OD, &sm2, &sm3, &e2, &e3).unwrap();

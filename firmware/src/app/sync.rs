@@ -36,6 +36,7 @@
 
 use super::outputs::Sync0Counts;
 use coe_core::{AlStatusCode, SdoAbortCode};
+use et1100::SyncActivation;
 
 /// Shortest cycle the module handles (0x1C32:05/0x1C33:05): the product target of a 25 us
 /// DC cycle with 2 AO + 8 AI (BRIEF section 6); to be confirmed by the benchmark.
@@ -53,13 +54,6 @@ pub const INPUT_CALC_COPY_NS: u32 = 15_000;
 pub const SUPPORTED_MODES: u16 = 0x0007;
 /// Default Sync Error Counter Limit (0x10F1:02).
 pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;
-
-/// 0x0981 bit 0: cyclic operation (SYNC unit) active.
-pub const DC_CYCLIC_OP: u8 = 0x01;
-/// 0x0981 bit 1: SYNC0 generation active.
-pub const DC_SYNC0: u8 = 0x02;
-/// 0x0981 bit 2: SYNC1 generation active.
-pub const DC_SYNC1: u8 = 0x04;
 
 /// A sync mode as 0x1C32:01 / 0x1C33:01 give it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -148,7 +142,7 @@ pub struct SyncInputs {
     /// 0x1C33:01 if the master wrote it in this PREOP session.
     pub requested_inputs: Option<SyncMode>,
     /// ESC 0x0981 (DC activation).
-    pub dc_activation: u8,
+    pub dc_activation: SyncActivation,
     /// ESC 0x09A0 (SYNC0 cycle time, ns).
     pub sync0_cycle_ns: u32,
     /// SM2 carries outputs (RxPDO length > 0).
@@ -159,8 +153,12 @@ pub struct SyncInputs {
 
 /// The PREOP -> SAFEOP sync check: the mode to run in, or the refusal.
 pub fn check_sync(inputs: &SyncInputs) -> Result<SyncMode, SyncConfigError> {
-    let sync0_active = inputs.dc_activation & (DC_CYCLIC_OP | DC_SYNC0) == DC_CYCLIC_OP | DC_SYNC0;
-    let sync0_bits = inputs.dc_activation & (DC_SYNC0 | DC_SYNC1) != 0;
+    let sync0_active = inputs
+        .dc_activation
+        .contains(SyncActivation::CYCLIC_UNIT | SyncActivation::SYNC0);
+    let sync0_bits = inputs
+        .dc_activation
+        .intersects(SyncActivation::SYNC0 | SyncActivation::SYNC1);
     let mode = match inputs.requested {
         Some(mode) => {
             if (mode == SyncMode::DcSync0) != sync0_active
@@ -175,7 +173,7 @@ pub fn check_sync(inputs: &SyncInputs) -> Result<SyncMode, SyncConfigError> {
         None if inputs.has_outputs => SyncMode::SmSync,
         None => SyncMode::FreeRun,
     };
-    if inputs.dc_activation & DC_SYNC1 != 0 {
+    if inputs.dc_activation.contains(SyncActivation::SYNC1) {
         return Err(SyncConfigError::SyncModeNotSupported);
     }
     if let Some(input_mode) = inputs.requested_inputs {
@@ -577,7 +575,7 @@ mod tests {
 
     fn dc(cycle: u32) -> SyncInputs {
         SyncInputs {
-            dc_activation: DC_CYCLIC_OP | DC_SYNC0,
+            dc_activation: SyncActivation::CYCLIC_UNIT | SyncActivation::SYNC0,
             sync0_cycle_ns: cycle,
             has_outputs: true,
             sm2_three_buffer: true,
@@ -590,12 +588,12 @@ mod tests {
         let mut i = dc(100_000);
         i.requested = Some(SyncMode::DcSync0);
         assert_eq!(check_sync(&i), Ok(SyncMode::DcSync0));
-        i.dc_activation = 0;
+        i.dc_activation = SyncActivation::empty();
         assert_eq!(
             check_sync(&i),
             Err(SyncConfigError::InvalidDcSyncConfiguration)
         );
-        i.dc_activation = DC_SYNC0; // SYNC0 bit without cyclic operation
+        i.dc_activation = SyncActivation::SYNC0; // SYNC0 bit without cyclic operation
         assert_eq!(
             check_sync(&i),
             Err(SyncConfigError::InvalidDcSyncConfiguration)
@@ -614,7 +612,7 @@ mod tests {
             check_sync(&i),
             Err(SyncConfigError::InvalidDcSyncConfiguration)
         );
-        i.dc_activation = 0;
+        i.dc_activation = SyncActivation::empty();
         assert_eq!(check_sync(&i), Ok(SyncMode::SmSync));
     }
 
@@ -636,11 +634,11 @@ mod tests {
     fn unrequested_mode_follows_the_esc() {
         assert_eq!(check_sync(&dc(1_000_000)), Ok(SyncMode::DcSync0));
         let mut i = dc(0);
-        i.dc_activation = 0;
+        i.dc_activation = SyncActivation::empty();
         assert_eq!(check_sync(&i), Ok(SyncMode::SmSync));
         i.has_outputs = false;
         assert_eq!(check_sync(&i), Ok(SyncMode::FreeRun));
-        i.dc_activation = DC_SYNC0;
+        i.dc_activation = SyncActivation::SYNC0;
         assert_eq!(
             check_sync(&i),
             Err(SyncConfigError::InvalidDcSyncConfiguration)
@@ -650,7 +648,7 @@ mod tests {
     #[test]
     fn free_run_needs_three_buffers_and_sync1_is_not_offered() {
         let mut i = dc(0);
-        i.dc_activation = 0;
+        i.dc_activation = SyncActivation::empty();
         i.requested = Some(SyncMode::FreeRun);
         i.sm2_three_buffer = false;
         assert_eq!(
@@ -664,7 +662,7 @@ mod tests {
         i.sm2_three_buffer = true;
         assert_eq!(check_sync(&i), Ok(SyncMode::FreeRun));
         let mut j = dc(100_000);
-        j.dc_activation |= DC_SYNC1;
+        j.dc_activation |= SyncActivation::SYNC1;
         assert_eq!(check_sync(&j), Err(SyncConfigError::SyncModeNotSupported));
         assert_eq!(
             SyncMode::from_output_value(3),

@@ -1,12 +1,12 @@
 //! Application-level tests: the whole `SlaveApp` against a register-file ESC, driven like a
 //! master drives a slave.
 
-use super::esc::fake::FakeEsc;
-use super::esc::{event, SmExpect};
 use super::process_data::{Mapping, ProcessData};
 use super::*;
+use crate::fake_esc::FakeEsc;
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, Value};
 use coe_core::pdo::PdoEntry;
+use et1100::AlEvents;
 use std::vec;
 use std::vec::Vec;
 
@@ -177,7 +177,7 @@ impl Rig {
     fn new() -> Self {
         let mut esc = FakeEsc::new();
         let mut app = SlaveApp::new(&OD, config(), process_data());
-        app.start(&mut esc).unwrap();
+        app.start(&mut esc.driver()).unwrap();
         Self {
             esc,
             app,
@@ -192,15 +192,13 @@ impl Rig {
     /// Runs the IRQ handler while the (masked) event bits are set, bounded.
     fn irq(&mut self) {
         for _ in 0..8 {
-            let mask = u32::from_le_bytes(self.esc.mem[0x204..0x208].try_into().unwrap());
-            let ev = u32::from_le_bytes(self.esc.mem[0x220..0x224].try_into().unwrap());
-            if ev & mask == 0 {
+            if !self.esc.event_request().intersects(self.esc.event_mask()) {
                 return;
             }
             self.now += 10_000;
             let out = self
                 .app
-                .on_pdi_irq(&mut self.esc, &self.stage, self.now)
+                .on_pdi_irq(&mut self.esc.driver(), &self.stage, self.now)
                 .unwrap();
             if out.apply_outputs {
                 let a = self.latch.apply_now(&self.stage);
@@ -212,7 +210,10 @@ impl Rig {
 
     fn poll(&mut self) {
         self.now += 10_000;
-        let out = self.app.poll(&mut self.esc, &self.stage, self.now).unwrap();
+        let out = self
+            .app
+            .poll(&mut self.esc.driver(), &self.stage, self.now)
+            .unwrap();
         if out.apply_outputs {
             let a = self.latch.apply_now(&self.stage);
             self.dac.push(a);
@@ -652,12 +653,11 @@ fn bus_errors_are_reported_not_panics() {
     let mut r = Rig::new();
     r.esc.master_al_control(0x02);
     r.esc.fail_next = true;
-    assert!(r.app.on_pdi_irq(&mut r.esc, &r.stage, 0).is_err());
+    assert!(r.app.on_pdi_irq(&mut r.esc.driver(), &r.stage, 0).is_err());
     // The event is still pending and handled next time.
     r.mailbox_sms();
     r.irq();
     assert_eq!(r.esc.al_status(), (0x02, 0));
-    let _ = event::AL_CONTROL;
 }
 
 /// DC OP: a cycle is the event bits, the SM2 read and the SM3 write; the mailbox registers
@@ -711,7 +711,7 @@ fn sdo_exchanges_read_no_sync_manager_registers() {
     assert_eq!(r.esc.sm_register_reads, sm_reads);
     // The master moves SM1 (disabled, new length, enabled: the activation event).
     r.esc.master_sm(1, MBX_IN, 64, 0x22, true);
-    r.esc.raise(event::SM_ACTIVATION);
+    r.esc.raise(AlEvents::SM_ACTIVATION);
     r.irq();
     assert!(r.esc.sm_register_reads > sm_reads);
     let reply = r.sdo(0x40, 0x1000, 0, [0; 4]);

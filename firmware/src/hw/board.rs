@@ -35,7 +35,7 @@ use super::adc::AdcHw;
 use super::clocks::{self, ClockError, Clocks};
 use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
-use super::esc::EscPdi;
+use super::esc::{self, Esc};
 use super::gpio::{InPin, OutPin};
 use super::gpio_irq::EscIrq;
 use super::spi::LegacySpi;
@@ -237,7 +237,7 @@ pub struct Board {
     /// The clock setup actually reached.
     pub clocks: Clocks,
     /// The ET1100 (PDI task).
-    pub esc: EscPdi,
+    pub esc: Esc,
     /// The ESC IRQ line (PDI task).
     pub esc_irq: EscIrq,
     /// EEPROM_LOADED (the ESC's PDI is operational).
@@ -278,7 +278,7 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     let _dac_clr = OutPin::new(DAC_CLR, true); // held high for ever: never clear
 
     let spi = LegacySpi::new(dp.SPI);
-    let esc = EscPdi::new(CsDevice::new(spi, esc_cs));
+    let esc = esc::new(CsDevice::new(spi, esc_cs));
     let esc_irq = EscIrq::new(dp.GPIOINT, InPin::new(ESC_IRQ));
 
     let ssp0 = Ssp::new(dp.SSP0, SspConfig::AD5663);

@@ -14,7 +14,7 @@
 //! | [`adc`]      | the ADC path chosen at build time (GPDMA or `adc-irq`)                |
 //! | [`gpio_irq`] | ESC IRQ on P0.22 (falling edge, EINT3 vector)                         |
 //! | [`wdt`]      | the MCU watchdog                                                      |
-//! | [`esc`]      | the application's `EscPort` over the `et1100` driver                  |
+//! | [`esc`]      | the ET1100: the `et1100` driver on the legacy-SPI device              |
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`cs_device`] | bus + GPIO chip select as `SpiDevice` (ET1100, AD5663)              |

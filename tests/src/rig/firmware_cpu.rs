@@ -12,8 +12,9 @@
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
 //!
 //! The drivers are the ones the board runs:
-//! - ESC: `et1100::Et1100<SpiPdi<EscSpi>>`, the application's `EscPort` through the
-//!   firmware's own impl (`firmware/src/app/esc/driver.rs`), over the byte-exact SPI model.
+//! - ESC: `et1100::Et1100<SpiPdi<EscSpi>>` over the byte-exact SPI model: the type the
+//!   board has with its legacy SPI in place of `EscSpi` (`firmware/src/hw/esc.rs`), and the
+//!   same driver calls, since the application is generic over the driver's `Pdi`.
 //! - DAC: `ad5663::Ad5663` inside the firmware's `OutputDac`, on the DAC model's SPI port
 //!   with the LDAC pin model.
 //! - ADC: `ad7689::Ad7689` (read after conversion, CNV = chip select) on the ADC model; the

@@ -33,12 +33,12 @@ use et1100::{Et1100, SpiPdi};
 use firmware::app::adc_dma::{
     words_written, HalfCounter, PositionError, ScanReader, HALF_WORDS, RING_WORDS,
 };
-pub use firmware::app::esc::fake::FakeEsc;
 use firmware::app::mailbox::MAILBOX_SIZE;
 use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
 use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
 use firmware::app::{PdiOutcome, SlaveApp};
 use firmware::device;
+pub use firmware::fake_esc::FakeEsc;
 use firmware::od::OD;
 
 /// Ring length of the sampler scenario (one scan fits many times).
@@ -74,7 +74,8 @@ impl Rig {
         let pd = device::process_data();
         let (out_len, in_len) = (pd.output_len() as u16, pd.input_len() as u16);
         let mut app = SlaveApp::new(&OD, device::app_config(), pd);
-        app.start(&mut esc).map_err(|_| CheckFailed("start"))?;
+        app.start(&mut esc.driver())
+            .map_err(|_| CheckFailed("start"))?;
         let mut rig = Self {
             esc,
             app,
@@ -119,7 +120,7 @@ impl Rig {
     pub fn irq(&mut self) -> Result<PdiOutcome, CheckFailed> {
         let now = self.tick();
         self.app
-            .on_pdi_irq(&mut self.esc, &self.stage, now)
+            .on_pdi_irq(&mut self.esc.driver(), &self.stage, now)
             .map_err(|_| CheckFailed("ESC access failed"))
     }
 
@@ -127,7 +128,7 @@ impl Rig {
     pub fn poll(&mut self) -> Result<PdiOutcome, CheckFailed> {
         let now = self.tick();
         self.app
-            .poll(&mut self.esc, &self.stage, now)
+            .poll(&mut self.esc.driver(), &self.stage, now)
             .map_err(|_| CheckFailed("ESC access failed"))
     }
 
@@ -349,7 +350,7 @@ impl SpiDevice<u8> for NullSpi {
     }
 }
 
-/// The firmware's `EscPort` on the real `et1100` SPI driver over [`NullSpi`].
+/// The `et1100` SPI driver over [`NullSpi`], as the firmware's application drives it.
 pub fn driver_port() -> Et1100<SpiPdi<NullSpi>> {
     Et1100::new(SpiPdi::new(NullSpi))
 }

@@ -20,7 +20,6 @@ mod runner {
     use bench_cm3::{drain, driver_port, push_one, queue_scan, CheckFailed, DmaRig, Rig, RING};
     use core::hint::black_box;
     use firmware::app::adc_dma::HalfCounter;
-    use firmware::app::esc::EscPort;
     use firmware::app::outputs::DacAction;
     use firmware::app::sampler::{PublishMode, SampleRing, Sampler};
 
@@ -163,9 +162,13 @@ mod runner {
             // The register-file ESC's own cost per access (a stand-in, not firmware code):
             // a 4-byte register read and a 16-byte SM3 write, as in the cycle.
             let mut word = [0u8; 4];
-            let r = measure(name("esc_read4"), || rig.esc.read(0x0440, &mut word));
+            let r = measure(name("esc_read4"), || {
+                rig.esc.driver().read(0x0440, &mut word)
+            });
             check(r.is_ok(), "esc_read4 failed")?;
-            let w = measure(name("esc_write16"), || rig.esc.write(0x1180, &[0u8; 16]));
+            let w = measure(name("esc_write16"), || {
+                rig.esc.driver().write(0x1180, &[0u8; 16])
+            });
             check(w.is_ok(), "esc_write16 failed")?;
             // The same accesses through the et1100 SPI driver (over an SPI that clocks
             // nothing): what replaces the stand-in's cost on the board.

@@ -78,10 +78,9 @@ fn dma_path_drains_whole_scans_across_the_ring_end() {
 
 #[test]
 fn driver_port_runs_the_et1100_spi_driver() {
-    use firmware::app::esc::EscPort;
     let mut port = driver_port();
     let mut word = [0xAAu8; 4];
-    assert_eq!(EscPort::read(&mut port, 0x0440, &mut word), Ok(0));
+    assert_eq!(port.read(0x0440, &mut word), Ok(et1100::AlEvents::empty()));
     assert_eq!(word, [0; 4]);
-    assert_eq!(EscPort::write(&mut port, 0x1180, &[1; 16]), Ok(0));
+    assert_eq!(port.write(0x1180, &[1; 16]), Ok(et1100::AlEvents::empty()));
 }

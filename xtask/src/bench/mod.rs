@@ -125,31 +125,30 @@ pub fn run(args: &Args) -> Result {
 
 // ------------------------------------------------------------------ 1. PDI bus
 
-/// What an ESC register address is, for the cause column.
+/// What an ESC address is, for the cause column: a register of the `et1100` driver's map, a
+/// SyncManager's register block, or a SyncManager buffer of the firmware's device
+/// description.
 fn register_name(addr: u16) -> String {
-    let known = match addr {
-        0x0120 => "AL control",
-        0x0130 => "AL status",
-        0x0134 => "AL status code",
-        0x0204 => "AL event mask",
-        0x0220 => "AL event",
-        0x0440 => "WD status",
-        0x0800 => "SM0 registers",
-        0x0808 => "SM1 registers",
-        0x0810 => "SM2 registers",
-        0x0818 => "SM3 registers",
-        0x0981 => "DC activation",
-        0x09A0 => "SYNC0 cycle",
-        0x1000 => "SM0 mailbox",
-        0x1080 => "SM1 mailbox",
-        0x1100 => "SM2 outputs",
-        0x1180 => "SM3 inputs",
-        _ => "",
-    };
-    if known.is_empty() {
-        format!("{addr:#06x}")
-    } else {
-        format!("{addr:#06x} {known}")
+    use et1100::Register;
+    let name = Register::from_addr(addr)
+        .map(|r| format!("{r:?}"))
+        .or_else(|| {
+            (0..Register::SYNC_MANAGER_COUNT)
+                .find(|n| Register::sync_manager(*n) == Some(addr))
+                .map(|n| format!("SM{n} registers"))
+        })
+        .or_else(|| {
+            firmware::device::SYNC_MANAGERS
+                .iter()
+                .position(|sm| sm.start == addr)
+                .map(|n| {
+                    let role = firmware::device::SYNC_MANAGERS[n].role.esi_name();
+                    format!("SM{n} {role} buffer")
+                })
+        });
+    match name {
+        Some(name) => format!("{addr:#06x} {name}"),
+        None => format!("{addr:#06x}"),
     }
 }
 
@@ -209,9 +208,10 @@ fn bus_rows(bus: &BusReport) -> Vec<Row> {
         if pd {
             let limit = 1.1 * c.minimum_bytes as f64;
             let (out, inp) = bus.process_data_bytes;
+            let [_, _, sm2, sm3] = &firmware::device::SYNC_MANAGERS;
             let needed = [
-                ("read", 0x1100, usize::from(out)),
-                ("write", 0x1180, usize::from(inp)),
+                ("read", sm2.start, usize::from(out)),
+                ("write", sm3.start, usize::from(inp)),
             ];
             let verdict = if c.bytes <= limit {
                 Verdict::Met(format!(
@@ -818,7 +818,7 @@ fn notes(
     vec![
         format!(
             "Bytes: counted on the virtual board's byte-exact ET1100 SPI model while the firmware's \
-             slave application (over its EscPort) served a scripted master; {} process-data cycles \
+             slave application (through the et1100 driver's SpiPdi, as on the board) served a scripted master; {} process-data cycles \
              averaged. Time on the PDI: t = B x (8 / {} MHz + {} us) + N x {} us (B bytes, N \
              transactions; byte gap of the FIFO-less legacy SPI and SPI_SEL gap are estimates).",
             bus.costs.iter().find(|c| c.name.starts_with("process-data")).map_or(0, |c| c.runs),
