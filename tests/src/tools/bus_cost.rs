@@ -50,6 +50,41 @@ pub struct BusCost {
     pub split: (f64, f64, f64, f64),
     /// The accesses of one run, as (command, address, data bytes), for the cause analysis.
     pub accesses: Vec<(&'static str, u16, usize)>,
+    /// Accesses per run by kind, over all runs (for the CPU model, which costs a NOP, a
+    /// read and a write of the driver differently).
+    pub kinds: AccessCounts,
+}
+
+/// Accesses by kind, per run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AccessCounts {
+    /// NOPs (the AL event bits alone).
+    pub nops: f64,
+    /// Reads.
+    pub reads: f64,
+    /// Writes.
+    pub writes: f64,
+}
+
+impl AccessCounts {
+    fn of(log: &[SpiRecord], runs: u64) -> Self {
+        let count = |kind: &str| {
+            log.iter().filter(|r| decode(r).0 == kind).count() as f64 / runs.max(1) as f64
+        };
+        Self {
+            nops: count("nop"),
+            reads: count("read"),
+            writes: count("write"),
+        }
+    }
+
+    fn per(self, n: f64) -> Self {
+        Self {
+            nops: self.nops / n,
+            reads: self.reads / n,
+            writes: self.writes / n,
+        }
+    }
 }
 
 /// All figures of one scripted run.
@@ -179,6 +214,7 @@ impl Rig {
                 d(after.write_bytes, before.write_bytes),
             ),
             accesses: log[log.len() - per_run..].iter().map(decode).collect(),
+            kinds: AccessCounts::of(&log, runs),
         })
     }
 
@@ -330,6 +366,7 @@ pub fn measure(target: Target, cycle_ns: u64, cycles: u64) -> Result<BusReport, 
         bytes: c.bytes / n,
         minimum_bytes: c.minimum_bytes / exchanges.max(1),
         split: (c.split.0 / n, c.split.1 / n, c.split.2 / n, c.split.3 / n),
+        kinds: c.kinds.per(n),
         runs: exchanges,
         ..c
     });
@@ -378,6 +415,7 @@ pub fn measure(target: Target, cycle_ns: u64, cycles: u64) -> Result<BusReport, 
             bytes: c.bytes / n,
             minimum_bytes: c.minimum_bytes / exchanges.max(1),
             split: (c.split.0 / n, c.split.1 / n, c.split.2 / n, c.split.3 / n),
+            kinds: c.kinds.per(n),
             runs: exchanges,
         });
     } else {
@@ -464,6 +502,12 @@ mod tests {
                 c.name
             );
             assert!(!c.accesses.is_empty());
+            let k = c.kinds;
+            assert!(
+                (k.nops + k.reads + k.writes - c.transactions).abs() < 1e-6,
+                "{}: {k:?}",
+                c.name
+            );
         }
         let pd = r.get("process-data cycle (DC SYNC0)").unwrap();
         // The outputs are read and the inputs written every cycle.

@@ -21,8 +21,8 @@
 //! | `dma_half_irq`  | [`HalfCounter::on_terminal_count`]              | GPDMA interrupt, per half ring |
 //! | `sample_push`   | [`SampleProducer::push`] of one sample          | sampler, 250 000 /s (`adc-irq`) |
 //! | `sampler_drain` | [`SampleConsumer::drain_into`] of one 8-channel scan | PDI task (`adc-irq`) |
-//! | `esc_read4`, `esc_write16` | the register file itself (not firmware): its cost per access | - |
-//! | `driver_read4`, `driver_write16` | the `et1100` SPI driver's work per access ([`driver_port`]) | every ESC access |
+//! | `esc_read4`, `esc_write16`, `esc_nop` | the register file itself (not firmware): its cost per access | - |
+//! | `driver_read4`, `driver_write16`, `driver_nop` | the `et1100` SPI driver's work per access ([`driver_port`]) | every ESC access |
 #![no_std]
 #![forbid(unsafe_code)]
 

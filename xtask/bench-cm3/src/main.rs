@@ -160,7 +160,7 @@ mod runner {
             check(IRQ_HALVES.get() == halves + 1, "dma_half_irq: not counted")?;
 
             // The register-file ESC's own cost per access (a stand-in, not firmware code):
-            // a 4-byte register read and a 16-byte SM3 write, as in the cycle.
+            // a 4-byte read and a 16-byte SM3 write, as in the cycle.
             let mut word = [0u8; 4];
             let r = measure(name("esc_read4"), || {
                 rig.esc.driver().read(0x0440, &mut word)
@@ -176,6 +176,11 @@ mod runner {
             check(r.is_ok(), "driver_read4 failed")?;
             let w = measure(name("driver_write16"), || driver.write(0x1180, &[0u8; 16]));
             check(w.is_ok(), "driver_write16 failed")?;
+            // The event sample of every cycle (SPI: the 2-byte NOP), both ways.
+            let e = measure(name("esc_nop"), || rig.esc.driver().low_events());
+            check(e.is_ok(), "esc_nop failed")?;
+            let e = measure(name("driver_nop"), || driver.low_events());
+            check(e.is_ok(), "driver_nop failed")?;
         }
         Ok(())
     }

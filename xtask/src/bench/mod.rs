@@ -267,7 +267,7 @@ fn bus_rows(bus: &BusReport) -> Vec<Row> {
 // ------------------------------------------------------------------ 2. CPU
 
 /// Paths of the Cortex-M3 benchmark, with what they are.
-const PATHS: [(&str, &str); 14] = [
+const PATHS: [(&str, &str); 16] = [
     (
         "sync0_ldac",
         "SYNC0 task: latch the preloaded pair (DacLatch::on_sync0)",
@@ -318,6 +318,14 @@ const PATHS: [(&str, &str); 14] = [
         "driver_write16",
         "et1100 SPI driver: one 16-byte write (SPI clocking nothing)",
     ),
+    (
+        "esc_nop",
+        "not firmware: the RAM ESC stand-in, the AL event bits alone",
+    ),
+    (
+        "driver_nop",
+        "et1100 SPI driver: the AL event bits alone (2-byte NOP, SPI clocking nothing)",
+    ),
 ];
 
 fn cpu_rows(cpu: &cm3::CpuReport) -> Vec<Row> {
@@ -331,8 +339,8 @@ fn cpu_rows(cpu: &cm3::CpuReport) -> Vec<Row> {
                 "group 5: ADC CPU share"
             }
             "sdo_upload" | "sdo_download" => "mailbox service time",
-            "esc_read4" | "esc_write16" => "counted inside the paths above",
-            "driver_read4" | "driver_write16" => "replaces the stand-in in group 3",
+            "esc_read4" | "esc_write16" | "esc_nop" => "counted inside the paths above",
+            "driver_read4" | "driver_write16" | "driver_nop" => "replaces the stand-in in group 3",
             _ => "group 3: DC cycle",
         };
         rows.push(
@@ -363,14 +371,15 @@ struct Derived {
     cycle_us: f64,
     latency_us: f64,
     sync0_instructions: u64,
-    /// Instructions of the cycle spent in the RAM ESC stand-in (accesses x mean cost).
+    /// Instructions of the cycle spent in the RAM ESC stand-in (accesses of each kind x
+    /// the stand-in's cost of that kind).
     stand_in_instructions: f64,
     /// The same accesses through the et1100 driver.
     driver_instructions: f64,
     /// Measured instructions of the cycle's paths.
     measured_instructions: u64,
-    /// PDI transactions per cycle.
-    transactions: f64,
+    /// PDI accesses per cycle by kind.
+    kinds: bus_cost::AccessCounts,
 }
 
 impl Derived {
@@ -383,11 +392,16 @@ impl Derived {
         let sync0 = cpu.get("sync0_ldac")?;
         let measured_instructions =
             cpu.get("pdi_outputs")? + cpu.get("dac_preload")? + sync0 + cpu.get("pdi_inputs")?;
-        // On the board the et1100 SPI driver does the ESC accesses, not the RAM stand-in.
-        let stand_in = (cpu.get("esc_read4")? + cpu.get("esc_write16")?) as f64 / 2.0;
-        let driver = (cpu.get("driver_read4")? + cpu.get("driver_write16")?) as f64 / 2.0;
-        let stand_in_instructions = pd.transactions * stand_in;
-        let driver_instructions = pd.transactions * driver;
+        // On the board the et1100 SPI driver does the ESC accesses, not the RAM stand-in:
+        // each access of the cycle costed by its kind on both.
+        let k = pd.kinds;
+        let per_kind = |nop: &str, read: &str, write: &str| -> Result<f64> {
+            Ok(k.nops * cpu.get(nop)? as f64
+                + k.reads * cpu.get(read)? as f64
+                + k.writes * cpu.get(write)? as f64)
+        };
+        let stand_in_instructions = per_kind("esc_nop", "esc_read4", "esc_write16")?;
+        let driver_instructions = per_kind("driver_nop", "driver_read4", "driver_write16")?;
         let cpu_instructions = (measured_instructions as f64 - stand_in_instructions
             + driver_instructions)
             .round()
@@ -415,7 +429,7 @@ impl Derived {
             stand_in_instructions,
             driver_instructions,
             measured_instructions,
-            transactions: pd.transactions,
+            kinds: pd.kinds,
         })
     }
 
@@ -839,9 +853,10 @@ fn notes(
             "F1: T_min = (t_PDI + I_cycle x CPI / f + 4 x (12 + 10) cycles / f + 2 x 24 bit / 25 MHz) \
              / (1 - u_ADC) = ({:.1} + {:.1} + {:.2} + {:.2}) us / (1 - {:.3}) = {:.1} us. I_cycle = \
              pdi_outputs + dac_preload + sync0_ldac + pdi_inputs as measured ({} instructions) - \
-             {:.1} ESC accesses per cycle x the stand-in's mean cost ({:.0}) + the same accesses \
-             through the et1100 SPI driver ({:.0}) = {} instructions; the driver's per-byte work \
-             overlaps the SPI bytes in t_PDI.",
+             the cycle's ESC accesses ({:.2} NOPs, {:.2} reads, {:.2} writes) on the stand-in \
+             (esc_nop, esc_read4, esc_write16: {:.0}) + the same accesses through the et1100 SPI \
+             driver (driver_nop, driver_read4, driver_write16: {:.0}) = {} instructions; the \
+             driver's per-byte work overlaps the SPI bytes in t_PDI.",
             d.bus_us,
             d.cpu_us,
             d.exceptions_us,
@@ -849,7 +864,9 @@ fn notes(
             d.adc_share,
             d.cycle_us,
             d.measured_instructions,
-            d.transactions,
+            d.kinds.nops,
+            d.kinds.reads,
+            d.kinds.writes,
             d.stand_in_instructions,
             d.driver_instructions,
             d.cpu_instructions,
