@@ -1,4 +1,5 @@
-//! The slave application of the analog I/O module, independent of the MCU.
+//! The analog I/O module, independent of the MCU: the product (what the module is and
+//! offers, [`product`]) and the slave application built for it ([`app`]).
 #![no_std]
 #![forbid(unsafe_code)]
 #![cfg_attr(
@@ -10,7 +11,6 @@
 extern crate std;
 
 pub mod app;
-pub mod device;
 #[cfg(any(test, feature = "fake-esc"))]
 pub mod fake_esc;
-pub mod od;
+pub mod product;

@@ -50,8 +50,9 @@ mod rtic_app {
     use cortex_m::peripheral::syst::SystClkSource;
     use firmware::app::outputs::{DacLatch, OutputStage};
     use firmware::app::pdi_task::{PdiTask, Wake};
-    use firmware::app::SlaveApp;
-    use firmware::{device, od};
+    use firmware::app::process_data::ProcessData;
+    use firmware::app::{AppConfig, SlaveApp};
+    use firmware::product::od;
     use lpc17xx_pac::Interrupt;
 
     /// Set by the PDI task before it pends TIMER1: "apply the staged outputs now" (free run,
@@ -142,8 +143,8 @@ mod rtic_app {
         let pdi = cx.local.pdi_slot.write(PdiSide {
             task: PdiTask::new(SlaveApp::new(
                 &od::OD,
-                device::app_config(),
-                device::process_data(),
+                AppConfig::product(),
+                ProcessData::product_default(),
             )),
             samples_out,
         });

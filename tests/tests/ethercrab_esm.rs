@@ -209,7 +209,7 @@ static DEVICE: DeviceDescription = DeviceDescription {
         min_cycle_ns: 100_000,
         max_cycle_ns: 100_000_000,
     },
-    pdi: firmware::device::PDI,
+    pdi: firmware::product::device::PDI,
     eeprom: EepromDesc {
         size_bytes: 2048,
         station_alias: 0,

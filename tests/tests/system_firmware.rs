@@ -11,8 +11,9 @@ use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{
     std::ethercat_now, DcSync, MainDevice, MainDeviceConfig, PduStorage, SubDeviceState,
 };
-use firmware::device::{DEVICE, IDENTITY, NAMES};
-use firmware::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use firmware::product::device::DEVICE;
+use firmware::product::identity::{IDENTITY, NAMES};
+use firmware::product::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;

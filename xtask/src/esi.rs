@@ -1,5 +1,5 @@
 //! `cargo xtask esi [--out DIR]`: the files a configuration tool needs, generated from the
-//! firmware's one device description (`firmware::device::DEVICE`): the ESI XML
+//! firmware's one device description (`firmware::product::device::DEVICE`): the ESI XML
 //! (`<order code>.xml`, ETG.2000), validated against the ETG.2000 schema when the schema and
 //! `xmllint` are at hand, and the SII EEPROM image (`<order code>.bin`, the whole EEPROM:
 //! the generated image, then erased bytes 0xFF) for an EEPROM programmer or a master's
@@ -27,7 +27,7 @@ pub fn run(args: &Args) -> Result {
         .clone()
         .unwrap_or_else(|| root().join("target").join("esi"));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let desc = &firmware::device::DEVICE;
+    let desc = &firmware::product::device::DEVICE;
     let xml = write_xml(desc, &dir)?;
     write_sii(desc, &dir)?;
     validate(&xml)
@@ -109,21 +109,21 @@ mod tests {
 
     #[test]
     fn file_stem_keeps_safe_characters_only() {
-        let mut desc = firmware::device::DEVICE;
+        let mut desc = firmware::product::device::DEVICE;
         desc.names.order_code = "AIO-8AI/2AO v1.0";
         assert_eq!(file_stem(&desc), "AIO-8AI_2AO_v1_0");
-        assert_eq!(file_stem(&firmware::device::DEVICE), "AIO-8AI2AO");
+        assert_eq!(file_stem(&firmware::product::device::DEVICE), "AIO-8AI2AO");
     }
 
     #[test]
     fn the_module_esi_is_written() {
         let dir = std::env::temp_dir().join(format!("xtask-esi-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = write_xml(&firmware::device::DEVICE, &dir).unwrap();
+        let path = write_xml(&firmware::product::device::DEVICE, &dir).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(text.starts_with("<?xml"));
-        let product = firmware::device::DEVICE.identity.product_code;
+        let product = firmware::product::device::DEVICE.identity.product_code;
         assert!(text.contains(&format!("<Type ProductCode=\"#x{product:08X}\"")));
         assert!(text.trim_end().ends_with("</EtherCATInfo>"));
     }
@@ -132,7 +132,7 @@ mod tests {
     fn the_module_sii_is_written() {
         let dir = std::env::temp_dir().join(format!("xtask-sii-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let desc = &firmware::device::DEVICE;
+        let desc = &firmware::product::device::DEVICE;
         let path = write_sii(desc, &dir).unwrap();
         let bin = std::fs::read(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);

@@ -97,7 +97,7 @@ pub use device::{DlStatus, EscInfo, Et1100};
 pub use eeprom::{EepromChunk, EepromStatus};
 pub use error::Error;
 pub use memory::{BusWidth, MemoryBus, MemoryPdi};
-pub use pdi::Pdi;
+pub use pdi::{Pdi, PdiResult};
 pub use register::Register;
 pub use spi::SpiPdi;
 pub use sync_manager::{SmDirection, SmMode, SyncManager};

@@ -2,6 +2,9 @@
 
 use crate::{AlEvents, Error};
 
+/// The result of an access through the PDI `P`, for code generic over the PDI.
+pub type PdiResult<T, P> = Result<T, Error<<P as Pdi>::BusError>>;
+
 /// Raw access to the ESC from the PDI side.
 ///
 /// Every access returns the AL event bits (0x0220..) that belong to it; an implementation

@@ -22,7 +22,8 @@
 //! late (by less than one half).
 
 use super::adc_scan::{CFG_FRAMES, FIRST_RESULT, SCAN_CFG_WORD};
-use super::sampler::{Sampler, CHANNELS};
+use super::sampler::Sampler;
+use crate::product::capacity::AI_CHANNELS as CHANNELS;
 use core::sync::atomic::{compiler_fence, AtomicU16, AtomicU32, Ordering};
 
 // ---------------------------------------------------------------- GPDMA words (UM10360 31)

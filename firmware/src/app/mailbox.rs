@@ -32,19 +32,13 @@
 //!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
 //!   catches anything the events missed.
 
-use super::EscResult;
+use crate::product::capacity::{EMERGENCY_QUEUE, MAILBOX_SIZE, TRANSFER_BUFFER};
 use coe_core::mailbox::MAILBOX_HEADER_LEN;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
 use coe_core::AlState;
-use et1100::{AlEvents, Et1100, Pdi, SyncManager};
+use et1100::{AlEvents, Et1100, Pdi, PdiResult, SyncManager};
 
-/// Mailbox size (SM0 and SM1 length) the firmware is built for.
-pub const MAILBOX_SIZE: usize = 128;
-/// Largest object transferred in several frames.
-pub const TRANSFER_BUFFER: usize = 512;
-/// Emergencies that can wait.
-pub const EMERGENCY_QUEUE: usize = 4;
 /// Bytes of a request read in the first access: the mailbox header and an expedited SDO
 /// (CoE header, command, index, subindex, 4 data bytes).
 pub const FIRST_READ: usize = MAILBOX_HEADER_LEN + 10;
@@ -195,7 +189,7 @@ impl MailboxLink {
         esc: &mut Et1100<P>,
         sm0: SyncManager,
         sm1: SyncManager,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         if sm0.mailbox_full() {
             esc.sm_pdi_control(0, SyncManager::PDI_DEACTIVATE)?;
             esc.sm_pdi_control(0, 0)?;
@@ -230,7 +224,7 @@ impl MailboxLink {
         app: &mut A,
         now_ms: u32,
         how: Service,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         if state == AlState::Init {
             return Ok(());
         }
@@ -288,7 +282,7 @@ impl MailboxLink {
         esc: &mut Et1100<P>,
         od: &ObjectDictionary,
         sm1: &SyncManager,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let reply_len = usize::from(sm1.length).min(MAILBOX_SIZE);
         self.buf = [0; MAILBOX_SIZE];
         let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
@@ -300,7 +294,7 @@ impl MailboxLink {
     }
 
     /// Writes the waiting reply as the whole SM1 buffer.
-    fn flush<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> EscResult<(), P> {
+    fn flush<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> PdiResult<(), P> {
         let len = usize::from(sm1.length).min(MAILBOX_SIZE);
         let frame = self.buf.get(..len).unwrap_or(&[]);
         write_frame(esc, sm1.start, frame, self.pending)?;
@@ -310,7 +304,7 @@ impl MailboxLink {
         Ok(())
     }
 
-    fn repeat<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> EscResult<(), P> {
+    fn repeat<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> PdiResult<(), P> {
         let ack = sm1.pdi_control & SyncManager::PDI_REPEAT_ACK;
         // Empty now, or emptied below.
         self.sm1_busy = false;
@@ -337,7 +331,7 @@ impl MailboxLink {
 /// then the rest of the header's length if it is longer, then the last byte, which frees the
 /// buffer. Bytes beyond the header's length (not read) are left as they are in `req`;
 /// whole-buffer reads when the frame fills it anyway.
-pub fn read_request<P: Pdi>(esc: &mut Et1100<P>, start: u16, req: &mut [u8]) -> EscResult<(), P> {
+pub fn read_request<P: Pdi>(esc: &mut Et1100<P>, start: u16, req: &mut [u8]) -> PdiResult<(), P> {
     let len = req.len();
     if len <= FIRST_READ + 1 {
         return esc.read(start, req).map(drop);
@@ -366,7 +360,7 @@ pub fn write_frame<P: Pdi>(
     start: u16,
     frame: &[u8],
     n: usize,
-) -> EscResult<(), P> {
+) -> PdiResult<(), P> {
     let len = frame.len();
     let n = n.max(1);
     if n + 1 >= len {

@@ -43,6 +43,7 @@ pub mod adc_scan;
 pub mod dac;
 pub mod diagnostics;
 pub mod div;
+mod entry_bytes;
 pub mod mailbox;
 pub mod objects;
 pub mod outputs;
@@ -56,14 +57,17 @@ pub mod timebase;
 #[cfg(test)]
 mod tests;
 
-use coe_core::device::sm_control;
+use crate::product::layout::SYNC_MANAGERS;
+use coe_core::device::{sm_control, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
 use coe_core::od::ObjectDictionary;
 use coe_core::{AlState, AlStatusCode};
 use diagnostics::{
     EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
 };
-use et1100::{AlEvents, AlStatus, Et1100, Pdi, Register, SmMode, SyncManager, WatchdogStatus};
+use et1100::{
+    AlEvents, AlStatus, Et1100, Pdi, PdiResult, Register, SmMode, SyncManager, WatchdogStatus,
+};
 use mailbox::{MailboxLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
 use objects::AppData;
 use outputs::OutputStage;
@@ -72,29 +76,26 @@ use process_data::{ProcessData, SlotValues};
 use sampler::{Sample, Sampler};
 use sync::{check_sync, SyncInputs, SyncMode, SyncVerdict};
 
-/// The result of an ESC access through the `et1100` driver on the PDI `P`.
-pub type EscResult<T, P> = Result<T, et1100::Error<<P as Pdi>::BusError>>;
-
-/// What the application expects of a SyncManager (from the device description).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct SmExpect {
-    /// Start address.
-    pub start: u16,
-    /// Length (mailboxes; the process-data lengths follow the PDO configuration).
-    pub len: u16,
-    /// Control byte; compared on the mode and direction bits (and for mailboxes the whole
-    /// byte except the ECAT IRQ bit 4, which masters choose freely).
-    pub control: u8,
-}
-
 /// What the device description fixes for the application.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct AppConfig {
-    /// SM0..SM3 as the device description (SII/ESI) gives them.
-    pub sm: [SmExpect; 4],
+    /// SM0..SM3 as the device description (SII/ESI) gives them. The mailboxes are checked
+    /// against start, length and control byte; the process-data SyncManagers against start
+    /// and control byte, their length follows the PDO configuration.
+    pub sm: [SyncManagerDesc; 4],
     /// Explicit device ID for the ID request (`None`: not supported).
     pub device_id: Option<u16>,
+}
+
+impl AppConfig {
+    /// The configuration of the product ([`crate::product`]): its SyncManager layout, no
+    /// explicit device ID.
+    pub const fn product() -> Self {
+        Self {
+            sm: SYNC_MANAGERS,
+            device_id: None,
+        }
+    }
 }
 
 /// What the PDI task must do after a call.
@@ -172,7 +173,7 @@ impl SlaveApp {
     }
 
     /// Power-up: AL status INIT without error, event mask.
-    pub fn start<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<(), P> {
+    pub fn start<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
         self.write_status(esc)?;
         self.update_mask(esc)
     }
@@ -190,7 +191,7 @@ impl SlaveApp {
         esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
-    ) -> EscResult<PdiOutcome, P> {
+    ) -> PdiResult<PdiOutcome, P> {
         let events = esc.low_events()?;
         let mut out = PdiOutcome::default();
         if events.contains(AlEvents::AL_CONTROL) {
@@ -233,7 +234,7 @@ impl SlaveApp {
         esc: &mut Et1100<P>,
         stage: &OutputStage,
         now_ns: u64,
-    ) -> EscResult<PdiOutcome, P> {
+    ) -> PdiResult<PdiOutcome, P> {
         let mut out = PdiOutcome::default();
         let state = self.esm.state();
         let counts = stage.sync0_counts();
@@ -278,11 +279,11 @@ impl SlaveApp {
 
     // ------------------------------------------------------------------ ESM
 
-    fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<(), P> {
+    fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
         esc.write_al_status(AlStatus(self.esm.status()), self.esm.status_code_word())
     }
 
-    fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<(), P> {
+    fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
         let mut mask = BASE_EVENTS;
         let state = self.esm.state();
         if state != AlState::Init {
@@ -304,7 +305,7 @@ impl SlaveApp {
         esc: &mut Et1100<P>,
         stage: &OutputStage,
         out: &mut PdiOutcome,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let control = esc.read_al_control()?.0;
         let had_error = self.esm.error();
         let decision = self.esm.request(control);
@@ -331,7 +332,7 @@ impl SlaveApp {
         from: AlState,
         to: AlState,
         out: &mut PdiOutcome,
-    ) -> EscResult<Result<(), (AlState, AlStatusCode)>, P> {
+    ) -> PdiResult<Result<(), (AlState, AlStatusCode)>, P> {
         if from == AlState::Op {
             // Leaving OP: safe outputs at once, stale outputs never come back.
             self.data.outputs.enter_fault(stage);
@@ -377,7 +378,7 @@ impl SlaveApp {
         &mut self,
         esc: &mut Et1100<P>,
         stage: &OutputStage,
-    ) -> EscResult<Result<(), AlStatusCode>, P> {
+    ) -> PdiResult<Result<(), AlStatusCode>, P> {
         let sm2 = esc.read_sm(2)?;
         let sm3 = esc.read_sm(3)?;
         let dc_activation = esc.sync_activation()?;
@@ -414,7 +415,7 @@ impl SlaveApp {
         esc: &mut Et1100<P>,
         stage: &OutputStage,
         out: &mut PdiOutcome,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let status = esc.watchdog_status()?;
         if status == WatchdogStatus::Expired && self.esm.state() == AlState::Op {
             self.local_error(esc, stage, AlStatusCode::SyncManagerWatchdog, out)?;
@@ -432,7 +433,7 @@ impl SlaveApp {
         esc: &mut Et1100<P>,
         stage: &OutputStage,
         out: &mut PdiOutcome,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let counter = self.data.sync.error_counter().to_le_bytes();
         let e = self.data.diag.raise(
             ERR_COMMUNICATION,
@@ -453,7 +454,7 @@ impl SlaveApp {
         stage: &OutputStage,
         code: AlStatusCode,
         out: &mut PdiOutcome,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let from = self.esm.state();
         self.data.outputs.enter_fault(stage);
         self.data.sync.disarm();
@@ -471,7 +472,7 @@ impl SlaveApp {
         stage: &OutputStage,
         now_ns: u64,
         out: &mut PdiOutcome,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let state = self.esm.state();
         if !matches!(state, AlState::SafeOp | AlState::Op) {
             return Ok(());
@@ -528,7 +529,7 @@ impl SlaveApp {
 
     /// Publishes the samples of the cycle and writes them to SM3; returns the AL event bits
     /// of the write (`None` if nothing was written).
-    fn write_inputs<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> EscResult<Option<AlEvents>, P> {
+    fn write_inputs<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<Option<AlEvents>, P> {
         self.data.sampler.publish();
         let values = SlotValues {
             ai: self.data.sampler.values(),
@@ -559,7 +560,7 @@ impl SlaveApp {
         now_ns: u64,
         how: Service,
         out: &mut PdiOutcome,
-    ) -> EscResult<(), P> {
+    ) -> PdiResult<(), P> {
         let state = self.esm.state();
         let od = self.data.od();
         if matches!(how, Service::Registers { .. }) {
@@ -582,7 +583,7 @@ impl SlaveApp {
 
 /// A mailbox SyncManager against the device description: enabled, same start and length,
 /// same control byte apart from the ECAT IRQ bit (b4), which masters set as they like.
-fn mailbox_sm_ok(sm: &SyncManager, expect: &SmExpect) -> bool {
+fn mailbox_sm_ok(sm: &SyncManager, expect: &SyncManagerDesc) -> bool {
     sm.enabled()
         && sm.start == expect.start
         && sm.length == expect.len

@@ -2,11 +2,11 @@
 //! [`ObjectAccess`] implementation, with the write rules of the application.
 //!
 //! Served here (everything else reads as the entry's default from the dictionary, i.e. the
-//! constant tables of `od.rs`/`device.rs`: 0x1000, 0x1008..0x100A, 0x1018, 0x1C00):
+//! product's constants, [`crate::product`]: 0x1000, 0x1008..0x100A, 0x1018, 0x1C00):
 //! 0x1001 error register, 0x10F1 error settings, 0x1600../0x1A00../0x1C12/0x1C13 PDO
 //! configuration ([`ProcessData`]), 0x1C32/0x1C33 ([`SyncMonitor`]), 0x6401 AI values
 //! ([`Sampler`]), 0x6411 AO values, 0x6443/0x6444 fault configuration, and the
-//! manufacturer settings object [`SETTINGS_INDEX`].
+//! manufacturer settings object ([`SETTINGS_INDEX`]).
 //!
 //! Vetoes (the SDO server has already checked existence, access per state, length and the
 //! dictionary's min/max): PDO configuration and sync mode/cycle only in PREOP (0x08000022),
@@ -14,17 +14,15 @@
 //! (0x06090030).
 
 use super::diagnostics::Diagnostics;
+use super::entry_bytes::{channel, put};
 use super::outputs::{AnalogOutputs, ErrorMode};
 use super::process_data::ProcessData;
-use super::sampler::{PublishMode, Sampler, CHANNELS as AI_CHANNELS};
+use super::sampler::{PublishMode, Sampler};
 use super::sync::{le_u16, le_u32, SyncMonitor};
+use crate::product::capacity::{AI_CHANNELS, AO_CHANNELS};
+use crate::product::od::SETTINGS_INDEX;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::{AlState, SdoAbortCode};
-
-/// Manufacturer settings object (RECORD, `crate::od`): sub 1 "AI filter" UNSIGNED8, 0 = latest
-/// sample, 1 = average over the cycle; sub 2 the full scale in uV (a constant read from the
-/// dictionary).
-pub const SETTINGS_INDEX: u16 = 0x2000;
 
 /// The application data behind the dictionary.
 pub struct AppData {
@@ -39,23 +37,7 @@ pub struct AppData {
     pub pd: ProcessData,
     /// Error register and 0x10F1:01.
     pub diag: Diagnostics,
-    ao_written: Option<[i16; 2]>,
-}
-
-fn put(buf: &mut [u8], bytes: &[u8]) -> Result<usize, SdoAbortCode> {
-    buf.get_mut(..bytes.len())
-        .ok_or(SdoAbortCode::OutOfMemory)?
-        .copy_from_slice(bytes);
-    Ok(bytes.len())
-}
-
-fn channel(sub: u8, count: usize) -> Result<usize, SdoAbortCode> {
-    let i = usize::from(sub).wrapping_sub(1);
-    if i < count {
-        Ok(i)
-    } else {
-        Err(SdoAbortCode::SubindexDoesNotExist)
-    }
+    ao_written: Option<[i16; AO_CHANNELS]>,
 }
 
 impl AppData {
@@ -78,11 +60,11 @@ impl AppData {
     }
 
     /// AO values written by SDO since the last call (to be staged by the caller).
-    pub fn take_ao_written(&mut self) -> Option<[i16; 2]> {
+    pub fn take_ao_written(&mut self) -> Option<[i16; AO_CHANNELS]> {
         self.ao_written.take()
     }
 
-    fn ao_values(&self) -> [i16; 2] {
+    fn ao_values(&self) -> [i16; AO_CHANNELS] {
         self.ao_written.unwrap_or(self.outputs.values())
     }
 
@@ -118,19 +100,19 @@ impl ObjectAccess for AppData {
                 let i = channel(sub, AI_CHANNELS)?;
                 put(buf, &self.sampler.value(i).unwrap_or(0).to_le_bytes())
             }
-            (0x6411 | 0x6443 | 0x6444, 0) => put(buf, &[2]),
+            (0x6411 | 0x6443 | 0x6444, 0) => put(buf, &[AO_CHANNELS as u8]),
             (0x6411, _) => {
-                let i = channel(sub, 2)?;
+                let i = channel(sub, AO_CHANNELS)?;
                 let v = self.ao_values().get(i).copied().unwrap_or(0);
                 put(buf, &v.to_le_bytes())
             }
             (0x6443, _) => {
-                let i = channel(sub, 2)?;
+                let i = channel(sub, AO_CHANNELS)?;
                 let m = self.outputs.fault_config().mode.get(i).copied();
                 put(buf, &[m.unwrap_or_default().to_u8()])
             }
             (0x6444, _) => {
-                let i = channel(sub, 2)?;
+                let i = channel(sub, AO_CHANNELS)?;
                 let v = self.outputs.fault_config().value.get(i).copied();
                 put(buf, &v.unwrap_or(0).to_le_bytes())
             }
@@ -160,7 +142,7 @@ impl ObjectAccess for AppData {
             (0x1C33, _) => self.sync.write(true, sub, data),
             (i, _) if self.pd.owns(i) => self.pd.write(i, sub, data, state, self.od),
             (0x6411, _) => {
-                let i = channel(sub, 2)?;
+                let i = channel(sub, AO_CHANNELS)?;
                 let v = i16::from_le_bytes(match data {
                     [a, b] => [*a, *b],
                     _ => return Err(SdoAbortCode::LengthMismatch),
@@ -173,7 +155,7 @@ impl ObjectAccess for AppData {
                 Ok(())
             }
             (0x6443, _) => {
-                let i = channel(sub, 2)?;
+                let i = channel(sub, AO_CHANNELS)?;
                 let mode = match data {
                     [m] => ErrorMode::from_u8(*m).ok_or(SdoAbortCode::ValueRangeExceeded)?,
                     _ => return Err(SdoAbortCode::LengthMismatch),
@@ -184,7 +166,7 @@ impl ObjectAccess for AppData {
                 Ok(())
             }
             (0x6444, _) => {
-                let i = channel(sub, 2)?;
+                let i = channel(sub, AO_CHANNELS)?;
                 let v = le_u32(data)? as i32;
                 if !(0..=i32::from(i16::MAX)).contains(&v) {
                     return Err(SdoAbortCode::ValueRangeExceeded);
@@ -211,57 +193,5 @@ impl ObjectAccess for AppData {
 
     fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
         self.pd.is_rx_mapped(index, subindex)
-    }
-}
-
-/// The object access the process-data unpacking uses: collects the 0x6411 values of one
-/// SM2 image (other mapped objects are ignored).
-pub(crate) struct RxSink {
-    pub ao: [i16; 2],
-}
-
-impl ObjectAccess for RxSink {
-    fn read(&mut self, _: u16, _: u8, _: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        Err(SdoAbortCode::ReadOfWriteOnly)
-    }
-
-    fn write(&mut self, index: u16, sub: u8, data: &[u8], _: AlState) -> Result<(), SdoAbortCode> {
-        if index == 0x6411 {
-            if let (Ok(i), [a, b]) = (channel(sub, 2), data) {
-                if let Some(slot) = self.ao.get_mut(i) {
-                    *slot = i16::from_le_bytes([*a, *b]);
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-/// The object access the process-data packing uses: the published AI values and the AO
-/// values (a snapshot, so packing does not borrow the application data).
-pub(crate) struct TxSource {
-    pub ai: [i16; AI_CHANNELS],
-    pub ao: [i16; 2],
-    pub error_register: u8,
-}
-
-impl ObjectAccess for TxSource {
-    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        match index {
-            0x6401 => {
-                let i = channel(sub, AI_CHANNELS)?;
-                put(buf, &self.ai.get(i).copied().unwrap_or(0).to_le_bytes())
-            }
-            0x6411 => {
-                let i = channel(sub, 2)?;
-                put(buf, &self.ao.get(i).copied().unwrap_or(0).to_le_bytes())
-            }
-            0x1001 => put(buf, &[self.error_register]),
-            _ => Err(SdoAbortCode::CannotBeMapped),
-        }
-    }
-
-    fn write(&mut self, _: u16, _: u8, _: &[u8], _: AlState) -> Result<(), SdoAbortCode> {
-        Err(SdoAbortCode::WriteOfReadOnly)
     }
 }

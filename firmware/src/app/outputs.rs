@@ -35,10 +35,11 @@
 //! to stage anything until fresh process data arrive in OP.
 
 use super::scaling::{ao_in_range, ao_to_dac_code, fault_value_to_dac_code};
+use crate::product::capacity::AO_CHANNELS as CHANNELS;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-/// Number of analog outputs.
-pub const CHANNELS: usize = 2;
+// A DAC pair is the AD5663's two channels.
+const _: () = assert!(CHANNELS == 2, "the outputs are the AD5663's two channels");
 
 /// The AD5663 codes of both channels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

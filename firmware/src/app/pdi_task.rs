@@ -189,15 +189,15 @@ impl PdiTask {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::{DacLatch, DacPair};
-    use crate::device::{app_config, process_data};
+    use crate::app::process_data::ProcessData;
+    use crate::app::{AppConfig, DacLatch, DacPair};
     use crate::fake_esc::FakeEsc;
-    use crate::od::OD;
+    use crate::product::od::OD;
     use coe_core::AlState;
     use et1100::AlEvents;
 
     fn task() -> (PdiTask, FakeEsc, OutputStage) {
-        let app = SlaveApp::new(&OD, app_config(), process_data());
+        let app = SlaveApp::new(&OD, AppConfig::product(), ProcessData::product_default());
         (PdiTask::new(app), FakeEsc::new(), OutputStage::new())
     }
 
@@ -217,7 +217,7 @@ mod tests {
 
     /// The master configures the mailbox SyncManagers as the device description says.
     fn mailbox_sms(esc: &mut FakeEsc) {
-        for (n, sm) in app_config().sm.iter().take(2).enumerate() {
+        for (n, sm) in AppConfig::product().sm.iter().take(2).enumerate() {
             esc.master_sm(n as u8, sm.start, sm.len, sm.control, true);
         }
     }

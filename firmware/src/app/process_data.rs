@@ -16,28 +16,19 @@
 //!   its length not the size of the assigned RxPDOs (TxPDOs), or enabled/disabled against
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
-use super::objects::{RxSink, TxSource};
-use super::sampler::CHANNELS as AI_CHANNELS;
-use super::SmExpect;
-use coe_core::device::sm_control;
+use super::entry_bytes::{channel, put};
+use crate::product::capacity::{
+    AI_CHANNELS, AO_CHANNELS, MAX_FIELDS, MAX_IMAGE, PDO_ENTRIES, RX_PDOS, TX_PDOS,
+};
+use crate::product::od;
+use coe_core::device::{sm_control, SyncManagerDesc};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoMapping};
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
 use et1100::SyncManager;
 
-/// RxPDO mapping objects the module offers.
-pub const RX_PDOS: usize = 2;
-/// TxPDO mapping objects the module offers.
-pub const TX_PDOS: usize = 2;
-/// Entries per mapping object.
-pub const ENTRIES: usize = 8;
-/// Largest process image per direction in bytes.
-pub const MAX_IMAGE: usize = 32;
-/// Largest number of mapped objects per direction.
-pub const MAX_FIELDS: usize = 16;
-
 /// One PDO mapping object.
-pub type Mapping = PdoMapping<ENTRIES>;
+pub type Mapping = PdoMapping<PDO_ENTRIES>;
 
 /// A process-data object the application holds in a plain variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,7 +47,7 @@ impl Slot {
         let n = subindex.wrapping_sub(1);
         match (index, bit_len) {
             (0x6401, 16) if usize::from(n) < AI_CHANNELS => Some(Self::Ai(n)),
-            (0x6411, 16) if n < 2 => Some(Self::Ao(n)),
+            (0x6411, 16) if usize::from(n) < AO_CHANNELS => Some(Self::Ao(n)),
             (0x1001, 8) if subindex == 0 => Some(Self::ErrorRegister),
             _ => None,
         }
@@ -111,7 +102,7 @@ pub struct SlotValues {
     /// Published analog inputs.
     pub ai: [i16; AI_CHANNELS],
     /// Analog outputs.
-    pub ao: [i16; 2],
+    pub ao: [i16; AO_CHANNELS],
     /// Error register (0x1001).
     pub error_register: u8,
 }
@@ -141,8 +132,20 @@ pub struct ProcessData {
 const MAX_BITS: u32 = (MAX_IMAGE * 8) as u32;
 
 impl ProcessData {
-    /// The default configuration: the mapping objects (their indices name them) and the
-    /// assigned PDOs.
+    /// The product's default configuration: the mapping objects with their default entries
+    /// and the assignments, from the constants the dictionary's defaults of 0x1600../
+    /// 0x1A00../0x1C12/0x1C13 are made of ([`od::RX_DEFAULTS`] and friends); a host test
+    /// reads it back against the dictionary.
+    pub fn product_default() -> Self {
+        let rx: [Mapping; RX_PDOS] =
+            core::array::from_fn(|i| Mapping::with_entries(od::RX_MAPPINGS[i], od::RX_DEFAULTS[i]));
+        let tx: [Mapping; TX_PDOS] =
+            core::array::from_fn(|i| Mapping::with_entries(od::TX_MAPPINGS[i], od::TX_DEFAULTS[i]));
+        Self::new(rx, tx, &od::RX_ASSIGN_DEFAULT, &od::TX_ASSIGN_DEFAULT)
+    }
+
+    /// A configuration: the mapping objects (their indices name them) and the assigned
+    /// PDOs.
     pub fn new(
         rx: [Mapping; RX_PDOS],
         tx: [Mapping; TX_PDOS],
@@ -282,8 +285,8 @@ impl ProcessData {
         od: &ObjectDictionary,
         sm2: &SyncManager,
         sm3: &SyncManager,
-        expect2: &SmExpect,
-        expect3: &SmExpect,
+        expect2: &SyncManagerDesc,
+        expect3: &SyncManagerDesc,
     ) -> Result<(), AlStatusCode> {
         let valid = |maps: &[Mapping]| maps.iter().all(|m| m.validate(od, MAX_BITS).is_ok());
         if !valid(&self.rx) || self.rx_assign.validate(&self.rx, MAX_BITS).is_err() {
@@ -323,7 +326,11 @@ impl ProcessData {
 
     /// The AO values of the output image: `ao` with every mapped AO replaced. The fast
     /// plan when there is one, else [`ProcessData::unpack`] through `sink`.
-    pub fn unpack_ao(&self, ao: [i16; 2], state: AlState) -> Result<[i16; 2], SdoAbortCode> {
+    pub fn unpack_ao(
+        &self,
+        ao: [i16; AO_CHANNELS],
+        state: AlState,
+    ) -> Result<[i16; AO_CHANNELS], SdoAbortCode> {
         let Some(plan) = &self.rx_fast else {
             let mut sink = RxSink { ao };
             self.unpack(&mut sink, state)?;
@@ -416,8 +423,60 @@ impl ProcessData {
     }
 }
 
+/// The object access the process-data unpacking uses: collects the 0x6411 values of one
+/// SM2 image (other mapped objects are ignored).
+struct RxSink {
+    ao: [i16; AO_CHANNELS],
+}
+
+impl ObjectAccess for RxSink {
+    fn read(&mut self, _: u16, _: u8, _: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        Err(SdoAbortCode::ReadOfWriteOnly)
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8], _: AlState) -> Result<(), SdoAbortCode> {
+        if index == 0x6411 {
+            if let (Ok(i), [a, b]) = (channel(sub, AO_CHANNELS), data) {
+                if let Some(slot) = self.ao.get_mut(i) {
+                    *slot = i16::from_le_bytes([*a, *b]);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The object access the process-data packing uses: the published AI values and the AO
+/// values (a snapshot, so packing does not borrow the application data).
+struct TxSource {
+    ai: [i16; AI_CHANNELS],
+    ao: [i16; AO_CHANNELS],
+    error_register: u8,
+}
+
+impl ObjectAccess for TxSource {
+    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        match index {
+            0x6401 => {
+                let i = channel(sub, AI_CHANNELS)?;
+                put(buf, &self.ai.get(i).copied().unwrap_or(0).to_le_bytes())
+            }
+            0x6411 => {
+                let i = channel(sub, AO_CHANNELS)?;
+                put(buf, &self.ao.get(i).copied().unwrap_or(0).to_le_bytes())
+            }
+            0x1001 => put(buf, &[self.error_register]),
+            _ => Err(SdoAbortCode::CannotBeMapped),
+        }
+    }
+
+    fn write(&mut self, _: u16, _: u8, _: &[u8], _: AlState) -> Result<(), SdoAbortCode> {
+        Err(SdoAbortCode::WriteOfReadOnly)
+    }
+}
+
 /// SM2/SM3 against the device description and the image length.
-fn sm_matches(sm: &SyncManager, expect: &SmExpect, len: usize) -> bool {
+fn sm_matches(sm: &SyncManager, expect: &SyncManagerDesc, len: usize) -> bool {
     let mask = sm_control::MODE_MASK | sm_control::DIR_MASK;
     if len == 0 {
         return !sm.enabled() || sm.length == 0;
@@ -431,6 +490,7 @@ fn sm_matches(sm: &SyncManager, expect: &SmExpect, len: usize) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::product::device::DEVICE;
     use coe_core::pdo::PdoEntry;
     use std::vec::Vec;
 
@@ -442,8 +502,8 @@ mod tests {
             &[0x1600],
             &[0x1A00],
         );
-        let [_, _, e2, e3] = crate::device::app_config().sm;
-        let sm = |e: &SmExpect, len: usize| SyncManager {
+        let [_, _, e2, e3] = crate::app::AppConfig::product().sm;
+        let sm = |e: &SyncManagerDesc, len: usize| SyncManager {
             start: e.start,
             length: len as u16,
             control: e.control,
@@ -451,7 +511,7 @@ mod tests {
             ..SyncManager::default()
         };
         let (sm2, sm3) = (sm(&e2, pd.output_len()), sm(&e3, pd.input_len()));
-        pd.prepare(&crate::od::OD, &sm2, &sm3, &e2, &e3).unwrap();
+        pd.prepare(&od::OD, &sm2, &sm3, &e2, &e3).unwrap();
         pd
     }
 
@@ -541,5 +601,50 @@ mod tests {
         .unwrap();
         assert!(FastImage::build(&layout, |s| matches!(s, Slot::Ao(_))).is_none());
         assert!(FastImage::build(&layout, |_| true).is_some());
+    }
+
+    #[test]
+    fn product_default_is_built_from_the_dictionary() {
+        // Every mapping object of the dictionary has a slot in the application, and only those.
+        assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
+        assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
+        let pd = ProcessData::product_default();
+        assert_eq!(pd.output_len(), 4);
+        assert_eq!(pd.input_len(), 16);
+        for object in DEVICE
+            .pdo_objects(PdoDirection::Rx)
+            .chain(DEVICE.pdo_objects(PdoDirection::Tx))
+        {
+            assert!(pd.owns(object.index), "{:#06x}", object.index);
+            let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();
+            let mut buf = [0u8; 4];
+            assert_eq!(pd.read(object.index, 0, &mut buf), Ok(1));
+            assert_eq!(usize::from(buf[0]), entries.len());
+            for (sub, entry) in (1..).zip(&entries) {
+                assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
+                assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
+            }
+        }
+        // The assignments: as many PDOs as the dictionary's defaults, the same ones.
+        for (assign, direction) in [(0x1C12, PdoDirection::Rx), (0x1C13, PdoDirection::Tx)] {
+            let pdos: Vec<u32> = DEVICE.assigned_pdos(direction).collect();
+            let mut buf = [0u8; 2];
+            assert_eq!(pd.read(assign, 0, &mut buf), Ok(1));
+            assert_eq!(usize::from(buf[0]), pdos.len(), "{assign:#06x}");
+            for (sub, pdo) in (1..).zip(&pdos) {
+                assert_eq!(pd.read(assign, sub, &mut buf), Ok(2));
+                assert_eq!(
+                    u32::from(u16::from_le_bytes(buf)),
+                    *pdo,
+                    "{assign:#06x}:{sub}"
+                );
+            }
+        }
+        let mut buf = [0u8; 2];
+        assert_eq!(pd.read(0x1C12, 1, &mut buf), Ok(2));
+        assert_eq!(u16::from_le_bytes(buf), 0x1600);
+        assert_eq!(pd.read(0x1C13, 1, &mut buf), Ok(2));
+        assert_eq!(u16::from_le_bytes(buf), 0x1A00);
+        assert!(pd.is_rx_mapped(0x6411, 2));
     }
 }

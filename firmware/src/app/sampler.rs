@@ -23,11 +23,10 @@
 
 use super::div::div_u64_u32;
 use super::scaling::adc_code_to_ai;
+use crate::product::capacity::AI_CHANNELS as CHANNELS;
+use crate::product::od::{AI_FILTER_AVERAGE, AI_FILTER_LATEST};
 use core::sync::atomic::{AtomicU32, Ordering};
 use heapless::spsc::{Consumer, Producer, Queue};
-
-/// Number of analog inputs.
-pub const CHANNELS: usize = 8;
 
 /// One conversion result, tagged with the input channel it belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -61,8 +60,8 @@ impl PublishMode {
     /// Decodes the setting value; `None` for values that name no mode.
     pub const fn from_setting(value: u8) -> Option<Self> {
         match value {
-            0 => Some(Self::Latest),
-            1 => Some(Self::Average),
+            AI_FILTER_LATEST => Some(Self::Latest),
+            AI_FILTER_AVERAGE => Some(Self::Average),
             _ => None,
         }
     }
@@ -70,8 +69,8 @@ impl PublishMode {
     /// The setting value.
     pub const fn setting(self) -> u8 {
         match self {
-            Self::Latest => 0,
-            Self::Average => 1,
+            Self::Latest => AI_FILTER_LATEST,
+            Self::Average => AI_FILTER_AVERAGE,
         }
     }
 }

@@ -1,6 +1,6 @@
-//! Analog scaling: converter codes <-> CiA 401 INTEGER16 process values <-> volts.
-//!
-//! All scaling constants of the module live here (one place).
+//! Analog scaling: converter codes <-> CiA 401 INTEGER16 process values <-> volts. The
+//! conversions live here; the front end they follow (reference, divider and gain, full
+//! scale) is the product's ([`crate::product::analog`]).
 //!
 //! # Inputs (AD7689, 8 channels)
 //!
@@ -31,12 +31,8 @@
 //! A negative AO value cannot be produced by the unipolar output stage: it is clamped to 0 V
 //! and reported as out of range ([`ao_in_range`]).
 
-/// Reference voltage of the AD7689 and the AD5663, in microvolts.
-pub const REFERENCE_UV: u32 = 2_500_000;
-/// Input divider ratio (terminal voltage / ADC voltage) and output gain (terminal / DAC).
-pub const FRONT_END_GAIN: u32 = 4;
-/// Terminal full scale in microvolts (10 V): `REFERENCE_UV * FRONT_END_GAIN`.
-pub const FULL_SCALE_UV: u32 = REFERENCE_UV * FRONT_END_GAIN;
+use crate::product::analog::FULL_SCALE_UV;
+
 /// Converter codes per full scale (16-bit converters).
 pub const CODES: u32 = 1 << 16;
 /// INTEGER16 process-value steps per full scale (`0x7FFF` is one step below full scale).

@@ -35,25 +35,13 @@
 //! closer than the minimum cycle time count "cycle time too small".
 
 use super::outputs::Sync0Counts;
+use crate::product::sync::{
+    DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
+    OUTPUT_DELAY_NS, SUPPORTED_MODES, SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM,
+    SYNC_MODE_SM2_INPUTS,
+};
 use coe_core::{AlStatusCode, SdoAbortCode};
 use et1100::SyncActivation;
-
-/// Shortest cycle the module handles (0x1C32:05/0x1C33:05): the product target of a 25 us
-/// DC cycle with 2 AO + 8 AI (BRIEF section 6); to be confirmed by the benchmark.
-pub const MIN_CYCLE_TIME_NS: u32 = 25_000;
-/// Outputs: SM2 event to outputs copied and staged (0x1C32:06): SM2 read over SPI (4.5 us)
-/// plus unpack and staging.
-pub const OUTPUT_CALC_COPY_NS: u32 = 8_000;
-/// Outputs: SYNC0 edge to both DAC outputs updated (0x1C32:09): the write path (two 24-bit
-/// frames, about 2.1 us at 25 MHz) bounds the LDAC path (about 0.3 us).
-pub const OUTPUT_DELAY_NS: u32 = 3_000;
-/// Inputs: latch to SM3 written (0x1C33:06): pack plus the 16-byte SM3 write (11.5 us).
-pub const INPUT_CALC_COPY_NS: u32 = 15_000;
-/// Sync modes supported (0x1C32:04/0x1C33:04): b0 free run, b1 SM-synchronous, bits 4:2 =
-/// 001 DC SYNC0.
-pub const SUPPORTED_MODES: u16 = 0x0007;
-/// Default Sync Error Counter Limit (0x10F1:02).
-pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;
 
 /// A sync mode as 0x1C32:01 / 0x1C33:01 give it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -72,27 +60,27 @@ impl SyncMode {
     /// The 0x1C32:01 value.
     pub const fn output_value(self) -> u16 {
         match self {
-            Self::FreeRun => 0,
-            Self::SmSync => 1,
-            Self::DcSync0 => 2,
+            Self::FreeRun => SYNC_MODE_FREE_RUN,
+            Self::SmSync => SYNC_MODE_SM,
+            Self::DcSync0 => SYNC_MODE_DC_SYNC0,
         }
     }
 
     /// The 0x1C33:01 value (0x22: inputs latched on the SM2 event).
     pub const fn input_value(self) -> u16 {
         match self {
-            Self::FreeRun => 0,
-            Self::SmSync => 0x22,
-            Self::DcSync0 => 2,
+            Self::FreeRun => SYNC_MODE_FREE_RUN,
+            Self::SmSync => SYNC_MODE_SM2_INPUTS,
+            Self::DcSync0 => SYNC_MODE_DC_SYNC0,
         }
     }
 
     /// Decodes a 0x1C32:01 value (`Err(SyncModeNotSupported)` for 3 = SYNC1 and others).
     pub const fn from_output_value(value: u16) -> Result<Self, SyncConfigError> {
         match value {
-            0 => Ok(Self::FreeRun),
-            1 => Ok(Self::SmSync),
-            2 => Ok(Self::DcSync0),
+            SYNC_MODE_FREE_RUN => Ok(Self::FreeRun),
+            SYNC_MODE_SM => Ok(Self::SmSync),
+            SYNC_MODE_DC_SYNC0 => Ok(Self::DcSync0),
             _ => Err(SyncConfigError::SyncModeNotSupported),
         }
     }
@@ -100,9 +88,9 @@ impl SyncMode {
     /// Decodes a 0x1C33:01 value (1 = SM3 event and 0x22 = SM2 event both mean SM-sync).
     pub const fn from_input_value(value: u16) -> Result<Self, SyncConfigError> {
         match value {
-            0 => Ok(Self::FreeRun),
-            1 | 0x22 => Ok(Self::SmSync),
-            2 => Ok(Self::DcSync0),
+            SYNC_MODE_FREE_RUN => Ok(Self::FreeRun),
+            SYNC_MODE_SM | SYNC_MODE_SM2_INPUTS => Ok(Self::SmSync),
+            SYNC_MODE_DC_SYNC0 => Ok(Self::DcSync0),
             _ => Err(SyncConfigError::SyncModeNotSupported),
         }
     }
@@ -815,5 +803,40 @@ mod tests {
         );
         m.reset();
         assert_eq!(m.requests(), (None, None));
+    }
+
+    /// 0x1C32/0x1C33 of the product's dictionary describe exactly what the monitor serves:
+    /// every entry is read with its length, sub 0 stays 0x20, and the unmeasured 0x0E..=0x12
+    /// are absent from both.
+    #[test]
+    fn the_dictionary_describes_what_the_monitor_serves() {
+        let monitor = SyncMonitor::new();
+        for (index, inputs) in [(0x1C32, false), (0x1C33, true)] {
+            let object = crate::product::od::OD.find(index).unwrap();
+            assert_eq!(object.max_subindex(), 0x20);
+            let mut buf = [0u8; 8];
+            for e in object.entries.iter().skip(1) {
+                let n = monitor.read(inputs, e.subindex, &mut buf);
+                assert_eq!(
+                    n,
+                    Ok(usize::from(e.bit_len.div_ceil(8))),
+                    "{index:#x}:{:#x}",
+                    e.subindex
+                );
+                // The defaults are the values the monitor starts with.
+                let mut default = [0u8; 8];
+                let len = e.default().encode(e.data_type, e.bit_len, &mut default);
+                if let Some(len) = len.filter(|n| *n > 0) {
+                    assert_eq!(default[..len], buf[..len], "{index:#x}:{:#x}", e.subindex);
+                }
+            }
+            for sub in 0x0E..=0x12 {
+                assert!(object.entry(sub).is_none(), "{index:#x}:{sub:#x}");
+                assert_eq!(
+                    monitor.read(inputs, sub, &mut buf),
+                    Err(SdoAbortCode::SubindexDoesNotExist)
+                );
+            }
+        }
     }
 }

@@ -4,6 +4,7 @@
 use super::process_data::{Mapping, ProcessData};
 use super::*;
 use crate::fake_esc::FakeEsc;
+use coe_core::device::{SmRole, SyncManagerDesc};
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, Value};
 use coe_core::pdo::PdoEntry;
 use et1100::AlEvents;
@@ -117,26 +118,10 @@ const PD_IN: u16 = 0x1180;
 fn config() -> AppConfig {
     AppConfig {
         sm: [
-            SmExpect {
-                start: MBX_OUT,
-                len: 128,
-                control: 0x26,
-            },
-            SmExpect {
-                start: MBX_IN,
-                len: 128,
-                control: 0x22,
-            },
-            SmExpect {
-                start: PD_OUT,
-                len: 0,
-                control: 0x64,
-            },
-            SmExpect {
-                start: PD_IN,
-                len: 0,
-                control: 0x20,
-            },
+            SyncManagerDesc::new(SmRole::MailboxOut, MBX_OUT, 128, 0x26),
+            SyncManagerDesc::new(SmRole::MailboxIn, MBX_IN, 128, 0x22),
+            SyncManagerDesc::new(SmRole::ProcessDataOut, PD_OUT, 0, 0x64),
+            SyncManagerDesc::new(SmRole::ProcessDataIn, PD_IN, 0, 0x20),
         ],
         device_id: Some(0x0042),
     }

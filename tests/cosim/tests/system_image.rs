@@ -11,8 +11,9 @@ use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{
     std::ethercat_now, DcSync, MainDevice, MainDeviceConfig, PduStorage, SubDeviceState,
 };
-use firmware::device::{DEVICE, IDENTITY, NAMES};
-use firmware::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use firmware::product::device::DEVICE;
+use firmware::product::identity::{IDENTITY, NAMES};
+use firmware::product::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use futures_lite::future::{block_on, or};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::machine::ResetCause;
@@ -161,7 +162,7 @@ fn boot_to_preop_sdo_sdo_info_and_segmented_upload() {
                 .await
                 .unwrap()
                 .expect("SDO Information");
-            let want: Vec<u16> = firmware::od::OD.iter().map(|o| o.index).collect();
+            let want: Vec<u16> = firmware::product::od::OD.iter().map(|o| o.index).collect();
             assert_eq!(all.to_vec(), want);
         },
         tx_rx_task(board.clone(), tx, rx),

@@ -25,7 +25,7 @@ const PD_OUT: u16 = 0x1100;
 const PD_IN: u16 = 0x1180;
 
 /// An object longer than the mailbox data area (the module description string of
-/// `firmware::od`), uploaded in segments.
+/// `firmware::product::od`), uploaded in segments.
 const SEGMENTED_UPLOAD_INDEX: u16 = 0x2001;
 
 /// Address bytes of one access (2-byte addressing).

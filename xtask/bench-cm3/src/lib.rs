@@ -5,7 +5,7 @@
 //! ESC is the register file of the firmware's tests ([`FakeEsc`], in RAM), so the counts are
 //! the application's CPU work without the SPI transfers (those are counted in bytes on the
 //! virtual board and converted to time separately). A [`Rig`] is brought to OP in DC SYNC0
-//! mode with the module's own device description ([`firmware::device`], [`firmware::od`]:
+//! mode with the module's own description ([`firmware::product`]:
 //! default process data 2 AO in SM2, 8 AI in SM3), then each path is
 //! prepared (not measured), run (measured) and checked (not measured):
 //!
@@ -33,13 +33,14 @@ use et1100::{Et1100, SpiPdi};
 use firmware::app::adc_dma::{
     words_written, HalfCounter, PositionError, ScanReader, HALF_WORDS, RING_WORDS,
 };
-use firmware::app::mailbox::MAILBOX_SIZE;
 use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
+use firmware::app::process_data::ProcessData;
 use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
+use firmware::app::AppConfig;
 use firmware::app::{PdiOutcome, SlaveApp};
-use firmware::device;
 pub use firmware::fake_esc::FakeEsc;
-use firmware::od::OD;
+use firmware::product::capacity::MAILBOX_SIZE;
+use firmware::product::od::OD;
 
 /// Ring length of the sampler scenario (one scan fits many times).
 pub const RING: usize = 64;
@@ -71,9 +72,9 @@ impl Rig {
     /// Power-up and the master's ESM walk to OP with DC SYNC0 at `cycle_ns`.
     pub fn new(cycle_ns: u32) -> Result<Self, CheckFailed> {
         let mut esc = FakeEsc::new();
-        let pd = device::process_data();
+        let pd = ProcessData::product_default();
         let (out_len, in_len) = (pd.output_len() as u16, pd.input_len() as u16);
-        let mut app = SlaveApp::new(&OD, device::app_config(), pd);
+        let mut app = SlaveApp::new(&OD, AppConfig::product(), pd);
         app.start(&mut esc.driver())
             .map_err(|_| CheckFailed("start"))?;
         let mut rig = Self {
@@ -88,7 +89,7 @@ impl Rig {
             reply: [0; MAILBOX_SIZE],
             output_len: out_len,
         };
-        let [m0, m1, p2, p3] = device::app_config().sm;
+        let [m0, m1, p2, p3] = AppConfig::product().sm;
         rig.esc.master_sm(0, m0.start, m0.len, m0.control, true);
         rig.esc.master_sm(1, m1.start, m1.len, m1.control, true);
         rig.request(0x02, "INIT -> PREOP")?;

@@ -138,11 +138,11 @@ fn register_name(addr: u16) -> String {
                 .map(|n| format!("SM{n} registers"))
         })
         .or_else(|| {
-            firmware::device::SYNC_MANAGERS
+            firmware::product::layout::SYNC_MANAGERS
                 .iter()
                 .position(|sm| sm.start == addr)
                 .map(|n| {
-                    let role = firmware::device::SYNC_MANAGERS[n].role.esi_name();
+                    let role = firmware::product::layout::SYNC_MANAGERS[n].role.esi_name();
                     format!("SM{n} {role} buffer")
                 })
         });
@@ -208,7 +208,7 @@ fn bus_rows(bus: &BusReport) -> Vec<Row> {
         if pd {
             let limit = 1.1 * c.minimum_bytes as f64;
             let (out, inp) = bus.process_data_bytes;
-            let [_, _, sm2, sm3] = &firmware::device::SYNC_MANAGERS;
+            let [_, _, sm2, sm3] = &firmware::product::layout::SYNC_MANAGERS;
             let needed = [
                 ("read", sm2.start, usize::from(out)),
                 ("write", sm3.start, usize::from(inp)),

@@ -5,7 +5,9 @@
 
 use crate::rig::firmware_cpu::Device;
 use coe_core::device::DeviceDescription;
-use firmware::device::{app_config, process_data, DEVICE};
+use firmware::app::process_data::ProcessData;
+use firmware::app::AppConfig;
+use firmware::product::device::DEVICE;
 
 /// The SII EEPROM image of `desc`: the generated image, the rest of the EEPROM erased
 /// (0xFF) as on a programmed part.
@@ -15,7 +17,7 @@ pub fn sii_image(desc: &DeviceDescription) -> Result<Vec<u8>, coe_core::sii::Sii
     Ok(image)
 }
 
-/// The module as the firmware describes it (`firmware::device::DEVICE`).
+/// The module as the firmware describes it (`firmware::product::device::DEVICE`).
 pub fn device() -> Result<Device, String> {
     let sii = sii_image(&DEVICE).map_err(|e| e.to_string())?;
     Ok(Device {
@@ -26,8 +28,8 @@ pub fn device() -> Result<Device, String> {
             DEVICE.od.len()
         ),
         od: DEVICE.od,
-        config: app_config(),
-        process_data: process_data(),
+        config: AppConfig::product(),
+        process_data: ProcessData::product_default(),
         sii,
     })
 }

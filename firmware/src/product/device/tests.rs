@@ -1,6 +1,7 @@
 use super::*;
-use crate::app::sync::SUPPORTED_MODES;
-use crate::od::{DEVICE_TYPE, MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use crate::product::capacity::MAILBOX_SIZE;
+use crate::product::od::{DEVICE_TYPE, MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use crate::product::sync::SUPPORTED_MODES;
 use coe_core::od::{ObjectDictionary, Value};
 use coe_core::pdo::{PdoDirection, PdoEntry};
 use std::vec::Vec;
@@ -69,66 +70,6 @@ fn default_pdo_mapping_is_ao_out_and_ai_in() {
     assert_eq!(DEVICE.default_pdo_bits(PdoDirection::Tx), 128);
     assert_eq!(DEVICE.default_sm_len(&SYNC_MANAGERS[2]), 4);
     assert_eq!(DEVICE.default_sm_len(&SYNC_MANAGERS[3]), 16);
-}
-
-#[test]
-fn process_data_is_built_from_the_dictionary() {
-    // Every mapping object of the dictionary has a slot in the application, and only those.
-    assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
-    assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
-    let pd = process_data();
-    assert_eq!(pd.output_len(), 4);
-    assert_eq!(pd.input_len(), 16);
-    for object in DEVICE
-        .pdo_objects(PdoDirection::Rx)
-        .chain(DEVICE.pdo_objects(PdoDirection::Tx))
-    {
-        assert!(pd.owns(object.index), "{:#06x}", object.index);
-        let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();
-        let mut buf = [0u8; 4];
-        assert_eq!(pd.read(object.index, 0, &mut buf), Ok(1));
-        assert_eq!(usize::from(buf[0]), entries.len());
-        for (sub, entry) in (1..).zip(&entries) {
-            assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
-            assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
-        }
-    }
-    // The assignments: as many PDOs as the dictionary's defaults, the same ones.
-    for (assign, direction) in [(0x1C12, PdoDirection::Rx), (0x1C13, PdoDirection::Tx)] {
-        let pdos: Vec<u32> = DEVICE.assigned_pdos(direction).collect();
-        let mut buf = [0u8; 2];
-        assert_eq!(pd.read(assign, 0, &mut buf), Ok(1));
-        assert_eq!(usize::from(buf[0]), pdos.len(), "{assign:#06x}");
-        for (sub, pdo) in (1..).zip(&pdos) {
-            assert_eq!(pd.read(assign, sub, &mut buf), Ok(2));
-            assert_eq!(
-                u32::from(u16::from_le_bytes(buf)),
-                *pdo,
-                "{assign:#06x}:{sub}"
-            );
-        }
-    }
-    let mut buf = [0u8; 2];
-    assert_eq!(pd.read(0x1C12, 1, &mut buf), Ok(2));
-    assert_eq!(u16::from_le_bytes(buf), 0x1600);
-    assert_eq!(pd.read(0x1C13, 1, &mut buf), Ok(2));
-    assert_eq!(u16::from_le_bytes(buf), 0x1A00);
-    assert!(pd.is_rx_mapped(0x6411, 2));
-}
-
-#[test]
-fn app_config_follows_the_sync_manager_layout() {
-    let config = app_config();
-    let expected = [
-        (0x1000, 128, 0x26),
-        (0x1080, 128, 0x22),
-        (0x1100, 0, 0x64),
-        (0x1180, 0, 0x20),
-    ];
-    for (sm, (start, len, control)) in config.sm.iter().zip(expected) {
-        assert_eq!((sm.start, sm.len, sm.control), (start, len, control));
-    }
-    assert_eq!(config.device_id, None);
 }
 
 #[test]

@@ -4,23 +4,23 @@
 //! The default PDO assignment and mappings live here as the defaults of 0x1C12/0x1C13 and
 //! 0x16xx/0x1Axx, made of the constants [`RX_DEFAULTS`], [`TX_DEFAULTS`] and the assignment
 //! constants, and nowhere else: the SII image and the ESI file read them from this table
-//! through [`crate::device::DEVICE`]; the firmware's
-//! [`ProcessData`](crate::app::process_data::ProcessData) is built from the same constants
-//! (a host test reads it back against the table). Identity, names and SyncManager types come from
-//! [`crate::device`], so each value is written once.
+//! through [`super::device::DEVICE`]; the firmware's default process data
+//! (`crate::app::process_data::ProcessData::product_default`) is built from the same
+//! constants (a host test reads it back against the table). Identity, names, SyncManager
+//! types, channel counts and sync figures come from the other modules of
+//! [`crate::product`], so each value is written once.
 //!
 //! Which entries the application serves live (and which read as their default) is
-//! documented in [`crate::app::objects`].
+//! documented in `crate::app::objects`.
 
-use crate::app::objects::SETTINGS_INDEX;
-use crate::app::process_data::{ENTRIES, RX_PDOS, TX_PDOS};
-use crate::app::sampler::{PublishMode, CHANNELS as AI_CHANNELS};
-use crate::app::scaling::FULL_SCALE_UV;
-use crate::app::sync::{
-    SyncMode, DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
-    OUTPUT_DELAY_NS, SUPPORTED_MODES,
+use super::analog::FULL_SCALE_UV;
+use super::capacity::{AI_CHANNELS, AO_CHANNELS, PDO_ENTRIES, RX_PDOS, TX_PDOS};
+use super::identity::{IDENTITY, NAMES};
+use super::layout::SYNC_MANAGERS;
+use super::sync::{
+    DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
+    OUTPUT_DELAY_NS, SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS,
 };
-use crate::device::{IDENTITY, NAMES, SYNC_MANAGERS};
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange};
 use coe_core::pdo::PdoEntry;
 
@@ -34,8 +34,13 @@ const RO: Access = Access::RO;
 const RW: Access = Access::RW;
 const RWP: Access = Access::RW_PREOP;
 
-/// Analog outputs (0x6411 entries).
-pub const AO_CHANNELS: usize = 2;
+/// Manufacturer settings object (RECORD): sub 1 "AI filter" UNSIGNED8 ([`AI_FILTER_LATEST`],
+/// [`AI_FILTER_AVERAGE`]), sub 2 the full scale in uV (a constant).
+pub const SETTINGS_INDEX: u16 = 0x2000;
+/// AI filter (`SETTINGS_INDEX`:01) value: 0x6401 is the newest sample (the default).
+pub const AI_FILTER_LATEST: u8 = 0;
+/// AI filter value: 0x6401 is the rounded mean of the samples of the cycle.
+pub const AI_FILTER_AVERAGE: u8 = 1;
 
 /// Index of the module description string (manufacturer area).
 pub const MODULE_DESCRIPTION_INDEX: u16 = 0x2001;
@@ -115,10 +120,10 @@ const fn entries<const N: usize>(
 }
 
 /// A PDO mapping object's entries: sub 0 and `ENTRIES` u32 slots, writable in PREOP.
-const fn mapping(defaults: &[PdoEntry]) -> [EntryDesc; ENTRIES + 1] {
-    let mut words = [0u32; ENTRIES];
+const fn mapping(defaults: &[PdoEntry]) -> [EntryDesc; PDO_ENTRIES + 1] {
+    let mut words = [0u32; PDO_ENTRIES];
     let mut i = 0;
-    while i < defaults.len() && i < ENTRIES {
+    while i < defaults.len() && i < PDO_ENTRIES {
         words[i] = defaults[i].to_u32();
         i += 1;
     }
@@ -140,10 +145,10 @@ const fn assignment<const N: usize>(defaults: &[u16]) -> [EntryDesc; N] {
     out
 }
 
-static RXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(RX_DEFAULTS[0]);
-static RXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(RX_DEFAULTS[1]);
-static TXPDO_1: [EntryDesc; ENTRIES + 1] = mapping(TX_DEFAULTS[0]);
-static TXPDO_2: [EntryDesc; ENTRIES + 1] = mapping(TX_DEFAULTS[1]);
+static RXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(RX_DEFAULTS[0]);
+static RXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(RX_DEFAULTS[1]);
+static TXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[0]);
+static TXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[1]);
 static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&RX_ASSIGN_DEFAULT);
 static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
 
@@ -161,18 +166,15 @@ static SM_TYPES: [EntryDesc; 5] = {
 };
 
 /// 0x1C32 (outputs) / 0x1C33 (inputs), ETG.1020 "SM synchronisation": the subindices the
-/// [`SyncMonitor`](crate::app::sync::SyncMonitor) serves, with its constants as defaults.
+/// application's sync monitor serves (`crate::app::sync::SyncMonitor`, which a test holds
+/// to this description), with the figures of [`super::sync`] as defaults.
 /// 0x0E..=0x12 (RxPDO toggle failed, cycle and SM sync distances) are optional in ETG.1020 and
 /// not measured here, so they are absent (a gap before 0x20; sub 0 stays 0x20).
 const fn sync_parameters(inputs: bool) -> [EntryDesc; 15] {
     let (mode, calc_copy, delay) = if inputs {
-        (SyncMode::SmSync.input_value(), INPUT_CALC_COPY_NS, 0)
+        (SYNC_MODE_SM2_INPUTS, INPUT_CALC_COPY_NS, 0)
     } else {
-        (
-            SyncMode::SmSync.output_value(),
-            OUTPUT_CALC_COPY_NS,
-            OUTPUT_DELAY_NS,
-        )
+        (SYNC_MODE_SM, OUTPUT_CALC_COPY_NS, OUTPUT_DELAY_NS)
     };
     [
         EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
@@ -330,10 +332,10 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         &[
             EntryDesc::count(2),
             EntryDesc::new(1, "AI filter", U8, RW)
-                .with_default(Value::Uint(PublishMode::Latest.setting() as u64))
+                .with_default(Value::Uint(AI_FILTER_LATEST as u64))
                 .with_range(&ValueRange {
-                    min: Value::Uint(0),
-                    max: Value::Uint(1),
+                    min: Value::Uint(AI_FILTER_LATEST as u64),
+                    max: Value::Uint(AI_FILTER_AVERAGE as u64),
                 }),
             EntryDesc::new(2, "Full scale (uV)", U32, RO)
                 .with_default(Value::Uint(FULL_SCALE_UV as u64)),
@@ -363,36 +365,9 @@ const _: () = if let Err(e) = OD.validate() {
 
 #[cfg(test)]
 mod tests {
+    use super::super::capacity::{MAILBOX_SIZE, TRANSFER_BUFFER};
     use super::*;
     use std::vec::Vec;
-
-    /// 0x1C32/0x1C33 describe exactly what the sync monitor serves: every entry is read with
-    /// its length, sub 0 stays 0x20, and the unmeasured 0x0E..=0x12 are absent from both.
-    #[test]
-    fn sync_parameters_match_the_sync_monitor() {
-        let monitor = crate::app::sync::SyncMonitor::new();
-        for (index, inputs) in [(0x1C32, false), (0x1C33, true)] {
-            let object = OD.find(index).unwrap();
-            assert_eq!(object.max_subindex(), 0x20);
-            let mut buf = [0u8; 8];
-            for e in object.entries.iter().skip(1) {
-                let n = monitor.read(inputs, e.subindex, &mut buf);
-                assert_eq!(
-                    n,
-                    Ok(usize::from(e.bit_len.div_ceil(8))),
-                    "{index:#x}:{:#x}",
-                    e.subindex
-                );
-            }
-            for sub in 0x0E..=0x12 {
-                assert!(object.entry(sub).is_none(), "{index:#x}:{sub:#x}");
-                assert_eq!(
-                    monitor.read(inputs, sub, &mut buf),
-                    Err(coe_core::abort::SdoAbortCode::SubindexDoesNotExist)
-                );
-            }
-        }
-    }
 
     #[test]
     fn device_type_is_cia401_analog_io() {
@@ -446,9 +421,9 @@ mod tests {
         // Mailbox data area: mailbox size minus mailbox header (6), CoE header (2) and the
         // SDO initiate response (8 incl. the size) - an expedited or single-frame normal
         // upload cannot carry it.
-        let single_frame = crate::app::mailbox::MAILBOX_SIZE - 6 - 2 - 8;
+        let single_frame = MAILBOX_SIZE - 6 - 2 - 8;
         assert!(MODULE_DESCRIPTION.len() > 2 * single_frame);
-        assert!(MODULE_DESCRIPTION.len() <= crate::app::mailbox::TRANSFER_BUFFER);
+        assert!(MODULE_DESCRIPTION.len() <= TRANSFER_BUFFER);
         assert!(MODULE_DESCRIPTION.is_ascii());
         let (_, entry) = OD.entry(MODULE_DESCRIPTION_INDEX, 0).unwrap();
         assert_eq!(entry.byte_len(), MODULE_DESCRIPTION.len());

@@ -1,0 +1,15 @@
+//! The module's memory layout in the ESC: the SyncManagers (0x1C00, SII, ESI, and what the
+//! application checks at INIT -> PREOP and PREOP -> SAFEOP).
+
+use super::capacity::{MAILBOX_SIZE, MAX_IMAGE};
+use coe_core::device::{SmRole, SyncManagerDesc};
+
+/// SyncManagers: the two mailboxes of [`MAILBOX_SIZE`] bytes, then the process-data
+/// buffers with room for [`MAX_IMAGE`] bytes each (three buffers), all in the first 8 KB of
+/// the ESC address space so the SPI PDI reaches them with 2-byte addresses.
+pub const SYNC_MANAGERS: [SyncManagerDesc; 4] = [
+    SyncManagerDesc::new(SmRole::MailboxOut, 0x1000, MAILBOX_SIZE as u16, 0x26),
+    SyncManagerDesc::new(SmRole::MailboxIn, 0x1080, MAILBOX_SIZE as u16, 0x22),
+    SyncManagerDesc::new(SmRole::ProcessDataOut, 0x1100, MAX_IMAGE as u16, 0x64),
+    SyncManagerDesc::new(SmRole::ProcessDataIn, 0x1180, MAX_IMAGE as u16, 0x20),
+];

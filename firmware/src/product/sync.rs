@@ -1,0 +1,31 @@
+//! How the module synchronises: the modes it offers (ETG.1020 codes of 0x1C32:01/0x1C33:01)
+//! and the figures it advertises in 0x1C32/0x1C33 and the ESI. The application enforces
+//! them (`crate::app::sync`).
+
+/// Sync mode code (0x1C32:01, 0x1C33:01): free run.
+pub const SYNC_MODE_FREE_RUN: u16 = 0;
+/// Sync mode code: synchronous with the SM event (0x1C32:01: SM2; 0x1C33:01: SM3).
+pub const SYNC_MODE_SM: u16 = 1;
+/// Sync mode code: DC SYNC0.
+pub const SYNC_MODE_DC_SYNC0: u16 = 2;
+/// Sync mode code of 0x1C33:01: inputs latched on the SM2 event (Beckhoff SSC
+/// `SYNCTYPE_SM2INT`).
+pub const SYNC_MODE_SM2_INPUTS: u16 = 0x22;
+
+/// Sync modes supported (0x1C32:04/0x1C33:04): b0 free run, b1 SM-synchronous, bits 4:2 =
+/// 001 DC SYNC0.
+pub const SUPPORTED_MODES: u16 = 0x0007;
+
+/// Shortest cycle the module handles (0x1C32:05/0x1C33:05): the product target of a 25 us
+/// DC cycle with 2 AO + 8 AI (BRIEF section 6); to be confirmed by the benchmark.
+pub const MIN_CYCLE_TIME_NS: u32 = 25_000;
+/// Outputs: SM2 event to outputs copied and staged (0x1C32:06): SM2 read over SPI (4.5 us)
+/// plus unpack and staging.
+pub const OUTPUT_CALC_COPY_NS: u32 = 8_000;
+/// Outputs: SYNC0 edge to both DAC outputs updated (0x1C32:09): the write path (two 24-bit
+/// frames, about 2.1 us at 25 MHz) bounds the LDAC path (about 0.3 us).
+pub const OUTPUT_DELAY_NS: u32 = 3_000;
+/// Inputs: latch to SM3 written (0x1C33:06): pack plus the 16-byte SM3 write (11.5 us).
+pub const INPUT_CALC_COPY_NS: u32 = 15_000;
+/// Default Sync Error Counter Limit (0x10F1:02).
+pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;
