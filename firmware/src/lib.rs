@@ -11,6 +11,7 @@
 extern crate std;
 
 pub mod app;
+pub mod chip;
 #[cfg(any(test, feature = "fake-esc"))]
 pub mod fake_esc;
 pub mod product;

@@ -1,6 +1,6 @@
 //! AD7689 sampling by Timer2 + GPDMA (UM10360 chapters 21, 31, 18; hardware-facts 10.B):
-//! the register writes of the plan in `firmware::app::adc_dma`, which holds every list,
-//! word and index computation (host-tested).
+//! the register writes of the plan in `firmware::chip::adc_dma`, which holds every list,
+//! word and timing computation (host-tested); the ring is read by `firmware::app::adc_dma`.
 //!
 //! * Timer2: MR3 resets TC every 4 us; MAT2.0 (P0.6 = CNV) toggles on MR0; MR0 and MR1 raise
 //!   GPDMA requests 12 and 13 (DMAREQSEL bits 4 and 5). No timer interrupt.
@@ -14,11 +14,12 @@
 use super::ssp::Ssp;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU32, Ordering};
-use firmware::app::adc_dma::{
-    cnv_chain, config_m2p, config_p2m, request, rx_chain, tx_chain, words_written, Chain,
-    CnvAddresses, HalfCounter, Lli, PositionError, RxAddresses, TxAddresses, CNV_RISE, FRAME_START,
-    MR0_SEQUENCE, PERIOD_TICKS, RING_WORDS, TX_WORDS,
+use firmware::app::adc_dma::{words_written, HalfCounter, PositionError, RING_WORDS};
+use firmware::chip::adc_dma::{
+    cnv_chain, rx_chain, tx_chain, CnvAddresses, RxAddresses, TxAddresses, CNV_RISE, FRAME_START,
+    MR0_SEQUENCE, PERIOD_TICKS, TX_WORDS,
 };
+use firmware::chip::gpdma::{config_m2p, config_p2m, request, Chain, Lli};
 use lpc17xx_pac as pac;
 
 /// Confirmed (UM10360 Rev. 3 p. 500, chapter 21 remark): timer DMA requests are generated
