@@ -502,7 +502,7 @@ mod tests {
             &[0x1600],
             &[0x1A00],
         );
-        let [_, _, e2, e3] = crate::app::AppConfig::product().sm;
+        let [_, _, e2, e3] = crate::product::layout::SYNC_MANAGERS;
         let sm = |e: &SyncManagerDesc, len: usize| SyncManager {
             start: e.start,
             length: len as u16,

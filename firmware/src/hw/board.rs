@@ -36,7 +36,7 @@ use super::clocks::{self, ClockError, Clocks};
 use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
 use super::esc::{self, Esc};
-use super::gpio::{InPin, OutPin};
+use super::gpio::{InPin, OutPin, Pin};
 use super::gpio_irq::EscIrq;
 use super::spi::LegacySpi;
 use super::ssp::{Ssp, SspConfig};
@@ -44,22 +44,6 @@ use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
 use super::CCLK_HZ;
 use lpc17xx_pac as pac;
-
-/// A port pin `Pport.pin`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Pin {
-    /// GPIO port 0..=4.
-    pub port: u8,
-    /// Bit 0..=31.
-    pub pin: u8,
-}
-
-impl Pin {
-    /// `Pport.pin`.
-    pub const fn new(port: u8, pin: u8) -> Self {
-        Self { port, pin }
-    }
-}
 
 /// PINMODE (2 bits per pin): the pad's resistor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -224,13 +208,6 @@ fn apply(_pincon: &pac::PINCONNECT, pf: PinFunction) {
         core::ptr::write_volatile(mode, v | (pf.pull as u32) << shift);
     }
 }
-
-/// The ET1100's SPI device: the legacy SPI with the GPIO SPI_SEL held low for a whole
-/// transaction (one `SpiDevice::transaction` per ESC access).
-pub type EscSpiDevice = CsDevice<LegacySpi>;
-
-/// The AD5663's SPI device: SSP0 with the GPIO SYNC held low for a whole 24-bit frame.
-pub type DacSpiDevice = CsDevice<Ssp<pac::SSP0>>;
 
 /// What the tasks receive: each bus and line with its single owner.
 pub struct Board {

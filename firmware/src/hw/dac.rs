@@ -2,11 +2,15 @@
 //! driver carrying out the DAC task's actions) on the board's SPI device (SSP0, mode 1,
 //! 25 MHz, GPIO SYNC held low for each 24-bit frame) and LDAC pin.
 
-use super::board::DacSpiDevice;
+use super::cs_device::CsDevice;
 use super::gpio::OutPin;
+use super::ssp::Ssp;
 use super::CCLK_HZ;
 use core::convert::Infallible;
 use firmware::app::dac::OutputDac;
+
+/// The AD5663's SPI device: SSP0 with the GPIO SYNC held low for a whole 24-bit frame.
+pub type DacSpiDevice = CsDevice<Ssp<lpc17xx_pac::SSP0>>;
 
 /// The AD5663 with its LDAC pin (owner: the SYNC0/DAC task).
 pub type Dac = OutputDac<DacSpiDevice, LdacPin>;

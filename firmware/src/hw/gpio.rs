@@ -1,13 +1,28 @@
 //! GPIO pins through the fast GPIO block (FIO, 0x2009_C000, stride 0x20 per port:
 //! DIR +0, MASK +0x10, PIN +0x14, SET +0x18, CLR +0x1C; hardware-facts section 7).
 //!
-//! A pin is a value made once by [`crate::hw::board`] from the pin map; SET/CLR are
-//! write-1-to-act registers, so pins of one port owned by different tasks never race
-//! (no read-modify-write).
+//! A pin is a value made once by the board bring-up (`crate::hw::board`) from the pin map;
+//! SET/CLR are write-1-to-act registers, so pins of one port owned by different tasks never
+//! race (no read-modify-write).
 
-use super::board::Pin;
 use core::convert::Infallible;
 use core::ptr;
+
+/// A port pin `Pport.pin`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pin {
+    /// GPIO port 0..=4.
+    pub port: u8,
+    /// Bit 0..=31.
+    pub pin: u8,
+}
+
+impl Pin {
+    /// `Pport.pin`.
+    pub const fn new(port: u8, pin: u8) -> Self {
+        Self { port, pin }
+    }
+}
 
 const FIO_BASE: usize = 0x2009_C000;
 const FIODIR: usize = 0x00;
@@ -28,7 +43,7 @@ pub struct OutPin {
 
 impl OutPin {
     /// Makes `pin` an output at `high` (level written before the direction, no glitch).
-    /// Only [`crate::hw::board`] calls this, once per pin of the pin map.
+    /// Only the board bring-up calls this, once per pin of the pin map.
     pub(super) fn new(pin: Pin, high: bool) -> Self {
         let p = Self {
             port: pin.port,
@@ -83,7 +98,7 @@ pub struct InPin {
 }
 
 impl InPin {
-    /// `pin` as an input (the reset direction); only [`crate::hw::board`] calls this.
+    /// `pin` as an input (the reset direction); only the board bring-up calls this.
     pub(super) fn new(pin: Pin) -> Self {
         Self {
             port: pin.port,

@@ -2,7 +2,7 @@
 //! word 1 = 0x0603 sets the ESC), 8-bit frames MSB first, SCK = PCLK / 8 = 12.5 MHz (the
 //! block's limit, CCR even >= 8). No FIFO, no DMA: one byte at a time, SPIF polled with a
 //! bound. The chip select is the GPIO P0.16 held by the `SpiDevice`
-//! ([`crate::hw::board::EscSpiDevice`]) for a whole ESC access.
+//! ([`crate::hw::esc::EscSpiDevice`]) for a whole ESC access.
 
 use embedded_hal::spi::{ErrorKind, ErrorType, SpiBus};
 use lpc17xx_pac as pac;

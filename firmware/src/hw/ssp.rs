@@ -3,7 +3,7 @@
 //! directions; SCK = PCLK / (CPSDVSR * (SCR + 1)).
 //!
 //! [`Ssp`] is an `SpiBus<u8>` that keeps the TX FIFO filled ahead of the RX side (up to
-//! [`FIFO_DEPTH`] frames in flight); with the GPIO SYNC pin of [`crate::hw::board::DacSpiDevice`]
+//! [`FIFO_DEPTH`] frames in flight); with the GPIO SYNC pin of [`crate::hw::dac::DacSpiDevice`]
 //! it is the AD5663's `SpiDevice`. SSP1 runs 16-bit frames for the timer-driven AD7689 path
 //! ([`crate::hw::timers::AdcSampler`]), which uses the raw FIFO helpers below.
 
