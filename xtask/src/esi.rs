@@ -150,4 +150,43 @@ mod tests {
         let product = u32::from_le_bytes([bin[20], bin[21], bin[22], bin[23]]);
         assert_eq!(product, desc.identity.product_code);
     }
+
+    /// The minimum cycle the module promises is one figure everywhere a master can read it:
+    /// the product's constant (which `cargo xtask bench` checks against its measurement), the
+    /// device description's DC minimum, the ESI's defaults of 0x1C32:05 and 0x1C33:05, and
+    /// what the firmware's sync monitor answers for them over SDO.
+    #[test]
+    fn the_minimum_cycle_is_one_figure() {
+        use firmware::product::sync::MIN_CYCLE_TIME_NS;
+        let desc = &firmware::product::device::DEVICE;
+        assert_eq!(desc.dc.min_cycle_ns, MIN_CYCLE_TIME_NS);
+        let mut xml = String::new();
+        coe_core::esi::write_esi(desc, &mut xml).unwrap();
+        for index in ["#x1C32", "#x1C33"] {
+            let object = xml
+                .split(&format!("<Index>{index}</Index>"))
+                .nth(1)
+                .unwrap_or_else(|| panic!("object {index} in the ESI"));
+            let sub = object
+                .split("<Name>Minimum cycle time</Name>")
+                .nth(1)
+                .unwrap_or_else(|| panic!("{index}:05 in the ESI"));
+            let hex = sub
+                .split("<DefaultData>")
+                .nth(1)
+                .and_then(|d| d.split("</DefaultData>").next())
+                .unwrap_or_else(|| panic!("{index}:05 DefaultData"));
+            let bytes: Vec<u8> = (0..hex.len())
+                .step_by(2)
+                .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+                .collect();
+            assert_eq!(bytes, MIN_CYCLE_TIME_NS.to_le_bytes(), "{index}:05 = {hex}");
+        }
+        let monitor = firmware::app::sync::SyncMonitor::new();
+        for inputs in [false, true] {
+            let mut buf = [0u8; 4];
+            assert_eq!(monitor.read(inputs, 5, &mut buf), Ok(4));
+            assert_eq!(u32::from_le_bytes(buf), MIN_CYCLE_TIME_NS);
+        }
+    }
 }

@@ -16,9 +16,19 @@ pub const SYNC_MODE_SM2_INPUTS: u16 = 0x22;
 /// 001 DC SYNC0.
 pub const SUPPORTED_MODES: u16 = 0x0007;
 
-/// Shortest cycle the module handles (0x1C32:05/0x1C33:05): the product target of a 25 us
-/// DC cycle with 2 AO + 8 AI (BRIEF section 6); to be confirmed by the benchmark.
-pub const MIN_CYCLE_TIME_NS: u32 = 25_000;
+/// Shortest cycle the module handles: 0x1C32:05/0x1C33:05, the dictionary's default of
+/// both in the ESI, the device description's DC minimum, and the limit the application
+/// enforces on the SYNC0 cycle (AL status 0x0035) and on 0x1C32:02.
+///
+/// The rule: at least the minimum DC cycle with 2 AO + 8 AI that `cargo xtask bench`
+/// measures (formula F1, group 3), plus [`MIN_CYCLE_MARGIN_PERCENT`]. The bench prints the
+/// figure and fails when this constant is below it; re-run it after any change of the
+/// cycle's code or of the bench's model, and set the constant here.
+pub const MIN_CYCLE_TIME_NS: u32 = 50_000;
+/// Margin of [`MIN_CYCLE_TIME_NS`] over the measured minimum DC cycle, in percent: the
+/// measurement rests on figures no board has confirmed (cycles per instruction, SPI byte and
+/// select gaps; `xtask/src/bench/model.rs`).
+pub const MIN_CYCLE_MARGIN_PERCENT: u32 = 15;
 /// Outputs: SM2 event to outputs copied and staged (0x1C32:06): SM2 read over SPI (4.5 us)
 /// plus unpack and staging.
 pub const OUTPUT_CALC_COPY_NS: u32 = 8_000;

@@ -9,6 +9,7 @@
 //! 5. ADC: conversions per second on the virtual board and the sampler's CPU share.
 //! 6. The thesis loop-back on the virtual board (amplitude error, THD), with a PNG plot.
 
+mod advertised;
 mod cm3;
 mod model;
 mod plot;
@@ -97,6 +98,8 @@ pub fn run(args: &Args) -> Result {
     rows.extend(cpu_rows(&cpu));
     let derived = Derived::new(&bus, &cpu)?;
     rows.extend(derived.rows());
+    let min_cycle = advertised::MinCycle::of_product(derived.cycle_us);
+    rows.push(min_cycle.row());
     rows.extend(footprint.rows());
     let adc_share = AdcShare::new(&cpu)?;
     rows.extend(adc_rows(&adc, &adc_share));
@@ -119,6 +122,14 @@ pub fn run(args: &Args) -> Result {
         std::fs::write(path, report::json(&rows, &notes, args.quick))
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         println!("JSON: {}", path.display());
+    }
+    if min_cycle.too_low() {
+        return Err(format!(
+            "the advertised minimum cycle ({:.1} us, firmware::product::sync::MIN_CYCLE_TIME_NS) \
+             is below the measured minimum DC cycle plus the margin ({:.1} us): see the table",
+            min_cycle.advertised_us,
+            min_cycle.required_us()
+        ));
     }
     Ok(())
 }

@@ -1,0 +1,111 @@
+//! The minimum cycle the module advertises (0x1C32:05/0x1C33:05, the ESI:
+//! `firmware::product::sync::MIN_CYCLE_TIME_NS`) against the minimum DC cycle the bench
+//! measures: the constant must be at least the measured figure plus the product's margin
+//! (`MIN_CYCLE_MARGIN_PERCENT`), or a master that trusts it configures a cycle the module
+//! cannot hold.
+
+use super::report::{Group, Row, Verdict};
+use firmware::product::sync::{MIN_CYCLE_MARGIN_PERCENT, MIN_CYCLE_TIME_NS};
+
+/// The advertised figure checked against a measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MinCycle {
+    /// What the module advertises (us).
+    pub advertised_us: f64,
+    /// The measured minimum DC cycle (us).
+    pub measured_us: f64,
+    /// The margin the advertised figure must keep (percent).
+    pub margin_percent: u32,
+}
+
+impl MinCycle {
+    /// The product's constants against `measured_us`.
+    pub fn of_product(measured_us: f64) -> Self {
+        Self {
+            advertised_us: f64::from(MIN_CYCLE_TIME_NS) / 1e3,
+            measured_us,
+            margin_percent: MIN_CYCLE_MARGIN_PERCENT,
+        }
+    }
+
+    /// The least the module may advertise: the measurement plus the margin.
+    pub fn required_us(&self) -> f64 {
+        self.measured_us * (1.0 + f64::from(self.margin_percent) / 100.0)
+    }
+
+    /// The advertised figure is below the measurement plus the margin.
+    pub fn too_low(&self) -> bool {
+        self.advertised_us < self.required_us()
+    }
+
+    /// The smallest whole microsecond the rule allows.
+    fn suggestion_us(&self) -> f64 {
+        self.required_us().ceil()
+    }
+
+    /// The table row.
+    pub fn row(&self) -> Row {
+        let verdict = if self.too_low() {
+            Verdict::Missed(format!(
+                "advertised figure too low: a master may configure a cycle the module cannot \
+                 hold; set firmware::product::sync::MIN_CYCLE_TIME_NS to at least {:.0} us",
+                self.suggestion_us()
+            ))
+        } else if self.advertised_us > self.suggestion_us() + 1.0 {
+            Verdict::Met(format!(
+                "the rule allows {:.0} us: lower MIN_CYCLE_TIME_NS to offer shorter cycles",
+                self.suggestion_us()
+            ))
+        } else {
+            Verdict::Met(String::new())
+        };
+        Row::new(
+            Group::Derived,
+            "advertised minimum cycle (0x1C32:05, 0x1C33:05, ESI; MIN_CYCLE_TIME_NS)".into(),
+            format!("{:.1} us", self.advertised_us),
+            format!(
+                ">= {:.1} us (minimum DC cycle {:.1} us + {} %)",
+                self.required_us(),
+                self.measured_us,
+                self.margin_percent
+            ),
+            "the module's promise to masters".into(),
+            verdict,
+        )
+        .with_number(self.advertised_us, "us")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(advertised_us: f64, measured_us: f64) -> MinCycle {
+        MinCycle {
+            advertised_us,
+            measured_us,
+            margin_percent: 15,
+        }
+    }
+
+    #[test]
+    fn the_advertised_figure_keeps_the_margin() {
+        assert!((check(50.0, 40.0).required_us() - 46.0).abs() < 1e-9);
+        assert!(!check(50.0, 40.0).too_low());
+        assert!(!check(46.0, 40.0).too_low());
+        assert!(check(45.9, 40.0).too_low());
+        let row = check(25.0, 42.2).row();
+        assert!(matches!(&row.verdict, Verdict::Missed(why)
+            if why.contains("too low") && why.contains("at least 49 us")));
+        assert!(matches!(check(50.0, 42.2).row().verdict, Verdict::Met(ref n) if n.is_empty()));
+        assert!(matches!(check(80.0, 42.2).row().verdict,
+            Verdict::Met(ref n) if n.contains("allows 49 us")));
+    }
+
+    #[test]
+    fn the_product_keeps_its_own_rule_against_its_constants() {
+        let c = MinCycle::of_product(0.0);
+        assert_eq!(c.advertised_us, f64::from(MIN_CYCLE_TIME_NS) / 1e3);
+        assert_eq!(c.margin_percent, MIN_CYCLE_MARGIN_PERCENT);
+    }
+}
