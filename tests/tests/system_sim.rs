@@ -1,6 +1,12 @@
 //! SYSTEM TEST: the `cargo xtask sim` runner ([`virtual_board::tools::sim`]) end to end, with
 //! ethercrab in process.
+//!
+//! Each scenario saves its capture; the tests named `*_decodes_in_tshark` run it again and
+//! decode the capture with tshark (ignored unless run explicitly, as `cargo xtask test`
+//! does: they need tshark).
 
+use std::path::{Path, PathBuf};
+use virtual_board::capture_tests;
 use virtual_board::tools::sim::{self, Line, SimConfig, Target};
 
 fn collect(lines: &mut Vec<Line>) -> impl FnMut(Line) + '_ {
@@ -13,12 +19,18 @@ fn collect(lines: &mut Vec<Line>) -> impl FnMut(Line) + '_ {
     }
 }
 
+capture_tests!(
+    runner_walks_the_esm_with_the_echo_responder,
+    runner_echo_capture_decodes_in_tshark,
+    walk_with_the_echo_responder,
+    "system-sim-echo"
+);
+
 /// The runner walks the ESM with the transport test responder (no CoE): the SDO part
 /// reports what it could not read instead of failing, and the loop-back is skipped with
-/// a reason. The pcap it writes decodes in tshark.
-#[test]
-fn runner_walks_the_esm_with_the_echo_responder() {
-    let pcap = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("system-sim-echo.pcap");
+/// a reason. Returns the pcap it writes (as `name`).
+fn walk_with_the_echo_responder(name: &str) -> PathBuf {
+    let pcap = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let cfg = SimConfig {
         seconds: Some(0.02),
         freqs_hz: vec![100.0],
@@ -49,14 +61,21 @@ fn runner_walks_the_esm_with_the_echo_responder() {
     let (path, frames) = report.pcap.clone().unwrap();
     assert_eq!(path, pcap);
     assert!(frames > 200);
-    virtual_board::tools::sim::tshark::assert_clean(&pcap);
+    pcap
 }
 
+capture_tests!(
+    runner_loops_back_through_the_firmware,
+    runner_firmware_capture_decodes_in_tshark,
+    loop_back_through_the_firmware,
+    "system-sim-firmware"
+);
+
 /// `cargo xtask sim` with the firmware: the ESM walk, SDO values and the loop-back
-/// figures (a short run: 10 periods of 500 Hz at a 100 us cycle).
-#[test]
-fn runner_loops_back_through_the_firmware() {
-    let pcap = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("system-sim-firmware.pcap");
+/// figures (a short run: 10 periods of 500 Hz at a 100 us cycle). Returns the pcap it
+/// writes (as `name`).
+fn loop_back_through_the_firmware(name: &str) -> PathBuf {
+    let pcap = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let cfg = SimConfig {
         seconds: Some(0.02),
         freqs_hz: vec![500.0],
@@ -85,5 +104,5 @@ fn runner_loops_back_through_the_firmware() {
         (100_000.0..500_000.0).contains(&a.latency_ns),
         "latency {a}"
     );
-    virtual_board::tools::sim::tshark::assert_clean(&pcap);
+    pcap
 }

@@ -10,10 +10,12 @@ pub const TARGETS: [&str; 3] = [
     "riscv32imac-unknown-none-elf",
 ];
 
-/// Debian packages the tests use when present: `tshark` decodes the virtual board's pcaps,
-/// `xmllint` (libxml2-utils) validates the generated ESI against the ETG.2000 schema;
-/// `qemu-system-arm` runs the Cortex-M3 benchmark (`bench`, which fails without it).
-pub const DEBIAN_PACKAGES: [&str; 3] = ["tshark", "libxml2-utils", "qemu-system-arm"];
+/// Debian packages the tests use: `tshark` decodes the virtual board's pcaps (the tests
+/// named `*_decodes_in_tshark`), `xmllint` (libxml2-utils) validates the generated ESI
+/// against the ETG.2000 schema, `ip` (iproute2) makes the veth pair of the network
+/// interface test; `qemu-system-arm` runs the Cortex-M3 benchmark (`bench`, which fails
+/// without it).
+pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "qemu-system-arm"];
 
 /// Debian packages the image co-simulator (`tests/cosim`, part of the workspace) needs to
 /// build: unicorn-engine-sys builds unicorn's C sources with CMake and runs bindgen
@@ -134,7 +136,8 @@ pub fn debian(packages: &[&str]) -> bool {
     .is_ok()
 }
 
-fn is_root() -> bool {
+/// Whether this process runs as root.
+pub fn is_root() -> bool {
     Command::new("id")
         .arg("-u")
         .output()

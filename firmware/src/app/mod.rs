@@ -24,7 +24,7 @@
 //!
 //! # A host harness (the virtual board) in a few lines
 //!
-//! ```ignore
+//! ```text
 //! let stage = OutputStage::new();
 //! let mut latch = DacLatch::new();
 //! let mut app = SlaveApp::new(&OD, config, process_data);

@@ -1,7 +1,7 @@
 //! In-process EtherCAT master rig: ethercrab's PDU loop wired to a [`VirtualBoard`]
 //! without any network interface (see `shared/masters.md`).
 //!
-//! ```ignore
+//! ```text
 //! static STORAGE: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();
 //! let (tx, rx, pdu_loop) = STORAGE.try_split().unwrap();
 //! let board = Rc::new(RefCell::new(VirtualBoard::new(cfg)));

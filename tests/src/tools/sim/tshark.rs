@@ -55,10 +55,15 @@ pub fn summarize(path: &Path) -> Option<Result<TsharkSummary, String>> {
 }
 
 /// Test helper: asserts that every frame of `path` decodes as EtherCAT with none
-/// malformed (prints a note and returns when tshark is not installed).
+/// malformed. Fails when tshark is not installed: the tests that call it are ignored by
+/// default and run by `cargo xtask test`, which installs tshark.
 pub fn assert_clean(path: &Path) {
     match summarize(path) {
-        None => eprintln!("tshark not installed: skipping the pcap decode check"),
+        None => panic!(
+            "tshark is not installed, so {} cannot be checked (Debian package tshark; \
+             `cargo xtask setup` installs it)",
+            path.display()
+        ),
         Some(Err(e)) => panic!("{e}"),
         Some(Ok(s)) => {
             eprintln!(
@@ -73,4 +78,25 @@ pub fn assert_clean(path: &Path) {
             assert_eq!(s.malformed, 0, "malformed frames in {}", path.display());
         }
     }
+}
+
+/// A scenario test and its capture check, for the integration tests: `$test` runs
+/// `$scenario("$file.pcap")` (a function that plays a scenario, asserts on it and returns
+/// the capture it saved); `$check` runs it again into `$file-tshark.pcap` and decodes that
+/// with [`assert_clean`]. `$check` is ignored unless run explicitly (it needs tshark);
+/// `cargo xtask test` installs tshark and runs it.
+#[macro_export]
+macro_rules! capture_tests {
+    ($test:ident, $check:ident, $scenario:ident, $file:literal) => {
+        #[test]
+        fn $test() {
+            $scenario(concat!($file, ".pcap"));
+        }
+
+        #[test]
+        #[ignore = "needs tshark: `cargo xtask test` installs it and runs this"]
+        fn $check() {
+            $crate::tools::sim::tshark::assert_clean(&$scenario(concat!($file, "-tshark.pcap")));
+        }
+    };
 }
