@@ -65,7 +65,7 @@ mod rtic_app {
 
     /// Period of the PDI task's background work without SYNC0: the SysTick period. A plain
     /// SysTick-bound task instead of async tasks on a monotonic timer: no timer queue, no
-    /// dispatchers (about 1 KB of flash less).
+    /// dispatchers.
     const TICK_HZ: u32 = 1_000;
     /// SysTick periods between two feeds of the MCU watchdog.
     const FEED_TICKS: u32 = hw::wdt::FEED_PERIOD_MS * TICK_HZ / 1_000;

@@ -8,15 +8,16 @@
 //! does not exist. A second word, the control word, carries a sequence number and what the
 //! pair is for ([`StageKind`]); the single writer (PDI task) stores the pair first and the
 //! control word second, the reader (DAC task, higher priority) reads the control word first.
-//! [`OutputStage`] is shared by reference (`&OutputStage`, RTIC `shared = [&stage]`), its
-//! [`DacLatch`] reader is local to the DAC task.
+//! [`OutputStage`] is shared by reference (a `&'static OutputStage`, made in RTIC's `init`
+//! and handed to the PDI and DAC tasks as local resources), its [`DacLatch`] reader is
+//! local to the DAC task.
 //!
 //! # What the DAC task does ([`DacAction`])
 //!
 //! - SYNC0 edge ([`DacLatch::on_sync0`]): fresh pair -> latch it; if the pair was already
 //!   written to the input registers ([`DacLatch::preload`], LDAC register 0 so nothing
-//!   changed yet) only the LDAC pin is pulsed ([`DacAction::PulseLdac`], about 0.3 us after
-//!   the edge), else both registers are written with "write input A" + "write input B and
+//!   changed yet) only the LDAC pin is pulsed ([`DacAction::PulseLdac`]; `cargo xtask
+//!   bench` prints the time from the edge, F2), else both registers are written with "write input A" + "write input B and
 //!   update all" ([`DacAction::WriteAndUpdate`]). Preload and latch belong to the same
 //!   sequence number, so LDAC never latches registers that hold anything but a complete,
 //!   current pair. No fresh pair -> [`DacAction::Keep`]: the outputs keep their values and

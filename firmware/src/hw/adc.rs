@@ -4,7 +4,7 @@
 //!   CNV, sends the frames and fills a ring in AHB SRAM; the CPU takes one interrupt per half
 //!   ring and the PDI task drains whole scans (`firmware::app::adc_dma`).
 //! * Feature `adc-irq`: the **interrupt** path ([`super::timers::AdcSampler`]): one TIMER2
-//!   interrupt per sample (~31 % CPU at 250 kSPS, `cargo xtask bench`). Kept because the
+//!   interrupt per sample (`cargo xtask bench` prints its CPU share, F3-irq). Kept because the
 //!   DMA path could not be run on a board here: the list walk, the CFG sequence and the ring
 //!   arithmetic are host-tested against a GPDMA model and the `ad7689` driver, but the
 //!   timer-match DMA requests and the other items of `adc_dma`'s UNCONFIRMED block are not.
