@@ -35,6 +35,8 @@ fn crc8_golden_vectors() {
     let mut b = [0u8; 14];
     b[..6].copy_from_slice(&[0x05, 0x0E, 0x03, 0x06, 0x10, 0x27]);
     assert_eq!(sii_crc8(&b), 0xD7);
+    // The algorithm's check value (CRC of "123456789").
+    assert_eq!(sii_crc8(b"123456789"), 0xFB);
 }
 
 #[test]

@@ -237,7 +237,7 @@ pub fn write_description(allow_crp_lock: bool) -> Result<PathBuf> {
     } else {
         "LPC1754 flash via the IAP ROM (xtask/flash-algo, CCLK 4 MHz IRC; refuses CRP lock values at 0x2FC)"
     };
-    let yaml = target_desc::yaml(&blob, description);
+    let yaml = target_desc::yaml(&blob, description)?;
     target_desc::check(&yaml).map_err(|e| format!("generated target description: {e}"))?;
     let dir = build::target_dir().join("probe-rs");
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;

@@ -29,20 +29,23 @@ impl EscInfo {
     pub const ET1100: u8 = 0x11;
 }
 
-/// DL status (0x0110, u16).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct DlStatus(pub u16);
-
-impl DlStatus {
-    /// b0: PDI operational (EEPROM loaded correctly).
-    pub const fn pdi_operational(self) -> bool {
-        self.0 & 0x01 != 0
+bitflags::bitflags! {
+    /// DL status (0x0110, u16). The port bits above b1 are kept as read.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+    pub struct DlStatus: u16 {
+        /// b0: PDI operational (EEPROM loaded correctly).
+        const PDI_OPERATIONAL = 0x01;
+        /// b1: PDI watchdog status (1 = reloaded, 0 = expired).
+        const PDI_WATCHDOG_OK = 0x02;
+        /// Link and loop bits of the ports: kept as read.
+        const _ = !0;
     }
+}
 
-    /// b1: PDI watchdog status (1 = reloaded, 0 = expired).
-    pub const fn pdi_watchdog_ok(self) -> bool {
-        self.0 & 0x02 != 0
+#[cfg(feature = "defmt")]
+impl defmt::Format for DlStatus {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "DlStatus({=u16:#x})", self.bits())
     }
 }
 
@@ -143,7 +146,8 @@ impl<P: Pdi> Et1100<P> {
 
     /// DL status (0x0110).
     pub fn dl_status(&mut self) -> Result<DlStatus, Error<P::BusError>> {
-        self.read_u16(Register::DlStatus).map(DlStatus)
+        self.read_u16(Register::DlStatus)
+            .map(DlStatus::from_bits_retain)
     }
 
     /// AL control (0x0120). Side effect: clears AL event bit 0 (AL control acts like a

@@ -164,67 +164,33 @@ pub fn markdown(rows: &[Row], notes: &[String], quick: bool, qemu: &str) -> Stri
     s
 }
 
-fn json_str(s: &str) -> String {
-    let mut o = String::with_capacity(s.len() + 2);
-    o.push('"');
-    for c in s.chars() {
-        match c {
-            '"' => o.push_str("\\\""),
-            '\\' => o.push_str("\\\\"),
-            '\n' => o.push_str("\\n"),
-            c if (c as u32) < 0x20 => o.push_str(&format!("\\u{:04x}", c as u32)),
-            c => o.push(c),
-        }
-    }
-    o.push('"');
-    o
-}
-
-fn json_num(v: f64) -> String {
-    if v.is_finite() {
-        format!("{v}")
-    } else {
-        "null".into()
-    }
-}
-
-/// Every row and note as JSON.
+/// Every row and note as JSON (numbers that are not finite become `null`).
 pub fn json(rows: &[Row], notes: &[String], quick: bool) -> String {
-    let mut s = String::from("{\n");
-    s.push_str(&format!("  \"quick\": {quick},\n  \"rows\": [\n"));
-    for (i, r) in rows.iter().enumerate() {
-        let (n, title) = r.group.title();
-        let number = match r.number {
-            Some((v, unit)) => format!(
-                ", \"number\": {}, \"unit\": {}",
-                json_num(v),
-                json_str(unit)
-            ),
-            None => String::new(),
-        };
-        s.push_str(&format!(
-            "    {{\"group\": {n}, \"group_title\": {}, \"figure\": {}, \"value\": {}, \"target\": {}, \
-             \"anchor\": {}, \"status\": {}, \"note\": {}{number}}}{}\n",
-            json_str(title),
-            json_str(&r.figure),
-            json_str(&r.value),
-            json_str(&r.target),
-            json_str(&r.anchor),
-            json_str(r.verdict.status()),
-            json_str(r.verdict.note()),
-            if i + 1 < rows.len() { "," } else { "" }
-        ));
-    }
-    s.push_str("  ],\n  \"notes\": [\n");
-    for (i, n) in notes.iter().enumerate() {
-        s.push_str(&format!(
-            "    {}{}\n",
-            json_str(n),
-            if i + 1 < notes.len() { "," } else { "" }
-        ));
-    }
-    s.push_str("  ]\n}\n");
-    s
+    let rows: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            let (n, title) = r.group.title();
+            let mut row = serde_json::json!({
+                "group": n,
+                "group_title": title,
+                "figure": r.figure,
+                "value": r.value,
+                "target": r.target,
+                "anchor": r.anchor,
+                "status": r.verdict.status(),
+                "note": r.verdict.note(),
+            });
+            if let Some((value, unit)) = r.number {
+                row["number"] = serde_json::json!(value);
+                row["unit"] = serde_json::json!(unit);
+            }
+            row
+        })
+        .collect();
+    let doc = serde_json::json!({ "quick": quick, "rows": rows, "notes": notes });
+    let mut text = serde_json::to_string_pretty(&doc).unwrap_or_default();
+    text.push('\n');
+    text
 }
 
 #[cfg(test)]
@@ -273,13 +239,25 @@ mod tests {
     }
 
     #[test]
-    fn json_escapes_and_lists_every_row() {
-        let j = json(&rows(), &["n".into()], false);
-        assert!(j.contains("\"status\": \"missed\""));
-        assert!(j.contains("too \\\"slow\\\""));
-        assert!(j.contains("\"number\": 1, \"unit\": \"B\""));
-        assert_eq!(j.matches("\"group\":").count(), 3);
-        assert!(j.contains("\"status\": \"not_measured\""));
-        assert!(json_num(f64::NAN) == "null");
+    fn json_lists_every_row() {
+        let mut rows = rows();
+        rows.push(rows[0].clone().with_number(f64::NAN, "us"));
+        let j: serde_json::Value =
+            serde_json::from_str(&json(&rows, &["n".into()], false)).unwrap();
+        assert_eq!(j["quick"], false);
+        let r = j["rows"].as_array().unwrap();
+        assert_eq!(r.len(), 4);
+        assert_eq!(r[0]["figure"], "a|b");
+        assert_eq!(
+            (r[0]["number"].as_f64(), r[0]["unit"].as_str()),
+            (Some(1.0), Some("B"))
+        );
+        assert_eq!(r[1]["status"], "missed");
+        assert_eq!(r[1]["note"], "too \"slow\"");
+        assert!(r[1].get("number").is_none());
+        assert_eq!(r[2]["status"], "not_measured");
+        assert_eq!(r[2]["group"], 1);
+        assert!(r[3]["number"].is_null(), "not finite: null");
+        assert_eq!(j["notes"], serde_json::json!(["n"]));
     }
 }

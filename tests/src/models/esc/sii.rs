@@ -3,21 +3,23 @@
 
 use super::{regs, Esc, Side};
 
-/// CRC-8 of SII word 7: polynomial 0x07, init 0xFF, MSB first, no reflection, over the
-/// 14 bytes of words 0..6.
+/// The CRC of SII word 7: polynomial 0x07, init 0xFF, MSB first, no reflection, no final
+/// XOR. The model computes it with the `crc` crate, not with `coe_core::sii::crc8`: the
+/// SII generator's checksum is one of the things the model checks.
+pub const SII_CRC: crc::Algorithm<u8> = crc::Algorithm {
+    width: 8,
+    poly: 0x07,
+    init: 0xFF,
+    refin: false,
+    refout: false,
+    xorout: 0x00,
+    check: 0xFB,
+    residue: 0x00,
+};
+
+/// CRC-8 of SII word 7 over the 14 bytes of words 0..6.
 pub fn sii_crc8(bytes: &[u8]) -> u8 {
-    let mut crc: u8 = 0xFF;
-    for b in bytes {
-        crc ^= b;
-        for _ in 0..8 {
-            crc = if crc & 0x80 != 0 {
-                (crc << 1) ^ 0x07
-            } else {
-                crc << 1
-            };
-        }
-    }
-    crc
+    crc::Crc::<u8>::new(&SII_CRC).checksum(bytes)
 }
 
 /// Why the configuration area of an SII image was not accepted.
