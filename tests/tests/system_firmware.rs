@@ -6,7 +6,7 @@
 //! tshark).
 //!
 //! No emergencies are provoked during SDO exchanges (ethercrab 0.7.1 panics on one,
-//! shared/masters.md): AO values stay in range.
+//! docs/masters.md): AO values stay in range.
 
 use ethercrab::error::{CoeAbortCode, Error, MailboxError};
 use ethercrab::subdevice_group::DcConfiguration;

@@ -1,5 +1,5 @@
 //! In-process EtherCAT master rig: ethercrab's PDU loop wired to a [`VirtualBoard`]
-//! without any network interface (see `shared/masters.md`).
+//! without any network interface (see `docs/masters.md`).
 //!
 //! ```text
 //! static STORAGE: PduStorage<16, { PduStorage::element_size(1100) }> = PduStorage::new();

@@ -1,5 +1,5 @@
 //! ET1100 register addresses used by the model (Beckhoff ESC datasheet Section II,
-//! summarised in `hardware-facts.md` section 1.4).
+//! summarised in `docs/hardware-facts.md` section 1.4).
 //!
 //! These are independent of the `et1100` driver crate on purpose: the model is what
 //! tests the driver.
