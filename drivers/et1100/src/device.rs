@@ -176,14 +176,15 @@ impl<P: Pdi> Et1100<P> {
     }
 
     /// Sets the AL event mask (0x0204): which AL event bits drive SPI_IRQ.
-    pub fn set_event_mask(&mut self, mask: u32) -> Result<(), Error<P::BusError>> {
-        self.write(Register::AlEventMask.addr(), &mask.to_le_bytes())?;
+    pub fn set_event_mask(&mut self, mask: AlEvents) -> Result<(), Error<P::BusError>> {
+        self.write(Register::AlEventMask.addr(), &mask.bits().to_le_bytes())?;
         Ok(())
     }
 
     /// The AL event mask (0x0204).
-    pub fn event_mask(&mut self) -> Result<u32, Error<P::BusError>> {
+    pub fn event_mask(&mut self) -> Result<AlEvents, Error<P::BusError>> {
         self.read_u32(Register::AlEventMask)
+            .map(AlEvents::from_bits_retain)
     }
 
     /// Process-data watchdog status (0x0440). Side effect: clears AL event bit 6.

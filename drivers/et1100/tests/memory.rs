@@ -116,7 +116,8 @@ fn eight_bit_bus_and_helpers() {
     let mut buf = [0u8; 4];
     esc.read_mailbox(&sm0, &mut buf).unwrap();
     assert_eq!(buf, [9, 8, 7, 6]);
-    esc.set_event_mask(0x0000_0F11).unwrap();
+    esc.set_event_mask(AlEvents::from_bits_retain(0x0000_0F11))
+        .unwrap();
     let bus = esc.destroy().destroy();
     assert_eq!(bus.mem[0x0204..0x0208], [0x11, 0x0F, 0x00, 0x00]);
     // Each call: 4 event bytes, then the data bytes, in ascending order.

@@ -280,7 +280,10 @@ fn al_control_and_event_mask() {
     let c = e.read_al_control().unwrap();
     assert_eq!(c.state(), Some(AlState::SafeOp));
     assert!(c.error_ack() && !c.id_request());
-    e.set_event_mask(0x0F01).unwrap();
+    e.set_event_mask(
+        AlEvents::AL_CONTROL | AlEvents::SM0 | AlEvents::SM1 | AlEvents::SM2 | AlEvents::SM3,
+    )
+    .unwrap();
     done(e);
 }
 

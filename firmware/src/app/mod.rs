@@ -294,7 +294,7 @@ impl SlaveApp {
             mask |= AlEvents::SM2;
         }
         if self.mask != Some(mask) {
-            esc.set_event_mask(mask.bits())?;
+            esc.set_event_mask(mask)?;
             self.mask = Some(mask);
         }
         Ok(())
