@@ -309,8 +309,11 @@ impl FakeEsc {
     }
 }
 
-/// Registers below the process RAM the PDI may write (besides the SyncManagers' PDI control
-/// bytes, which the register-wide check below lets through with the whole SM block).
+/// The 16 SyncManager register blocks (0x0800..0x0880).
+const SM_REGISTERS: core::ops::Range<usize> = sm_byte(0, 0)..sm_byte(16, 0);
+
+/// Registers below the process RAM the PDI may write, besides the SyncManager blocks (for
+/// their PDI control bytes; the register file does not narrow that further).
 const PDI_WRITABLE: [Register; 3] = [
     Register::AlStatus,
     Register::AlStatusCode,
@@ -324,8 +327,7 @@ impl Pdi for FakeEsc {
         let (a, events) = self.begin(addr, buf.len())?;
         buf.copy_from_slice(&self.mem[a..a + buf.len()]);
         self.reads += 1;
-        let sm_registers = at(Register::SyncManager0)..sm_byte(16, 0);
-        if a < sm_registers.end && a + buf.len() > sm_registers.start {
+        if a < SM_REGISTERS.end && a + buf.len() > SM_REGISTERS.start {
             self.sm_register_reads += 1;
         }
         self.after_read(a, buf.len());
@@ -334,10 +336,9 @@ impl Pdi for FakeEsc {
 
     fn write(&mut self, addr: u16, data: &[u8]) -> Result<AlEvents, Error<BusError>> {
         let (a, events) = self.begin(addr, data.len())?;
-        let sm_registers = at(Register::SyncManager0)..sm_byte(16, 0);
         if a < at(Register::ProcessRam)
             && !PDI_WRITABLE.iter().any(|r| at(*r) == a)
-            && !sm_registers.contains(&a)
+            && !SM_REGISTERS.contains(&a)
         {
             return Err(Error::Bus(BusError));
         }
