@@ -140,8 +140,12 @@ impl FakeEsc {
 
     // ------------------------------------------------------------ master side
 
-    /// Master configures a SyncManager (start, len, control, enabled).
+    /// Master configures a SyncManager (start, len, control, enabled). A disabled
+    /// SyncManager's buffer is empty, as on the ESC (a mailbox loses a frame it held).
     pub fn master_sm(&mut self, n: u8, start: u16, len: u16, control: u8, enable: bool) {
+        if !enable {
+            self.set_mailbox_full(n, false);
+        }
         let mut sm = self.sm(n);
         sm.start = start;
         sm.length = len;
@@ -355,5 +359,22 @@ impl Pdi for FakeEsc {
         }
         self.reads += 1;
         Ok(self.event_request())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn disabling_a_mailbox_empties_it() {
+        let mut esc = FakeEsc::new();
+        esc.master_sm(0, 0x1000, 128, 0x26, true);
+        assert!(esc.master_write_mailbox(&[1, 2, 3]));
+        assert!(esc.sm(0).mailbox_full());
+        esc.master_sm(0, 0x1000, 128, 0x26, false);
+        assert!(!esc.sm(0).mailbox_full());
+        esc.master_sm(0, 0x1000, 128, 0x26, true);
+        assert!(esc.master_write_mailbox(&[4]));
     }
 }
