@@ -22,6 +22,9 @@ use virtual_board::tools::pcap::read_pcapng;
 /// The fuzz crate (its own workspace).
 const FUZZ_DIR: &str = "tests/fuzz";
 
+/// Seconds one input may run before libFuzzer reports it as a hang.
+const HANG_SECONDS: u32 = 10;
+
 #[derive(clap::Args, Debug, Default)]
 pub struct Args {
     /// Run only this target (repeat for several); default: every target of tests/fuzz.
@@ -139,6 +142,8 @@ fn run_target(target: &str, seconds: u32, seeds: &Path) -> Result<Outcome> {
     }
     cmd.arg("--")
         .arg(format!("-max_total_time={seconds}"))
+        // An input that runs this long is a hang (an unbounded wait): a failure.
+        .arg(format!("-timeout={HANG_SECONDS}"))
         .arg(format!("-artifact_prefix={}/", artifacts.display()))
         .arg("-print_final_stats=1");
     eprintln!("$ {}  (log: {})", display(&cmd), log.display());
@@ -215,6 +220,7 @@ fn write_seeds(dir: &Path) -> Result {
     );
     save(&dir.join("coe_wire_parsers"), frames.all.iter())?;
     save(&dir.join("coe_sdo_server"), frames.server_sessions().iter())?;
+    save(&dir.join("slave_mailbox"), frames.master_sessions().iter())?;
     save(&dir.join("sii_reader"), siis.iter())
 }
 
@@ -294,6 +300,23 @@ impl MailboxFrames {
             })
             .collect()
     }
+
+    /// Inputs of the `slave_mailbox` target: each request written (op 0, length, frame)
+    /// and its reply read (op 3); 16 requests per input.
+    fn master_sessions(&self) -> Vec<Vec<u8>> {
+        self.requests
+            .chunks(16)
+            .map(|chunk| {
+                let mut input = Vec::new();
+                for f in chunk.iter().filter(|f| f.len() <= 255) {
+                    input.extend_from_slice(&[0, f.len() as u8]);
+                    input.extend_from_slice(f);
+                    input.push(3);
+                }
+                input
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -337,5 +360,10 @@ mod tests {
         assert_eq!(sessions.len(), 1);
         assert_eq!(&sessions[0][..4], &[1, 128, 1, 16]);
         assert_eq!(&sessions[0][4..], &request);
+        let sessions = frames.master_sessions();
+        assert_eq!(sessions.len(), 1);
+        assert_eq!(&sessions[0][..2], &[0, 16]);
+        assert_eq!(&sessions[0][2..18], &request);
+        assert_eq!(sessions[0][18..], [3]);
     }
 }

@@ -1,0 +1,145 @@
+//! Fuzz target: the firmware's slave application (ESM, mailbox link, SDO server, process
+//! data) behind the register-file ESC, driven by a master whose every move comes from the
+//! fuzzer: mailbox frames, reads of the reply, repeat requests, AL control values,
+//! SyncManager registers, outputs, watchdog expiry, DC settings and time.
+//!
+//! The master starts as real masters do (mailbox SyncManagers from the device description,
+//! INIT -> PREOP), so the fuzzer begins inside the mailbox. After every move the application
+//! serves its IRQ and its background poll, and these must hold: no panic; AL status shows a
+//! defined state and an error flag only with a code; every reply the master reads is one
+//! well-formed mailbox frame inside the read mailbox.
+#![no_main]
+
+use coe_core::wire::{Mailbox, MailboxRepr, MailboxType};
+use firmware::app::outputs::OutputStage;
+use firmware::app::process_data::ProcessData;
+use firmware::app::{AppConfig, SlaveApp};
+use firmware::fake_esc::FakeEsc;
+use firmware::product::layout::SYNC_MANAGERS;
+use firmware::product::od::OD;
+use libfuzzer_sys::fuzz_target;
+
+/// The process RAM of the register file: SyncManager buffers live there (an ESC's
+/// SyncManagers cannot map its registers).
+const PROCESS_RAM: core::ops::Range<usize> = 0x1000..0x2000;
+
+fn serve(app: &mut SlaveApp, esc: &mut FakeEsc, stage: &OutputStage, now: u64) {
+    let _ = app.on_pdi_irq(&mut esc.driver(), stage, now);
+    let _ = app.poll(&mut esc.driver(), stage, now);
+    let (status, code) = esc.al_status();
+    assert!(
+        matches!(status & 0x0F, 1 | 2 | 3 | 4 | 8),
+        "AL status {status:#06x}"
+    );
+    assert!(status & 0x10 == 0 || code != 0, "error flag without a code");
+}
+
+/// Whether a SyncManager of `start`/`len` lies in the process RAM (the master side of the
+/// fake writes there directly; the application's own accesses are bounds-checked by the PDI).
+fn inside(start: u16, len: u16) -> bool {
+    let start = usize::from(start);
+    start >= PROCESS_RAM.start && start + usize::from(len) <= PROCESS_RAM.end
+}
+
+fuzz_target!(|data: &[u8]| {
+    let mut esc = FakeEsc::new();
+    let stage = OutputStage::new();
+    let mut app = SlaveApp::new(&OD, AppConfig::product(), ProcessData::product_default());
+    let _ = app.start(&mut esc.driver());
+    for (n, sm) in SYNC_MANAGERS.iter().enumerate().take(2) {
+        esc.master_sm(n as u8, sm.start, sm.len, sm.control, true);
+    }
+    esc.master_al_control(0x0002);
+    let mut now = 0u64;
+    serve(&mut app, &mut esc, &stage, now);
+
+    let mut reply = [0u8; 1024];
+    let mut rest = data;
+    while let [op, tail @ ..] = rest {
+        rest = tail;
+        let mut take = |n: usize| {
+            let (a, b) = rest.split_at(n.min(rest.len()));
+            rest = b;
+            a
+        };
+        match op % 10 {
+            // A mailbox frame (length byte first).
+            0..=2 => {
+                let n = usize::from(take(1).first().copied().unwrap_or(0));
+                let frame = take(n);
+                let sm0 = esc.sm(0);
+                if inside(sm0.start, sm0.length) {
+                    esc.master_write_mailbox(frame);
+                }
+            }
+            // The master reads the reply.
+            3 => {
+                let sm1 = esc.sm(1);
+                if inside(sm1.start, sm1.length) {
+                    if let Some(len) = esc.master_read_mailbox_into(&mut reply) {
+                        let got = &reply[..len.min(reply.len())];
+                        let header = MailboxRepr::parse(&Mailbox::new_unchecked(got))
+                            .unwrap_or_else(|e| panic!("reply {got:02X?}: {e:?}"));
+                        assert!(header.buffer_len() <= len);
+                        assert!(matches!(
+                            header.mailbox_type,
+                            MailboxType::Coe | MailboxType::Error
+                        ));
+                    }
+                }
+            }
+            4 => esc.master_repeat_request(),
+            5 => {
+                let b = take(2);
+                let value = u16::from_le_bytes([
+                    b.first().copied().unwrap_or(0),
+                    b.get(1).copied().unwrap_or(0),
+                ]);
+                esc.master_al_control(value);
+            }
+            // SyncManager registers, written as masters do (the mailboxes in INIT only) and
+            // as the ESC requires: disabled first, then rewritten.
+            6 => {
+                let b = take(6);
+                let get = |i: usize| b.get(i).copied().unwrap_or(0);
+                let n = get(0) % 4;
+                let start = u16::from_le_bytes([get(1), get(2)]) & 0x1FFF;
+                let len = u16::from(get(3)) * 2;
+                let in_init = esc.al_status().0 & 0x0F == 1;
+                if (n >= 2 || in_init) && inside(start, len) {
+                    let old = esc.sm(n);
+                    esc.master_sm(n, old.start, old.length, old.control, false);
+                    esc.master_sm(n, start, len, get(4), get(5) & 1 != 0);
+                }
+            }
+            7 => {
+                let n = usize::from(take(1).first().copied().unwrap_or(0)) % 33;
+                let bytes = take(n);
+                let sm2 = esc.sm(2);
+                if inside(sm2.start, sm2.length) {
+                    esc.master_write_outputs(bytes);
+                }
+            }
+            8 => {
+                let b = take(5);
+                let get = |i: usize| b.get(i).copied().unwrap_or(0);
+                if get(0) & 0x80 != 0 {
+                    esc.expire_watchdog();
+                } else {
+                    let cycle = u32::from_le_bytes([get(1), get(2), get(3), get(4)]);
+                    esc.master_dc(get(0), cycle);
+                }
+            }
+            // Time: up to about 65 ms at once (mailbox timeouts, safety service).
+            _ => {
+                let b = take(2);
+                let step = u64::from(u16::from_le_bytes([
+                    b.first().copied().unwrap_or(0),
+                    b.get(1).copied().unwrap_or(0),
+                ]));
+                now += step * 1_000;
+            }
+        }
+        serve(&mut app, &mut esc, &stage, now);
+    }
+});
