@@ -17,8 +17,12 @@
 //!     [`tools::pcap::PcapWriter`], with the firmware plugged in as a [`rig::board::PdiCpu`].
 //!   - [`rig::firmware_cpu::FirmwareCpu`]: the firmware's tasks on the models.
 //!   - [`rig::master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
-//!   - [`rig::sdo_client`]: raw mailbox access as a master does it, and an SDO upload
-//!     client on it (segmented uploads, which ethercrab 0.7.1 cannot take).
+//!   - [`rig::sdo_client`]: raw mailbox access as a master does it, and an SDO client on
+//!     it (segmented transfers, which ethercrab 0.7.1 cannot do), on ethercrab or on the
+//!     scripted master.
+//!   - [`rig::scripted::ScriptedMaster`]: a synchronous master that walks the ESM, runs the
+//!     mailbox and the process data one datagram at a time, and breaks the network on
+//!     purpose (cable pulled, frames lost or repeated) for the fault tests.
 //!   - [`rig::sii_builder`]: a tiny SII image builder for the ESC model tests (the
 //!     firmware's image is generated from its description, [`tools::sim::firmware_device`]).
 //! - [`tools`]: what `cargo xtask` runs on the board: the simulation ([`tools::sim`], also
@@ -43,6 +47,7 @@ pub mod rig {
     pub mod clock;
     pub mod firmware_cpu;
     pub mod master;
+    pub mod scripted;
     pub mod sdo_client;
     pub mod sii_builder;
 }

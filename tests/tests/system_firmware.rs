@@ -26,7 +26,7 @@ use virtual_board::models::adc::Signal;
 use virtual_board::models::esc::regs;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
-use virtual_board::rig::sdo_client::SdoUploader;
+use virtual_board::rig::sdo_client::SdoClient;
 use virtual_board::tools::sim;
 
 type Board = Rc<RefCell<VirtualBoard>>;
@@ -140,7 +140,7 @@ fn scenario_segmented_upload_of_the_module_description(pcap: &str) -> PathBuf {
             let sd = group.subdevice(&md, 0).unwrap();
             let (mbx_out, mbx_in) = (DEVICE.sync_managers[0], DEVICE.sync_managers[1]);
             assert_eq!((mbx_out.len, mbx_in.len), (128, 128));
-            let mut client = SdoUploader::<128>::new(mbx_out.start, mbx_in.start, 1);
+            let mut client = SdoClient::<128>::new(mbx_out.start, mbx_in.start, 1);
             let up = client
                 .upload(&sd, MODULE_DESCRIPTION_INDEX, 0)
                 .await

@@ -25,7 +25,7 @@ use virtual_board::models::adc::Signal;
 use virtual_board::models::esc::regs;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
-use virtual_board::rig::sdo_client::SdoUploader;
+use virtual_board::rig::sdo_client::SdoClient;
 
 type Board = Rc<RefCell<VirtualBoard>>;
 
@@ -132,7 +132,7 @@ fn boot_to_preop_sdo_sdo_info_and_segmented_upload() {
             // A segmented upload (longer than the 128-byte mailbox), first: the project's
             // client starts at mailbox counter 1, before ethercrab's own exchanges.
             let (mbx_out, mbx_in) = (DEVICE.sync_managers[0], DEVICE.sync_managers[1]);
-            let mut client = SdoUploader::<128>::new(mbx_out.start, mbx_in.start, 1);
+            let mut client = SdoClient::<128>::new(mbx_out.start, mbx_in.start, 1);
             let up = client
                 .upload(&sd, MODULE_DESCRIPTION_INDEX, 0)
                 .await

@@ -223,8 +223,7 @@ impl VirtualBoard {
         }
         let mut reply = frame.to_vec();
         self.esc.borrow_mut().process_frame(&mut reply);
-        // 100 Mbit/s: 80 ns per byte, plus preamble, FCS and inter-frame gap (24 bytes).
-        let wire = (frame.len().max(60) as u64 + 24) * 80;
+        let wire = wire_time_ns(frame.len());
         self.advance(wire);
         if let Some(p) = self.pcap.as_mut() {
             p.record(self.clock.now_ns(), &reply);
@@ -232,6 +231,11 @@ impl VirtualBoard {
         self.service();
         self.advance(self.cfg.frame_gap_ns);
         reply
+    }
+
+    /// Virtual time one exchange of a `len`-byte frame takes: wire time plus the gap.
+    pub fn frame_time_ns(&self, len: usize) -> u64 {
+        wire_time_ns(len) + self.cfg.frame_gap_ns
     }
 
     /// Advances virtual time by `ns` with the CPU running.
@@ -327,4 +331,10 @@ impl VirtualBoard {
         }
         self.cpu.poll(&mut self.io);
     }
+}
+
+/// Wire time of a frame at 100 Mbit/s: 80 ns per byte (padded to 60), plus preamble, FCS and
+/// inter-frame gap (24 bytes).
+fn wire_time_ns(len: usize) -> u64 {
+    (len.max(60) as u64 + 24) * 80
 }

@@ -457,20 +457,40 @@ async fn read_identity_sdos(
 pub async fn read_pdo_layout(
     sd: &SubDeviceRef<'_, impl std::ops::Deref<Target = ethercrab::SubDevice>>,
 ) -> Result<PdoLayout, String> {
+    // ethercrab's expedited uploads are typed: the counts (subindex 0) are UNSIGNED8, the
+    // assigned PDOs UNSIGNED16, the mapping entries UNSIGNED32.
+    read_pdo_layout_with(|index, sub| async move {
+        match (index, sub) {
+            (_, 0) => read_sdo::<u8>(sd, index, 0).await.map(u32::from),
+            (0x1C12 | 0x1C13, _) => read_sdo::<u16>(sd, index, sub).await.map(u32::from),
+            _ => read_sdo::<u32>(sd, index, sub).await,
+        }
+    })
+    .await
+}
+
+/// Reads the PDO assignment (0x1C12/0x1C13) and the mapping of each assigned PDO with
+/// `read(index, sub)`, one SDO upload each, and lays the entries out as the master packs
+/// them.
+pub async fn read_pdo_layout_with<F, Fut>(mut read: F) -> Result<PdoLayout, String>
+where
+    F: FnMut(u16, u8) -> Fut,
+    Fut: std::future::Future<Output = Result<u32, String>>,
+{
     let mut layout = PdoLayout::default();
     for (assign, is_out) in [(0x1C12u16, true), (0x1C13u16, false)] {
-        let n: u8 = read_sdo(sd, assign, 0).await?;
+        let n = read(assign, 0).await?;
         let mut bit = 0usize;
         for i in 1..=n {
-            let pdo: u16 = read_sdo(sd, assign, i).await?;
+            let pdo = read(assign, i as u8).await? as u16;
             if is_out {
                 layout.rx_pdos.push(pdo);
             } else {
                 layout.tx_pdos.push(pdo);
             }
-            let m: u8 = read_sdo(sd, pdo, 0).await?;
+            let m = read(pdo, 0).await?;
             for j in 1..=m {
-                let e: u32 = read_sdo(sd, pdo, j).await?;
+                let e = read(pdo, j as u8).await?;
                 let entry = MappedEntry {
                     index: (e >> 16) as u16,
                     sub: (e >> 8) as u8,
