@@ -182,3 +182,48 @@ fn board_delivers_sync0_to_the_cpu_at_the_edge_time() {
     }
     assert_eq!(board.stats.sync0_edges, 20);
 }
+
+/// Fault switch: a SYNC0 line that never pulses at the MCU. The ESC's cyclic unit runs on
+/// (0x098E status, 0x0990 next time), only no edge comes out of the model.
+#[test]
+fn fault_sync0_missing_at_the_pin() {
+    use virtual_board::models::esc::Sync0Fault;
+    let mut esc = esc();
+    esc.sync0_fault = Some(Sync0Fault::Missing);
+    let start = start_sync(&mut esc, 50_000, 100_000, 0x03);
+    assert!(esc.advance(1_000_000).is_empty());
+    assert_eq!(esc.peek_u8(regs::DC_SYNC0_STATUS), 1);
+    let mut b = [0; 8];
+    esc.ecat_read(regs::DC_START_TIME, &mut b);
+    assert_eq!(u64::from_le_bytes(b), start + 1_000_000);
+}
+
+/// Fault switch: SYNC0 pulses displaced from their nominal times, within the bound, the
+/// same sequence for the same seed, in order.
+#[test]
+fn fault_sync0_jitter_displaces_each_edge_within_its_bound() {
+    use virtual_board::models::esc::Sync0Fault;
+    let run = |seed| {
+        let mut esc = esc();
+        esc.sync0_fault = Some(Sync0Fault::Jitter {
+            max_ns: 20_000,
+            seed,
+        });
+        let t0 = esc.now_ns();
+        start_sync(&mut esc, 50_000, 100_000, 0x03);
+        let edges = esc.advance(10_000_000);
+        (t0, edges)
+    };
+    let (t0, edges) = run(7);
+    assert_eq!(edges.len(), 100);
+    let offsets: Vec<i64> = edges
+        .iter()
+        .enumerate()
+        .map(|(k, e)| e.time_ns as i64 - (t0 + 50_000 + k as u64 * 100_000) as i64)
+        .collect();
+    assert!(offsets.iter().all(|d| d.abs() <= 20_000), "{offsets:?}");
+    assert!(offsets.iter().any(|d| *d < -5_000) && offsets.iter().any(|d| *d > 5_000));
+    assert!(edges.windows(2).all(|w| w[0].time_ns < w[1].time_ns));
+    assert_eq!(run(7).1, edges);
+    assert_ne!(run(8).1, edges);
+}

@@ -69,6 +69,11 @@ fn bad_checksum_leaves_the_pdi_down() {
         0x0800,
         "checksum error"
     );
+    assert_eq!(
+        esc.peek_u16(regs::EEPROM_CONTROL) & 0x1000,
+        0x1000,
+        "EEPROM not loaded"
+    );
     assert_eq!(esc.peek_u16(regs::DL_STATUS) & 1, 0);
     assert_eq!(esc.peek_u8(regs::PDI_CONTROL), 0);
     // The SPI interface does not answer.
@@ -210,4 +215,35 @@ fn four_byte_read_variant() {
     esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);
     assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0x0040, 0);
     assert_eq!(sii_read(&mut esc, 10), image[20..24].to_vec());
+}
+
+/// Fault switch: an EEPROM that takes time to load. Until it has, the EEPROM interface is
+/// busy with the load (b15) and shows "not loaded" (b12), a master's read command is refused
+/// (command error b13, as with any command while busy), and the PDI is down; then the
+/// configuration is in and the interface serves reads.
+#[test]
+fn eeprom_loading_at_power_up_keeps_the_interface_busy() {
+    let mut cfg = EscConfig::new(minimal_io_device());
+    cfg.eeprom_load_ns = 40_000_000;
+    let mut esc = Esc::new(cfg);
+    let ctl = esc.peek_u16(regs::EEPROM_CONTROL);
+    assert_eq!(ctl & 0x9000, 0x9000, "busy and not loaded: {ctl:#06x}");
+    assert!(!esc.pdi_operational());
+    assert_eq!(esc.peek_u16(regs::DL_STATUS) & 1, 0);
+    assert_eq!(esc.peek_u8(regs::PDI_CONTROL), 0);
+    esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);
+    let mut req = vec![0x00, 0x01];
+    req.extend_from_slice(&8u32.to_le_bytes());
+    one(&mut esc, cmd::FPWR, 0x1000, regs::EEPROM_CONTROL, &req);
+    assert_eq!(esc.peek_u16(regs::EEPROM_CONTROL) & 0x2000, 0x2000);
+    esc.advance(39_000_000);
+    assert!(!esc.pdi_operational());
+    esc.advance(1_000_000);
+    assert!(esc.pdi_operational());
+    let ctl = esc.peek_u16(regs::EEPROM_CONTROL);
+    assert_eq!(ctl & 0x9800, 0, "idle and loaded: {ctl:#06x}");
+    assert_eq!(esc.peek_u16(regs::DL_STATUS) & 1, 1);
+    assert_eq!(esc.peek_u8(regs::PDI_CONTROL), 0x05);
+    let minimal = minimal_io_device();
+    assert_eq!(sii_read(&mut esc, 8)[..4], minimal[16..20]);
 }

@@ -161,3 +161,70 @@ fn recording_transactions() {
     assert_eq!(esc.spi_log[0].mosi, vec![0x09, 0x84, 0x04, 0x00]);
     assert_eq!(esc.spi_log[0].miso.len(), 4);
 }
+
+/// Fault switch: a MISO bit flipped in a read's data reaches only the MCU; the ESC's state
+/// and error counters know nothing of it. Only the targeted transaction is hit.
+#[test]
+fn fault_miso_bit_flip_reaches_the_mcu_only() {
+    use virtual_board::models::spi::{SpiFault, SpiTarget};
+    let mut esc = esc();
+    esc.pdi_write(0x1200, &[0x34, 0x12]);
+    esc.spi_faults.inject(
+        SpiTarget::Read(0x1200),
+        SpiFault::FlipMiso { byte: 4, bit: 0 },
+    );
+    // A read of another address first (0x1180): not hit.
+    let miso = esc.spi_transfer(&[0x8C, 0x03, 0xFF, 0x00, 0xFF]);
+    assert_eq!(&miso[3..], &[0x00, 0x00]);
+    assert_eq!(esc.spi_faults.pending(), 1);
+    // Read 2 bytes at 0x1200 (cmd 3): data bytes at index 3 and 4; index 4 arrives flipped.
+    let miso = esc.spi_transfer(&[0x90, 0x03, 0xFF, 0x00, 0xFF]);
+    assert_eq!(&miso[3..], &[0x34, 0x13]);
+    assert_eq!(esc.spi_faults.pending(), 0);
+    assert_eq!(esc.spi_faults.injected.len(), 1);
+    assert_eq!(esc.spi_stats.errors, 0);
+    assert_eq!(esc.peek_u8(regs::PDI_ERROR_COUNTER), 0);
+    // The next read is clean again.
+    let miso = esc.spi_transfer(&[0x90, 0x03, 0xFF, 0x00, 0xFF]);
+    assert_eq!(&miso[3..], &[0x34, 0x12]);
+}
+
+/// Fault switch: a MOSI bit flipped in a write's data is written by the ESC; one flipped in
+/// a read's termination byte leaves the read without termination (a PDI error).
+#[test]
+fn fault_mosi_bit_flip_reaches_the_esc() {
+    use virtual_board::models::spi::{SpiFault, SpiTarget};
+    let mut esc = esc();
+    esc.spi_faults
+        .inject(SpiTarget::Next, SpiFault::FlipMosi { byte: 3, bit: 7 });
+    esc.spi_transfer(&[0x90, 0x04, 0x11, 0x22]);
+    assert_eq!(esc.peek_u16(0x1200), 0xA211);
+    esc.spi_faults
+        .inject(SpiTarget::Next, SpiFault::FlipMosi { byte: 4, bit: 0 });
+    esc.spi_transfer(&[0x90, 0x03, 0xFF, 0x00, 0xFF]);
+    assert_eq!(esc.spi_stats.errors, 1);
+    assert_eq!(esc.peek_u8(regs::PDI_ERROR_COUNTER), 1);
+    assert_eq!(esc.peek_u8(regs::PDI_ERROR_CODE) & 0x10, 0x10);
+}
+
+/// Fault switch: SPI_SEL released in the middle of a read ends the ESC's access there (no
+/// termination: a PDI error, 0x030E b4) and the MCU reads the idle bus; released in the
+/// middle of a write, the bytes before are written, the rest are not.
+#[test]
+fn fault_sel_released_mid_transaction() {
+    use virtual_board::models::spi::{SpiFault, SpiTarget, SEL_HIGH_MISO};
+    let mut esc = esc();
+    esc.pdi_write(0x1200, &[1, 2, 3, 4]);
+    esc.spi_faults
+        .inject(SpiTarget::Read(0x1200), SpiFault::DropSel { byte: 5 });
+    let miso = esc.spi_transfer(&[0x90, 0x03, 0xFF, 0x00, 0x00, 0x00, 0xFF]);
+    assert_eq!(&miso[3..], &[1, 2, SEL_HIGH_MISO, SEL_HIGH_MISO]);
+    assert_eq!(esc.peek_u8(regs::PDI_ERROR_COUNTER), 1);
+    assert_eq!(esc.peek_u8(regs::PDI_ERROR_CODE) & 0x10, 0x10);
+    esc.spi_faults
+        .inject(SpiTarget::Write(0x1200), SpiFault::DropSel { byte: 4 });
+    esc.spi_transfer(&[0x90, 0x04, 0xAA, 0xBB, 0xCC, 0xDD]);
+    let mut got = [0u8; 4];
+    esc.peek(0x1200, &mut got);
+    assert_eq!(got, [0xAA, 0xBB, 3, 4]);
+}

@@ -16,6 +16,13 @@
 //! A read whose last data byte is not 0xFF on MOSI counts as a PDI error (0x030D,
 //! 0x030E b4); data bytes clocked after the termination byte set 0x030E b5.
 //! Writes are committed as one access when SPI_SEL goes high.
+//!
+//! Fault switches ([`SpiFaults`], off unless a test injects one): a bit of one byte flipped
+//! on MISO (the MCU reads it wrong, the ESC cannot know) or on MOSI (the ESC takes a wrong
+//! address, command or data bit), or SPI_SEL released in the middle of a transaction (the
+//! ESC ends the access there with the errors the protocol gives; the MCU clocks on and
+//! reads the idle bus, [`SEL_HIGH_MISO`]). Without an injected fault the front end is the
+//! datasheet's.
 
 use crate::models::esc::{regs, Esc};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
@@ -35,6 +42,78 @@ pub mod spi_cmd {
     pub const WRITE: u8 = 0b100;
     /// Address extension (3-byte addressing).
     pub const ADDR_EXT: u8 = 0b110;
+}
+
+/// What the MCU reads on MISO while SPI_SEL is high: the ESC releases MISO (high
+/// impedance); the model reads the line as pulled up. The board's pull resistor is not
+/// confirmed (no schematic): only the fault tests see this value.
+pub const SEL_HIGH_MISO: u8 = 0xFF;
+
+/// A fault on the SPI PDI wires during one transaction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpiFault {
+    /// Bit `bit` of byte `byte` (counted from the first address byte) arrives inverted at
+    /// the MCU.
+    FlipMiso {
+        /// Byte index in the transaction.
+        byte: usize,
+        /// Bit 0..=7.
+        bit: u8,
+    },
+    /// Bit `bit` of byte `byte` arrives inverted at the ESC.
+    FlipMosi {
+        /// Byte index in the transaction.
+        byte: usize,
+        /// Bit 0..=7.
+        bit: u8,
+    },
+    /// SPI_SEL goes high before byte `byte` and stays high for the rest of the transaction.
+    DropSel {
+        /// Bytes the ESC sees.
+        byte: usize,
+    },
+}
+
+/// Which transaction a fault hits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpiTarget {
+    /// The next transaction.
+    Next,
+    /// The next read access starting at this address (chosen once the address phase is
+    /// through, so only later bytes can be hit).
+    Read(u16),
+    /// The next write access starting at this address.
+    Write(u16),
+}
+
+/// The faults waiting for their transaction, and those injected.
+#[derive(Clone, Debug, Default)]
+pub struct SpiFaults {
+    pending: Vec<(SpiTarget, SpiFault)>,
+    /// Faults that hit a transaction, in order: (transaction number, target, fault).
+    pub injected: Vec<(u64, SpiTarget, SpiFault)>,
+}
+
+impl SpiFaults {
+    /// Arms `fault` for the transaction `target` names.
+    pub fn inject(&mut self, target: SpiTarget, fault: SpiFault) {
+        self.pending.push((target, fault));
+    }
+
+    /// Faults armed and not yet injected.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// Forgets the armed faults.
+    pub fn clear(&mut self) {
+        self.pending.clear();
+    }
+
+    fn take(&mut self, pick: impl Fn(&SpiTarget) -> bool) -> Option<(SpiTarget, SpiFault)> {
+        let i = self.pending.iter().position(|(t, _)| pick(t))?;
+        Some(self.pending.remove(i))
+    }
 }
 
 /// Counters of the SPI front end (for the process-data benchmark).
@@ -92,6 +171,9 @@ pub struct SpiSession {
     write_buf: Vec<u8>,
     record: SpiRecord,
     active: bool,
+    fault: Option<SpiFault>,
+    fault_chosen: bool,
+    sel_released: bool,
 }
 
 impl Esc {
@@ -110,21 +192,67 @@ impl Esc {
             record: SpiRecord::default(),
             // SPI works only with the PDI configured as SPI (0x0140 = 0x05) from a good SII.
             active: self.pdi_operational() && self.peek_u8(regs::PDI_CONTROL) == 0x05,
+            fault: None,
+            fault_chosen: false,
+            sel_released: false,
         }
     }
 
     /// One byte exchanged: returns the MISO byte for the MOSI byte.
     pub fn spi_byte(&mut self, s: &mut SpiSession, mosi: u8) -> u8 {
-        let miso = if !s.active {
-            0xFF
+        let i = s.index;
+        if i == 0 {
+            self.choose_fault(s, |t| *t == SpiTarget::Next);
+        }
+        if matches!(s.fault, Some(SpiFault::DropSel { byte }) if i >= byte) && !s.sel_released {
+            self.spi_finish(s);
+            s.sel_released = true;
+        }
+        let miso = if s.sel_released {
+            SEL_HIGH_MISO
         } else {
-            self.spi_byte_active(s, mosi)
+            let seen = match s.fault {
+                Some(SpiFault::FlipMosi { byte, bit }) if byte == i => mosi ^ (1 << (bit & 7)),
+                _ => mosi,
+            };
+            let miso = if !s.active {
+                0xFF
+            } else {
+                self.spi_byte_active(s, seen)
+            };
+            if !s.fault_chosen && !matches!(s.phase, Phase::Addr0 | Phase::Addr1 | Phase::Addr2) {
+                let (addr, write) = (s.addr as u16, s.cmd == spi_cmd::WRITE);
+                self.choose_fault(s, |t| match *t {
+                    SpiTarget::Read(a) => !write && a == addr,
+                    SpiTarget::Write(a) => write && a == addr,
+                    SpiTarget::Next => false,
+                });
+            }
+            miso
+        };
+        let miso = match s.fault {
+            Some(SpiFault::FlipMiso { byte, bit }) if byte == i => miso ^ (1 << (bit & 7)),
+            _ => miso,
         };
         s.index += 1;
         self.spi_stats.bytes += 1;
         s.record.mosi.push(mosi);
         s.record.miso.push(miso);
         miso
+    }
+
+    /// Takes the first armed fault whose target `pick` accepts for this transaction.
+    fn choose_fault(&mut self, s: &mut SpiSession, pick: impl Fn(&SpiTarget) -> bool) {
+        if s.fault.is_some() {
+            return;
+        }
+        if let Some((target, fault)) = self.spi_faults.take(pick) {
+            s.fault = Some(fault);
+            s.fault_chosen = true;
+            self.spi_faults
+                .injected
+                .push((self.spi_stats.transactions, target, fault));
+        }
     }
 
     fn spi_byte_active(&mut self, s: &mut SpiSession, mosi: u8) -> u8 {
@@ -193,6 +321,17 @@ impl Esc {
     /// SPI_SEL goes high: writes are committed, protocol errors counted.
     pub fn spi_end(&mut self, s: SpiSession) -> SpiRecord {
         self.spi_stats.transactions += 1;
+        if !s.sel_released {
+            self.spi_finish(&s);
+        }
+        if self.spi_record {
+            self.spi_log.push(s.record.clone());
+        }
+        s.record
+    }
+
+    /// The ESC's side of SPI_SEL going high: protocol errors counted, a write committed.
+    fn spi_finish(&mut self, s: &SpiSession) {
         if s.active {
             let mut code = 0u8;
             if s.phase == Phase::ReadData && s.read_count > 0 && !s.terminated {
@@ -217,10 +356,6 @@ impl Esc {
                 self.pdi_write(s.addr as u16, &s.write_buf);
             }
         }
-        if self.spi_record {
-            self.spi_log.push(s.record.clone());
-        }
-        s.record
     }
 
     /// Runs one whole transaction given as a MOSI byte string; returns MISO.

@@ -24,6 +24,46 @@ pub struct SyncEdge {
     pub system_time_ns: u64,
 }
 
+/// A fault of the SYNC0 signal on its way from the ESC to the MCU (test switch; none by
+/// default).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sync0Fault {
+    /// No SYNC0 pulse reaches the MCU (a broken line or pin driver); the ESC's cyclic unit
+    /// and its registers run on as configured.
+    Missing,
+    /// Every SYNC0 pulse reaches the MCU displaced from its nominal time by a pseudo-random
+    /// amount in `-max_ns..=max_ns` (from `seed`; keep `max_ns` below half a cycle so the
+    /// pulses stay in order).
+    Jitter {
+        /// Largest displacement (ns).
+        max_ns: u64,
+        /// Seed of the displacements.
+        seed: u64,
+    },
+}
+
+impl Sync0Fault {
+    /// The displacement of SYNC0 pulse number `k` (ns).
+    fn displacement(&self, k: u64) -> i64 {
+        match *self {
+            Self::Missing => 0,
+            Self::Jitter { max_ns, seed } => {
+                let span = 2 * max_ns + 1;
+                (splitmix64(seed ^ k.wrapping_mul(0x9E37_79B9_7F4A_7C15)) % span) as i64
+                    - max_ns as i64
+            }
+        }
+    }
+}
+
+/// SplitMix64 (a fixed, well-mixed 64-bit sequence for reproducible displacements).
+fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
 #[derive(Default)]
 pub(super) struct DcState {
     /// System time latched by the first byte of a read of 0x0910 (per side).
@@ -35,6 +75,8 @@ pub(super) struct DcState {
     next_sync0: Option<u64>,
     /// Next SYNC1 pulse (system time).
     next_sync1: Option<u64>,
+    /// SYNC0 pulses generated so far.
+    sync0_pulses: u64,
 }
 
 impl Esc {
@@ -127,10 +169,19 @@ impl Esc {
         self.mem[regs::DC_ACTIVATION_STATUS as usize] = status;
     }
 
+    /// System time at which the next SYNC0 pulse reaches the MCU (displaced by a fault).
+    fn next_sync0_at_pin(&self) -> Option<u64> {
+        let t = self.dc.next_sync0?;
+        let d = self
+            .sync0_fault
+            .map_or(0, |f| f.displacement(self.dc.sync0_pulses));
+        Some(t.saturating_add_signed(d))
+    }
+
     /// Virtual time of the next SYNC edge.
     pub(super) fn dc_next_edge_time(&self) -> Option<u64> {
         let sys_now = self.dc_system_time();
-        [self.dc.next_sync0, self.dc.next_sync1]
+        [self.next_sync0_at_pin(), self.dc.next_sync1]
             .into_iter()
             .flatten()
             .min()
@@ -143,12 +194,16 @@ impl Esc {
         let cycle0 = self.peek_u32(regs::DC_SYNC0_CYCLE) as u64;
         let cycle1 = self.peek_u32(regs::DC_SYNC1_CYCLE) as u64;
         let cfg = self.peek_u8(regs::SYNC_LATCH_CONFIG);
-        if let Some(t) = self.dc.next_sync0.filter(|t| *t <= sys_now) {
-            edges.push(SyncEdge {
-                signal: SyncSignal::Sync0,
-                time_ns: self.now_ns,
-                system_time_ns: t,
-            });
+        let due = self.next_sync0_at_pin().is_some_and(|at| at <= sys_now);
+        if let Some(t) = self.dc.next_sync0.filter(|_| due) {
+            self.dc.sync0_pulses += 1;
+            if self.sync0_fault != Some(Sync0Fault::Missing) {
+                edges.push(SyncEdge {
+                    signal: SyncSignal::Sync0,
+                    time_ns: self.now_ns,
+                    system_time_ns: t,
+                });
+            }
             self.mem[regs::DC_SYNC0_STATUS as usize] = 1;
             if cfg & 0x08 != 0 {
                 self.set_al_event(al_event::SYNC0);

@@ -16,8 +16,7 @@ mod frame;
 mod sii;
 mod sm;
 
-pub use dc::SyncEdge;
-pub use dc::SyncSignal;
+pub use dc::{Sync0Fault, SyncEdge, SyncSignal};
 pub use frame::{cmd, parse_frame, FrameBuilder, ParsedDatagram, ETHERTYPE_ECAT};
 pub use sii::{check_config_area, sii_crc8, SiiConfigError};
 
@@ -89,6 +88,10 @@ pub struct EscConfig {
     pub build: u16,
     /// EEPROM reads return 8 bytes (0x0502 b6 = 1, as the ET1100) instead of 4.
     pub eeprom_read_8: bool,
+    /// Fault switch: virtual time the ESC takes to load its configuration from the EEPROM
+    /// after power-up (0: loaded at once). While it loads, 0x0502 shows busy (b15) and
+    /// "not loaded" (b12), and the PDI is not operational.
+    pub eeprom_load_ns: u64,
 }
 
 impl EscConfig {
@@ -100,6 +103,7 @@ impl EscConfig {
             dc_local_start_ns: 1_000_000,
             build: 0x0003,
             eeprom_read_8: true,
+            eeprom_load_ns: 0,
         }
     }
 }
@@ -136,6 +140,10 @@ pub struct Esc {
     pub spi_record: bool,
     /// Recorded SPI transactions (when `spi_record` is set).
     pub spi_log: Vec<crate::models::spi::SpiRecord>,
+    /// Faults to inject into SPI transactions (none unless a test arms one).
+    pub spi_faults: crate::models::spi::SpiFaults,
+    /// A fault of the SYNC0 line to the MCU (none unless a test sets one).
+    pub sync0_fault: Option<Sync0Fault>,
 }
 
 #[derive(Default)]
@@ -160,6 +168,8 @@ impl Esc {
             spi_stats: Default::default(),
             spi_record: false,
             spi_log: Vec::new(),
+            spi_faults: Default::default(),
+            sync0_fault: None,
         };
         esc.power_on();
         esc
@@ -190,7 +200,11 @@ impl Esc {
         self.sms = Default::default();
         self.wd = Watchdog::default();
         self.dc = dc::DcState::default();
-        self.sii_load_config();
+        if self.cfg.eeprom_load_ns == 0 {
+            self.sii_load_config();
+        } else {
+            self.sii_start_loading(self.cfg.eeprom_load_ns);
+        }
         self.update_dl_status();
     }
 

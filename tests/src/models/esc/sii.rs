@@ -93,7 +93,18 @@ impl Esc {
         }
     }
 
-    /// Loads words 0..7 into the registers (power-up and reload command).
+    /// Power-up with a loading time: the EEPROM interface is busy with a reload command
+    /// (0x0502 b15, b12 "not loaded") until `ns` have passed, then the configuration loads.
+    pub(super) fn sii_start_loading(&mut self, ns: u64) {
+        self.sii.loaded_ok = false;
+        let ctl = self.peek_u16(regs::EEPROM_CONTROL) | 0x8000 | 0x1000 | 0x0400;
+        self.set_u16(regs::EEPROM_CONTROL, ctl);
+        self.sii.busy = Some((4, self.now_ns + ns));
+    }
+
+    /// Loads words 0..7 into the registers (power-up and reload command). A failed load
+    /// sets b11 (checksum error) and b12 (EEPROM not loaded, device information not
+    /// available).
     pub(super) fn sii_load_config(&mut self) {
         let ok = check_config_area(&self.sii.image).is_ok();
         self.sii.loaded_ok = ok;
@@ -116,7 +127,7 @@ impl Esc {
             self.set_u16(regs::STATION_ALIAS, w4);
         } else {
             // Checksum error; the PDI is not operational.
-            ctl |= 0x0800;
+            ctl |= 0x0800 | 0x1000;
             self.set_u16(regs::PDI_CONTROL, 0);
             self.set_u16(regs::PDI_CONFIG, 0);
         }
