@@ -276,6 +276,9 @@ impl VirtualBoard {
                 }
                 self.stats.timer_calls += 1;
                 self.cpu.on_timer(&mut self.io);
+                // The ESC raised its IRQ line while time passed (a watchdog, an EEPROM
+                // command): the CPU takes the interrupt now, not at the end of the step.
+                self.service_irq();
                 if self.cpu.next_timer_ns().is_some_and(|n| n <= t) {
                     // A timer that does not move forward would stop time: ignore it
                     // until the next advance.
@@ -319,6 +322,16 @@ impl VirtualBoard {
         if self.cpu.runs_continuously() {
             return;
         }
+        self.service_irq();
+        self.cpu.poll(&mut self.io);
+    }
+
+    /// Runs the IRQ handler while the line is asserted (bounded by `max_irq_calls`; a
+    /// continuously running CPU serves the line itself).
+    fn service_irq(&mut self) {
+        if self.cpu.runs_continuously() {
+            return;
+        }
         let mut calls = 0;
         while self.esc.borrow().irq() {
             if calls == self.cfg.max_irq_calls {
@@ -329,7 +342,6 @@ impl VirtualBoard {
             self.stats.irq_calls += 1;
             self.cpu.on_irq(&mut self.io);
         }
-        self.cpu.poll(&mut self.io);
     }
 }
 

@@ -9,7 +9,14 @@
 //! | SYNC0 edge         | DAC task (highest)        | [`DacLatch::on_sync0`] -> `OutputDac` (LDAC pulse or two frames) |
 //! | ESC IRQ line       | PDI task (middle)         | `PdiTask::run` (edge), then the DAC task if pended |
 //! | after every event  | PDI task background       | `PdiTask::run` (poll)                        |
+//! | SysTick (1 ms)     | `tick` -> PDI task        | `PdiTask::run` (poll)                        |
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
+//!
+//! Power-up follows the firmware's `init`: the DAC is set up first, then `init` waits for
+//! the ESC's EEPROM_LOADED pin, polled every 100 us for at most [`INIT_EEPROM_WAIT_NS`]
+//! (nothing else runs meanwhile), and reports a timeout ([`FirmwareStats::init_pdi_ready`]);
+//! then the ADC timer and the tick start, and the PDI task starts the application whenever
+//! the pin is up.
 //!
 //! The drivers are the ones the board runs:
 //! - ESC: `et1100::Et1100<SpiPdi<EscSpi>>` over the byte-exact SPI model: the type the
@@ -64,6 +71,16 @@ const ADC_START_FRAMES: u64 = 3;
 /// The ESC as the application sees it.
 type Esc = Et1100<SpiPdi<EscSpi>>;
 
+/// The firmware's SysTick period: the PDI task's background work is requested this often.
+pub const TICK_NS: u64 = 1_000_000;
+
+/// How long the firmware's `init` waits for EEPROM_LOADED: `hw::board::ESC_EEPROM_WAIT_MS`
+/// (100 ms), which the host build cannot see (it is in the MCU binary).
+pub const INIT_EEPROM_WAIT_NS: u64 = 100_000_000;
+
+/// How often `init` looks at the pin while it waits.
+const INIT_POLL_NS: u64 = 100_000;
+
 /// Counters of the harness.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct FirmwareStats {
@@ -78,6 +95,13 @@ pub struct FirmwareStats {
     /// DAC or ADC driver errors; none are expected on the models (ESC errors:
     /// [`FirmwareCpu::esc_bus_errors`]).
     pub driver_errors: u64,
+    /// What `init` found after its wait: `Some(true)` EEPROM_LOADED was up, `Some(false)`
+    /// the wait timed out (the firmware logs "ET1100 PDI not ready"), `None` still waiting.
+    pub init_pdi_ready: Option<bool>,
+    /// Virtual time `init` ended (ns).
+    pub init_done_ns: u64,
+    /// Ticks (the PDI task's periodic background work).
+    pub ticks: u64,
 }
 
 /// The firmware's tasks as the board's PDI-side CPU.
@@ -91,15 +115,19 @@ pub struct FirmwareCpu {
     pending: Vec<Sample>,
     adc_period_ns: u64,
     next_cnv_ns: u64,
+    next_tick_ns: u64,
+    /// While `init` waits for EEPROM_LOADED: its next look at the pin, and when it gives up.
+    init_wait: Option<(u64, u64)>,
     /// Counters.
     pub stats: FirmwareStats,
 }
 
 impl FirmwareCpu {
     /// Power-up: the DAC gets the firmware's init sequence (reset, both channels powered,
-    /// LDAC register 0), the ADC's conversion timer runs at `adc_period_ns` (4000 = 250
-    /// kSPS) and its first two frames write the scan CFG; the PDI task starts the
-    /// application (AL status INIT, event mask) once the ESC's PDI is operational.
+    /// LDAC register 0); `init` waits for EEPROM_LOADED (bounded); then the ADC's
+    /// conversion timer runs at `adc_period_ns` (4000 = 250 kSPS) and its first two frames
+    /// write the scan CFG, and the PDI task starts the application (AL status INIT, event
+    /// mask) once the ESC's PDI is operational.
     pub fn new(io: BoardIo, device: &Device, adc_period_ns: u64) -> Self {
         let app = SlaveApp::new(device.od, device.config, device.process_data.clone());
         let Ok(dac) = OutputDac::new(io.dac.clone(), io.ldac.clone());
@@ -112,14 +140,38 @@ impl FirmwareCpu {
             latch: DacLatch::new(),
             pending: Vec::new(),
             adc_period_ns: adc_period_ns.max(1),
-            next_cnv_ns: io.now_ns() + adc_period_ns.max(1),
+            next_cnv_ns: 0,
+            next_tick_ns: 0,
+            init_wait: Some((io.now_ns(), io.now_ns() + INIT_EEPROM_WAIT_NS)),
             stats: FirmwareStats::default(),
         };
         let ok = cpu.dac.init().is_ok();
         cpu.count(ok);
-        let ready = pdi_ready(&io);
-        cpu.task.start(&mut cpu.esc, ready);
+        if pdi_ready(&io) {
+            cpu.finish_init(&io, true);
+        }
         cpu
+    }
+
+    /// `init` ends: the PDI task starts the application if the PDI is ready, the ADC timer
+    /// and the tick start.
+    fn finish_init(&mut self, io: &BoardIo, ready: bool) {
+        self.init_wait = None;
+        self.stats.init_pdi_ready = Some(ready);
+        self.stats.init_done_ns = io.now_ns();
+        self.task.start(&mut self.esc, ready);
+        self.next_cnv_ns = io.now_ns() + self.adc_period_ns;
+        self.next_tick_ns = io.now_ns() + TICK_NS;
+    }
+
+    /// Whether `init` still runs (interrupts are not taken yet).
+    pub fn in_init(&self) -> bool {
+        self.init_wait.is_some()
+    }
+
+    /// Whether the PDI task has started the application.
+    pub fn started(&self) -> bool {
+        self.task.started()
     }
 
     /// The application (state, data, mailbox).
@@ -190,6 +242,9 @@ fn pdi_ready(io: &BoardIo) -> bool {
 
 impl PdiCpu for FirmwareCpu {
     fn on_sync0(&mut self, _io: &mut BoardIo, edge: &SyncEdge) {
+        if self.in_init() {
+            return;
+        }
         let a = self.latch.on_sync0(&self.stage, edge.time_ns);
         match a {
             DacAction::Keep => self.stats.sync0_keep += 1,
@@ -200,21 +255,52 @@ impl PdiCpu for FirmwareCpu {
     }
 
     fn on_irq(&mut self, io: &mut BoardIo) {
-        self.pdi_task(io, true);
+        if !self.in_init() {
+            self.pdi_task(io, true);
+        }
     }
 
     fn poll(&mut self, io: &mut BoardIo) {
-        self.pdi_task(io, false);
+        if !self.in_init() {
+            self.pdi_task(io, false);
+        }
     }
 
     fn next_timer_ns(&self) -> Option<u64> {
-        Some(self.next_cnv_ns)
+        match self.init_wait {
+            Some((poll, deadline)) => Some(poll.min(deadline)),
+            None => Some(self.next_cnv_ns.min(self.next_tick_ns)),
+        }
     }
 
+    /// `init`'s pin poll while it waits; afterwards the tick (the PDI task's background
+    /// work) and the CNV timer.
+    fn on_timer(&mut self, io: &mut BoardIo) {
+        let now = io.now_ns();
+        if let Some((poll, deadline)) = self.init_wait {
+            if pdi_ready(io) || now >= deadline {
+                self.finish_init(io, pdi_ready(io));
+            } else {
+                self.init_wait = Some((poll.max(now) + INIT_POLL_NS, deadline));
+            }
+            return;
+        }
+        if now >= self.next_tick_ns {
+            self.stats.ticks += 1;
+            self.next_tick_ns = now.max(self.next_tick_ns) + TICK_NS;
+            self.pdi_task(io, false);
+        }
+        if now >= self.next_cnv_ns {
+            self.adc_frame(io);
+        }
+    }
+}
+
+impl FirmwareCpu {
     /// One CNV period: one AD7689 frame (the timer paces them at `adc_period_ns`, so the
     /// driver's own `wait_ready` is not needed). The first frames run the driver's
     /// start-up sequence; after that every result comes tagged with its input.
-    fn on_timer(&mut self, io: &mut BoardIo) {
+    fn adc_frame(&mut self, io: &BoardIo) {
         let k = self.stats.adc_frames;
         self.stats.adc_frames += 1;
         let result = if k < ADC_START_FRAMES - 1 {
