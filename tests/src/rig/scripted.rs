@@ -247,8 +247,37 @@ pub struct ScriptedMaster {
     emergencies: RefCell<Vec<Emergency>>,
     unexpected: RefCell<Vec<[u8; MBX]>>,
     sync: Cell<Option<Sync>>,
-    /// Virtual time of SYNC0 edge 0 (DC), or of the last cycle slot (SM-sync).
-    slot_origin: Cell<u64>,
+    pace: Cell<Pace>,
+    cyclic: RefCell<Cyclic>,
+}
+
+/// The cyclic process data the master keeps sending in the background.
+#[derive(Debug, Default)]
+struct Cyclic {
+    running: bool,
+    outputs: Vec<u8>,
+    next_slot: u64,
+    stats: CyclicStats,
+}
+
+/// Counters of the background cyclic frames.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CyclicStats {
+    /// Cyclic frames sent in the background.
+    pub frames: u64,
+    /// Of them, frames without an answer or with a wrong working counter.
+    pub errors: u64,
+}
+
+/// When the master sends its cyclic frames: slots `origin + k * cycle - lead`.
+#[derive(Debug, Clone, Copy, Default)]
+struct Pace {
+    /// Virtual time of SYNC0 edge 0 (DC), or of the first slot (SM-sync).
+    origin: u64,
+    /// The master's cycle.
+    cycle: u64,
+    /// How long before the SYNC0 edge the frame leaves (DC; 0 in SM-sync).
+    lead: u64,
 }
 
 /// Runs a future of the SDO client to completion (the scripted master answers at once).
@@ -274,7 +303,8 @@ impl ScriptedMaster {
             emergencies: RefCell::new(Vec::new()),
             unexpected: RefCell::new(Vec::new()),
             sync: Cell::new(None),
-            slot_origin: Cell::new(0),
+            pace: Cell::new(Pace::default()),
+            cyclic: RefCell::new(Cyclic::default()),
         }
     }
 
@@ -300,17 +330,86 @@ impl ScriptedMaster {
         self.board.borrow().now_ns()
     }
 
-    /// Lets `ns` of virtual time pass without frames (the board keeps running).
+    /// Lets `ns` of virtual time pass (the board keeps running; the cyclic frames too while
+    /// [`Self::start_cyclic`] runs them).
     pub fn wait(&self, ns: u64) {
-        self.board.borrow_mut().step(ns);
+        self.wait_until(self.now_ns() + ns);
     }
 
     /// Lets virtual time pass until `t` (nothing if it has passed).
     pub fn wait_until(&self, t: u64) {
+        self.serve_slots_before(t);
+        self.wait_until_raw(t);
+    }
+
+    fn wait_until_raw(&self, t: u64) {
         let now = self.now_ns();
         if t > now {
-            self.wait(t - now);
+            self.board.borrow_mut().step(t - now);
         }
+    }
+
+    // ------------------------------------------------------------------ cyclic frames
+
+    /// The master sends its process data every cycle slot from now on, in the background
+    /// of whatever else it does (mailbox, waits), with `outputs` (changed by
+    /// [`Self::set_outputs`] and by every [`Self::cycle`]).
+    pub fn start_cyclic(&self, outputs: &[u8]) {
+        let next = self.slot_after(self.now_ns());
+        let mut c = self.cyclic.borrow_mut();
+        c.running = true;
+        c.outputs = outputs.to_vec();
+        c.next_slot = next.unwrap_or(u64::MAX);
+    }
+
+    /// The master stops sending process data.
+    pub fn stop_cyclic(&self) {
+        self.cyclic.borrow_mut().running = false;
+    }
+
+    /// The outputs of the background cyclic frames.
+    pub fn set_outputs(&self, outputs: &[u8]) {
+        self.cyclic.borrow_mut().outputs = outputs.to_vec();
+    }
+
+    /// Counters of the background cyclic frames.
+    pub fn cyclic_stats(&self) -> CyclicStats {
+        self.cyclic.borrow().stats.clone()
+    }
+
+    /// Sends the cyclic frames of the slots before `t` (each at its slot time, or at once if
+    /// the master is late).
+    fn serve_slots_before(&self, t: u64) {
+        loop {
+            let (slot, outputs) = {
+                let c = self.cyclic.borrow();
+                if !c.running || c.next_slot >= t {
+                    return;
+                }
+                (c.next_slot, c.outputs.clone())
+            };
+            self.wait_until_raw(slot);
+            let ok = self.lrw(&outputs).is_ok();
+            let next = self.slot_after(self.now_ns().max(slot));
+            let mut c = self.cyclic.borrow_mut();
+            c.stats.frames += 1;
+            c.stats.errors += u64::from(!ok);
+            c.next_slot = next.unwrap_or(u64::MAX);
+        }
+    }
+
+    /// The first cycle slot after `t`: `origin - lead + k * cycle`.
+    fn slot_after(&self, t: u64) -> Option<u64> {
+        let p = self.pace.get();
+        if p.cycle == 0 {
+            return None;
+        }
+        let first = p.origin.saturating_sub(p.lead);
+        Some(if t < first {
+            first
+        } else {
+            first + (t - first) / p.cycle * p.cycle + p.cycle
+        })
     }
 
     // ------------------------------------------------------------------ network faults
@@ -347,9 +446,17 @@ impl ScriptedMaster {
 
     // ------------------------------------------------------------------ frames
 
-    /// Sends one frame; the datagrams as they came back, `None` if no answer arrived.
+    /// Sends one frame; the datagrams as they came back, `None` if no answer arrived. A
+    /// cyclic frame due before this one would be through goes first.
     pub fn transmit(&self, frame: &FrameBuilder) -> Option<Vec<ParsedDatagram>> {
         let bytes = frame.build();
+        let t = self.board.borrow().frame_time_ns(bytes.len());
+        self.serve_slots_before(self.now_ns() + t);
+        self.transmit_now(&bytes)
+    }
+
+    /// Sends one frame at once (the network faults apply).
+    fn transmit_now(&self, bytes: &[u8]) -> Option<Vec<ParsedDatagram>> {
         let (deliver, twice, answer) = {
             let mut net = self.net.borrow_mut();
             net.stats.frames += 1;
@@ -381,9 +488,9 @@ impl ScriptedMaster {
             board.step(t);
             return None;
         }
-        let reply = self.board.borrow_mut().exchange(&bytes);
+        let reply = self.board.borrow_mut().exchange(bytes);
         if twice {
-            self.board.borrow_mut().exchange(&bytes);
+            self.board.borrow_mut().exchange(bytes);
         }
         if !answer {
             return None;
@@ -685,19 +792,60 @@ impl ScriptedMaster {
     pub fn set_sync(&self, sync: Sync) -> Result<(), MasterError> {
         self.write(regs::DC_ACTIVATION, &[0])?;
         if let Sync::Dc { cycle_ns } = sync {
+            // The time stamp and the frame that reads it go out together (no cyclic frame
+            // in between).
             let t0 = self.now_ns();
-            let st = self.read(regs::DC_SYSTEM_TIME, 8)?;
+            let read =
+                FrameBuilder::new().datagram(cmd::FPRD, STATION, regs::DC_SYSTEM_TIME, &[0; 8]);
+            let st = self
+                .transmit_now(&read.build())
+                .and_then(|d| d.into_iter().next())
+                .filter(|d| d.wkc == 1)
+                .ok_or_else(|| MasterError::NoReply("FPRD 0x0910".into()))?
+                .data;
             let system = u64::from_le_bytes(st.try_into().unwrap_or([0; 8]));
             let start = system + DC_START_DELAY_NS;
             self.write(regs::DC_SYNC0_CYCLE, &cycle_ns.to_le_bytes())?;
             self.write(regs::DC_START_TIME, &start.to_le_bytes())?;
             self.write(regs::DC_ACTIVATION, &[0x03])?;
-            self.slot_origin.set(t0 + DC_START_DELAY_NS);
+            self.pace.set(Pace {
+                origin: t0 + DC_START_DELAY_NS,
+                cycle: u64::from(cycle_ns),
+                lead: u64::from(cycle_ns) / 2,
+            });
         } else {
-            self.slot_origin.set(self.now_ns());
+            self.pace.set(Pace {
+                origin: self.now_ns(),
+                cycle: sync.cycle_ns(),
+                lead: 0,
+            });
         }
         self.sync.set(Some(sync));
+        self.repace();
         Ok(())
+    }
+
+    /// The pace changed: the next background slot follows it.
+    fn repace(&self) {
+        let next = self.slot_after(self.now_ns()).unwrap_or(u64::MAX);
+        self.cyclic.borrow_mut().next_slot = next;
+    }
+
+    /// The master's own cycle from now on (its frames keep this cycle whatever SYNC0 does).
+    pub fn set_slot_cycle(&self, cycle_ns: u64) {
+        let p = self.pace.get();
+        self.pace.set(Pace {
+            cycle: cycle_ns.max(1),
+            ..p
+        });
+        self.repace();
+    }
+
+    /// How long before a SYNC0 edge the cyclic frame leaves (DC; half a cycle by default).
+    pub fn set_slot_lead(&self, lead_ns: u64) {
+        let p = self.pace.get();
+        self.pace.set(Pace { lead: lead_ns, ..p });
+        self.repace();
     }
 
     /// The synchronisation set last.
@@ -812,9 +960,23 @@ impl ScriptedMaster {
 
     // ------------------------------------------------------------------ process data
 
-    /// One LRW over the process image: writes `outputs`, returns the inputs. Working
-    /// counter 3 expected (inputs read + outputs written).
+    /// One LRW over the process image now: writes `outputs`, returns the inputs. Working
+    /// counter 3 expected (inputs read + outputs written). With the background frames
+    /// running, `outputs` become theirs and this frame takes the slot it is in.
     pub fn cycle(&self, outputs: &[u8]) -> Result<Vec<u8>, MasterError> {
+        let r = self.lrw(outputs);
+        let next = self.slot_after(self.now_ns());
+        let mut c = self.cyclic.borrow_mut();
+        if c.running {
+            c.outputs = outputs.to_vec();
+            if c.next_slot <= self.now_ns() {
+                c.next_slot = next.unwrap_or(u64::MAX);
+            }
+        }
+        r
+    }
+
+    fn lrw(&self, outputs: &[u8]) -> Result<Vec<u8>, MasterError> {
         let (out_len, in_len) = self
             .image
             .borrow()
@@ -826,7 +988,7 @@ impl ScriptedMaster {
         data[..n].copy_from_slice(&outputs[..n]);
         let frame = FrameBuilder::new().logical(cmd::LRW, LOGICAL_START, &data);
         let mut d = self
-            .transmit(&frame)
+            .transmit_now(&frame.build())
             .filter(|d| !d.is_empty())
             .ok_or_else(|| MasterError::NoReply("LRW".into()))?;
         let d = d.remove(0);
@@ -834,29 +996,12 @@ impl ScriptedMaster {
         Ok(d.data[out_len..].to_vec())
     }
 
-    /// Waits for the next cycle slot: in DC mode half a cycle before the next SYNC0 edge,
-    /// in SM-synchronous mode one cycle after the last slot.
+    /// Waits for the next cycle slot: in DC mode (by default) half a cycle before the next
+    /// SYNC0 edge, in SM-synchronous mode the next multiple of the cycle.
     pub fn wait_cycle_slot(&self) {
-        let Some(sync) = self.sync.get() else { return };
-        let cycle = sync.cycle_ns();
-        let now = self.now_ns();
-        let origin = self.slot_origin.get();
-        let slot = match sync {
-            Sync::Dc { .. } => {
-                let first = origin.saturating_sub(cycle / 2);
-                if now < first {
-                    first
-                } else {
-                    first + (now - first) / cycle * cycle + cycle
-                }
-            }
-            Sync::SmSync { .. } => {
-                let next = origin + cycle;
-                self.slot_origin.set(next.max(now));
-                next
-            }
-        };
-        self.wait_until(slot);
+        if let Some(slot) = self.slot_after(self.now_ns()) {
+            self.wait_until(slot);
+        }
     }
 
     /// The AO values as process data (0x6411:01/02 are the image's first two INTEGER16).
