@@ -10,7 +10,9 @@ use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
-use virtual_board::rig::sdo_client::{sdo_request, sdo_response, MailboxClient, MAILBOX_TYPE_COE};
+use virtual_board::rig::sdo_client::{
+    expedited_upload, sdo_request, MailboxClient, MAILBOX_TYPE_COE,
+};
 use virtual_board::tools::sim;
 
 type Board = Rc<RefCell<VirtualBoard>>;
@@ -68,14 +70,7 @@ fn upload(index: u16, sub: u8) -> [u8; 10] {
 
 /// `(index, sub, data)` of an expedited upload response.
 fn expedited(frame: &[u8]) -> (u16, u8, Vec<u8>) {
-    let sdo = sdo_response(frame).unwrap();
-    assert_eq!(sdo[0] & 0xE3, 0x43, "expedited upload response: {sdo:02x?}");
-    let n = 4 - usize::from((sdo[0] >> 2) & 0x03);
-    (
-        u16::from_le_bytes([sdo[1], sdo[2]]),
-        sdo[3],
-        sdo[4..4 + n].to_vec(),
-    )
+    expedited_upload(frame).unwrap()
 }
 
 /// Issue 14 section 1: a master leaves an SDO reply unread after having used the repeat

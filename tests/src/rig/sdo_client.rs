@@ -226,6 +226,13 @@ impl<const MBX: usize> MailboxClient<MBX> {
         self.counter % 7 + 1
     }
 
+    /// A frame with the next counter, which counts as used (for a master that sends, and
+    /// may resend, the frame itself with [`Self::send_raw`]).
+    pub fn next_frame(&mut self, mailbox_type: u8, payload: &[u8]) -> [u8; MBX] {
+        self.counter = self.next_counter();
+        Self::frame(mailbox_type, self.counter, payload)
+    }
+
     /// Starts the counters again (the slave does so at INIT -> PREOP).
     pub fn reset_counter(&mut self) {
         self.counter = 0;
@@ -401,6 +408,23 @@ pub fn sdo_response(frame: &[u8]) -> Result<Vec<u8>, SdoError> {
         return Err(format!("CoE service {service}, expected an SDO response").into());
     }
     Ok(sdo)
+}
+
+/// `(index, subindex, data)` of a frame holding an expedited upload response (the data as
+/// long as the command byte says).
+pub fn expedited_upload(frame: &[u8]) -> Result<(u16, u8, Vec<u8>), SdoError> {
+    let sdo = sdo_response(frame)?;
+    match sdo.first() {
+        Some(cmd)
+            if cmd & 0xE3
+                == cs::INITIATE_UPLOAD_RESPONSE << 5 | bits::EXPEDITED | bits::SIZE_INDICATED =>
+        {
+            let n = 4 - usize::from((cmd >> 2) & 0x03);
+            let data = sdo.get(4..4 + n).ok_or("short expedited response")?;
+            Ok((u16::from_le_bytes([sdo[1], sdo[2]]), sdo[3], data.to_vec()))
+        }
+        other => Err(format!("not an expedited upload response: {other:02x?}").into()),
+    }
 }
 
 /// An Emergency (CoE service 1) in a read-mailbox frame.
