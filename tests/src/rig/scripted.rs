@@ -193,6 +193,8 @@ pub struct SlaveInfo {
     /// Standard mailbox: out (master -> slave) start and size, in start and size (words
     /// 0x18..0x1B).
     pub mailbox: [u16; 4],
+    /// Bootstrap mailbox, the same (words 0x14..0x17; zero without BOOT support).
+    pub bootstrap_mailbox: [u16; 4],
     /// The SyncM category, SM0 first.
     pub sync_managers: Vec<SiiSm>,
 }
@@ -669,6 +671,7 @@ impl ScriptedMaster {
             if let Some(Ok(body)) = sii.category(category::SYNC_MANAGER) {
                 let ident = sii.identity();
                 let mbx = sii.standard_mailbox();
+                let boot = sii.bootstrap_mailbox();
                 return Ok(SlaveInfo {
                     identity: [
                         ident.vendor_id,
@@ -681,6 +684,12 @@ impl ScriptedMaster {
                         mbx.receive_size,
                         mbx.send_offset,
                         mbx.send_size,
+                    ],
+                    bootstrap_mailbox: [
+                        boot.receive_offset,
+                        boot.receive_size,
+                        boot.send_offset,
+                        boot.send_size,
                     ],
                     sync_managers: SyncManagers::new(body)
                         .map(|e| SiiSm {
@@ -701,7 +710,8 @@ impl ScriptedMaster {
         }
     }
 
-    fn sm(&self, n: usize) -> Result<SiiSm, MasterError> {
+    /// SyncManager `n` as the SII gives it.
+    pub fn sm(&self, n: usize) -> Result<SiiSm, MasterError> {
         self.info
             .borrow()
             .as_ref()
@@ -744,7 +754,16 @@ impl ScriptedMaster {
         self.write_al_control(u16::from(target | ack))
     }
 
-    /// Writes SM0/SM1 as the SII gives them (before INIT -> PREOP).
+    /// Writes SyncManager `n`'s 8 register bytes, disabling it first (the ESC takes start,
+    /// length and control only while the SyncManager is disabled).
+    pub fn write_sm(&self, n: usize, registers: [u8; 8]) -> Result<(), MasterError> {
+        self.write(regs::sm(n) + 6, &[0])?;
+        self.write(regs::sm(n), &registers)
+    }
+
+    /// Writes SM0/SM1 as the SII gives them (before INIT -> PREOP), enable bit as the SII
+    /// says, without disabling them first (what is in the mailboxes stays for the slave
+    /// to deal with).
     pub fn configure_mailbox(&self) -> Result<(), MasterError> {
         for n in 0..2 {
             let sm = self.sm(n)?;
@@ -765,25 +784,35 @@ impl ScriptedMaster {
         }))
         .map_err(MasterError::Slave)?;
         let bits = |e: &[sim::MappedEntry]| e.iter().map(|e| usize::from(e.bits)).sum::<usize>();
-        let outputs = bits(&layout.outputs).div_ceil(8);
-        let inputs = bits(&layout.inputs).div_ceil(8);
+        let image = ProcessImage {
+            outputs: bits(&layout.outputs).div_ceil(8),
+            inputs: bits(&layout.inputs).div_ceil(8),
+            layout,
+        };
+        *self.image.borrow_mut() = Some(image.clone());
+        self.rewrite_process_data(sync)?;
+        Ok(image)
+    }
+
+    /// Writes SM2/SM3 and the FMMUs for the process image read last (a master going from
+    /// PREOP to SAFEOP again), and sets `sync`.
+    pub fn rewrite_process_data(&self, sync: Sync) -> Result<(), MasterError> {
+        let (outputs, inputs) = self
+            .image
+            .borrow()
+            .as_ref()
+            .map(|i| (i.outputs, i.inputs))
+            .ok_or_else(|| MasterError::Slave("no process image read yet".into()))?;
         let (sm2, sm3) = (self.sm(2)?, self.sm(3)?);
-        self.write(regs::sm(2), &sm2.registers(outputs as u16, 0x01))?;
-        self.write(regs::sm(3), &sm3.registers(inputs as u16, 0x01))?;
+        self.write_sm(2, sm2.registers(outputs as u16, 0x01))?;
+        self.write_sm(3, sm3.registers(inputs as u16, 0x01))?;
         self.write(
             regs::fmmu(0),
             &fmmu(LOGICAL_START, outputs, sm2.start, 0x02),
         )?;
         let log_in = LOGICAL_START + outputs as u32;
         self.write(regs::fmmu(1), &fmmu(log_in, inputs, sm3.start, 0x01))?;
-        self.set_sync(sync)?;
-        let image = ProcessImage {
-            layout,
-            outputs,
-            inputs,
-        };
-        *self.image.borrow_mut() = Some(image.clone());
-        Ok(image)
+        self.set_sync(sync)
     }
 
     /// Sets the synchronisation: DC starts the SYNC0 unit (0x0981 = 0, read the system
