@@ -77,6 +77,10 @@ pub trait PdiCpu {
     /// A continuously running CPU executes up to virtual time `t_ns` (the board's clock is
     /// about to move there).
     fn run_until(&mut self, _io: &mut BoardIo, _t_ns: u64) {}
+    /// The CPU as `Any`, for a test that looks at its own kind of CPU's state.
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }
 
 /// A CPU that does nothing (an unprogrammed board).
@@ -175,6 +179,11 @@ impl VirtualBoard {
     /// Installs the PDI-side CPU (returns the previous one).
     pub fn set_cpu(&mut self, cpu: Box<dyn PdiCpu>) -> Box<dyn PdiCpu> {
         std::mem::replace(&mut self.cpu, cpu)
+    }
+
+    /// The CPU (downcast with [`PdiCpu::as_any`]).
+    pub fn cpu(&self) -> &dyn PdiCpu {
+        self.cpu.as_ref()
     }
 
     /// Handles on the peripherals (for a CPU to keep).

@@ -241,6 +241,10 @@ fn pdi_ready(io: &BoardIo) -> bool {
 }
 
 impl PdiCpu for FirmwareCpu {
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+
     fn on_sync0(&mut self, _io: &mut BoardIo, edge: &SyncEdge) {
         if self.in_init() {
             return;

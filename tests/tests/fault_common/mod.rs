@@ -5,7 +5,9 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
+use virtual_board::models::spi::SpiStats;
 use virtual_board::rig::board::BoardConfig;
+use virtual_board::rig::firmware_cpu::{FirmwareCpu, FirmwareStats};
 use virtual_board::rig::scripted::{state, AlStatus, MasterError, ScriptedMaster, Sync};
 use virtual_board::rig::sdo_client::Emergency;
 
@@ -176,6 +178,21 @@ pub fn dac_loads(m: &ScriptedMaster) -> Vec<(u64, u8, u16)> {
         .iter()
         .map(|u| (u.time_ns, u.channel, u.code))
         .collect()
+}
+
+/// The firmware harness's counters (init, ticks, samples).
+pub fn firmware_stats(m: &ScriptedMaster) -> FirmwareStats {
+    let b = m.board().borrow();
+    let cpu = b
+        .cpu()
+        .as_any()
+        .and_then(|a| a.downcast_ref::<FirmwareCpu>());
+    cpu.expect("the firmware runs on the board").stats.clone()
+}
+
+/// The ESC's SPI counters (transactions, PDI errors the ESC saw).
+pub fn spi_stats(m: &ScriptedMaster) -> SpiStats {
+    m.board().borrow().esc().borrow().spi_stats.clone()
 }
 
 /// Saves the traffic as a pcap under CARGO_TARGET_TMPDIR; returns its path (for the
