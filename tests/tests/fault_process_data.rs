@@ -287,3 +287,41 @@ fn sync0_jitter() {
         [emcy::SYNC_ERROR]
     );
 }
+
+/// A second sync error after the first was acknowledged: the master goes SAFEOP -> OP
+/// again (as after any fault) and later loses two frames in a row. The sync error is raised
+/// again (SAFEOP + 0x001A, Emergency, fault values): the monitor starts over at SAFEOP ->
+/// OP (the SSC clears its SM event missed counter and sync error there), it does not stay
+/// latched from the first time.
+#[test]
+fn a_second_sync_error_after_recovery_is_detected() {
+    let m = op_with(DC, [Some(0x0200), Some(0x0300)]);
+    for round in 0..3 {
+        good_cycles(&m, 20, 0x1000 + round, 0x2000 + round);
+        m.lose_frames(2);
+        cycles(&m, 2, 0x3000, 0x3000);
+        m.wait(CYCLE);
+        m.stop_cyclic();
+        assert_eq!(
+            al(&m),
+            (err(state::SAFEOP), al::SYNC_ERROR),
+            "round {round}"
+        );
+        assert_eq!(
+            m.dac(),
+            [dac_code(0x0200), dac_code(0x0300)],
+            "round {round}"
+        );
+        let e = emergencies(&m);
+        assert!(
+            e.iter().any(|e| e.code == emcy::SYNC_ERROR),
+            "round {round}: {e:?}"
+        );
+        recover_to_op(&m, [dac_code(0x0200), dac_code(0x0300)], 0x0400, 0x0500);
+        assert_eq!(
+            sdo_uint(&m, SM_OUTPUT_PARAMETER, 0x20),
+            0,
+            "round {round}: cleared"
+        );
+    }
+}

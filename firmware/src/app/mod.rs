@@ -364,7 +364,7 @@ impl SlaveApp {
             (AlState::SafeOp, AlState::Op) => {
                 // Accepted before the first outputs arrive; the outputs stay safe until
                 // fresh process data come in OP.
-                self.data.sync.disarm();
+                self.data.sync.enter_op();
             }
             _ => {}
         }

@@ -320,6 +320,16 @@ impl SyncMonitor {
         self.armed = false;
     }
 
+    /// SAFEOP -> OP: the monitor waits for the first SM2 event in OP, and the sync error
+    /// starts over, as the SSC clears its SM event missed counter and sync error when it
+    /// starts the outputs (StartOutputHandler): an error acknowledged before must not keep
+    /// the next one from being raised. The diagnostic counters (0x1C32:0B..0D) go on.
+    pub fn enter_op(&mut self) {
+        self.armed = false;
+        self.error_counter = 0;
+        self.sync_error = false;
+    }
+
     /// True once the first SM2 event in OP arrived.
     pub const fn armed(&self) -> bool {
         self.armed
@@ -711,6 +721,32 @@ mod tests {
         assert_eq!(b[0], 1);
         assert_eq!(m.read(false, 0x0B, &mut b), Ok(2));
         assert_eq!(u16::from_le_bytes([b[0], b[1]]), 4);
+    }
+
+    /// After a sync error and its acknowledge, SAFEOP -> OP starts the error over: the
+    /// next two misses in a row raise it again (it stayed latched before).
+    #[test]
+    fn the_sync_error_starts_over_at_safeop_to_op() {
+        let mut m = SyncMonitor::new();
+        let mut e = Edges::default();
+        m.start(SyncMode::DcSync0, 100_000);
+        for round in 0..3u64 {
+            let t = round * 1_000_000;
+            m.enter_op();
+            assert!(!m.sync_error());
+            m.on_sm2_event(t, true, e.0);
+            assert_eq!(
+                m.on_sync0_counts(e.edge(t + 100_000, false)),
+                SyncVerdict::Ok
+            );
+            assert_eq!(
+                m.on_sync0_counts(e.edge(t + 200_000, false)),
+                SyncVerdict::SyncError,
+                "round {round}"
+            );
+            m.disarm();
+        }
+        assert_eq!(m.sm_event_missed(), 6, "the diagnostic counter goes on");
     }
 
     #[test]
