@@ -191,6 +191,44 @@ fn frames_lost_in_sm_synchronous_mode() {
     assert!(emergencies(&m).is_empty());
 }
 
+/// SYNC0 never reaches the MCU (broken line) while the ESC's cyclic unit runs: in OP the
+/// SYNC0 watchdog of the slave (no edge for more than 2 cycles, at least 1 ms, as the
+/// SSC's Sync0WdValue) gives the fatal sync error: SAFEOP + 0x002C (ETG.1000.6 table 11,
+/// SSC CheckIfEcatError), Emergency 0x8700, outputs to their error values. The outputs
+/// the master sent never reached the DAC (no SYNC0 to latch them).
+#[test]
+fn sync0_missing_is_a_fatal_sync_error() {
+    let m = op_with(DC, [Some(0x0800), Some(0x0800)]);
+    good_cycles(&m, 20, 0x4000, 0x4000);
+    m.wait(CYCLE);
+    assert_eq!(m.dac(), [dac_code(0x4000); 2]);
+    m.board().borrow().esc().borrow_mut().sync0_fault = Some(Sync0Fault::Missing);
+    let broken = m.now_ns();
+    let results = cycles(&m, 30, 0x6000, 0x6000);
+    assert!(results.iter().any(|r| r.is_ok()));
+    assert_eq!(al(&m), (err(state::SAFEOP), al::FATAL_SYNC_ERROR));
+    assert_eq!(m.dac(), [dac_code(0x0800); 2]);
+    let loads = dac_loads(&m);
+    assert!(
+        loads.iter().all(|l| l.2 != dac_code(0x6000)),
+        "no output latched without SYNC0"
+    );
+    let fault_at = loads.last().unwrap().0;
+    assert!(
+        fault_at <= broken + 1_000_000 + 3 * CYCLE,
+        "detected within the SYNC0 watchdog (1 ms): {} us",
+        (fault_at - broken) / 1000
+    );
+    let e = emergencies(&m);
+    assert_eq!(
+        e.iter().map(|e| e.code).collect::<Vec<_>>(),
+        [emcy::SYNC_ERROR]
+    );
+    // The line is repaired: the master acknowledges and goes back to OP.
+    m.board().borrow().esc().borrow_mut().sync0_fault = None;
+    recover_to_op(&m, [dac_code(0x0800); 2], 0x0300, 0x0400);
+}
+
 /// SYNC0 too fast. At PREOP -> SAFEOP a SYNC0 cycle below the minimum cycle time (0x1C32:05)
 /// is refused with 0x0035 (DC sync cycle time), the outputs stay at 0 V; reprogrammed in OP
 /// to a cycle below the minimum, the edges outrun the frames: missed SM events count

@@ -241,7 +241,12 @@ impl SlaveApp {
         let new_edge = counts.edges != self.sync0_seen;
         self.sync0_seen = counts.edges;
         if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
-            self.sync_error(esc, stage, &mut out)?;
+            self.sync_error(esc, stage, AlStatusCode::SynchronizationError, &mut out)?;
+        }
+        let in_op = self.esm.state() == AlState::Op;
+        let sync0 = self.data.sync.on_sync0_time(now_ns, counts.edges, in_op);
+        if sync0 == SyncVerdict::FatalSyncError {
+            self.sync_error(esc, stage, AlStatusCode::FatalSyncError, &mut out)?;
         }
         let mut events = None;
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
@@ -428,10 +433,13 @@ impl SlaveApp {
         Ok(())
     }
 
+    /// A sync error (0x001A) or, SYNC0 gone, the fatal sync error (0x002C): Emergency, and
+    /// in OP SAFEOP with the fault values.
     fn sync_error<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
         stage: &OutputStage,
+        code: AlStatusCode,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
         let counter = self.data.sync.error_counter().to_le_bytes();
@@ -442,7 +450,7 @@ impl SlaveApp {
         );
         self.mailbox.queue_emergency(e);
         if self.esm.state() == AlState::Op {
-            self.local_error(esc, stage, AlStatusCode::SynchronizationError, out)?;
+            self.local_error(esc, stage, code, out)?;
         }
         Ok(())
     }
@@ -519,7 +527,7 @@ impl SlaveApp {
             }
         }
         if verdict == SyncVerdict::SyncError {
-            self.sync_error(esc, stage, out)?;
+            self.sync_error(esc, stage, AlStatusCode::SynchronizationError, out)?;
         }
         if self.data.sync.mode() != SyncMode::DcSync0 {
             self.write_inputs(esc)?;

@@ -41,6 +41,9 @@ use crate::product::sync::{
     SYNC_MODE_SM2_INPUTS,
 };
 use coe_core::{AlStatusCode, SdoAbortCode};
+
+/// Shortest SYNC0 watchdog time: the SSC's tick (1 ms), its Sync0WdValue at least 1.
+pub const SYNC0_WATCHDOG_MIN_NS: u64 = 1_000_000;
 use et1100::SyncActivation;
 
 /// A sync mode as 0x1C32:01 / 0x1C33:01 give it.
@@ -188,6 +191,8 @@ pub enum SyncVerdict {
     Ok,
     /// The sync error counter just exceeded the limit.
     SyncError,
+    /// No SYNC0 edge for longer than the SYNC0 watchdog allows.
+    FatalSyncError,
 }
 
 /// The 0x1C32/0x1C33 values and the cycle monitor.
@@ -209,6 +214,8 @@ pub struct SyncMonitor {
     edges_at_sm2: Option<u32>,
     baseline: Sync0Counts,
     arm_edges: u32,
+    /// SYNC0 watchdog (DC mode, OP): the edge count and when it last changed.
+    sync0_seen: Option<(u32, u64)>,
 }
 
 impl Default for SyncMonitor {
@@ -241,6 +248,7 @@ impl SyncMonitor {
                 last_edge_lo: 0,
             },
             arm_edges: 0,
+            sync0_seen: None,
         }
     }
 
@@ -328,6 +336,36 @@ impl SyncMonitor {
         self.armed = false;
         self.error_counter = 0;
         self.sync_error = false;
+        self.sync0_seen = None;
+    }
+
+    /// The SYNC0 watchdog time: twice the SYNC0 cycle, at least 1 ms (the SSC's
+    /// Sync0WdValue in its 1 ms ticks).
+    pub fn sync0_watchdog_ns(&self) -> u64 {
+        (2 * u64::from(self.sync0_cycle_ns)).max(SYNC0_WATCHDOG_MIN_NS)
+    }
+
+    /// The SYNC0 watchdog, with the SYNC0 edge count at `now_ns` (the PDI task's
+    /// background work, which runs at least every millisecond): in DC mode in OP, no new
+    /// edge for longer than [`Self::sync0_watchdog_ns`] is the fatal sync error (AL status
+    /// 0x002C, as the SSC's CheckIfEcatError gives it when its Sync0 watchdog expires);
+    /// reported once, it sets 0x1C32:20.
+    pub fn on_sync0_time(&mut self, now_ns: u64, edges: u32, in_op: bool) -> SyncVerdict {
+        if self.mode != SyncMode::DcSync0 || !in_op {
+            self.sync0_seen = None;
+            return SyncVerdict::Ok;
+        }
+        match self.sync0_seen {
+            Some((seen, since)) if seen == edges => {
+                let quiet = now_ns.saturating_sub(since);
+                if quiet > self.sync0_watchdog_ns() && !self.sync_error {
+                    self.sync_error = true;
+                    return SyncVerdict::FatalSyncError;
+                }
+            }
+            _ => self.sync0_seen = Some((edges, now_ns)),
+        }
+        SyncVerdict::Ok
     }
 
     /// True once the first SM2 event in OP arrived.
@@ -747,6 +785,49 @@ mod tests {
             m.disarm();
         }
         assert_eq!(m.sm_event_missed(), 6, "the diagnostic counter goes on");
+    }
+
+    /// SYNC0 watchdog: in DC mode in OP, edges keep it quiet; none for more than twice
+    /// the cycle (at least 1 ms) is the fatal sync error, once; outside OP or DC it is off.
+    #[test]
+    fn sync0_watchdog_gives_the_fatal_sync_error() {
+        let mut m = SyncMonitor::new();
+        m.start(SyncMode::DcSync0, 100_000);
+        assert_eq!(m.sync0_watchdog_ns(), 1_000_000);
+        let mut edges = 0;
+        for k in 0..50u64 {
+            edges += 1;
+            assert_eq!(m.on_sync0_time(k * 100_000, edges, true), SyncVerdict::Ok);
+        }
+        // No edge from 4.9 ms on.
+        assert_eq!(m.on_sync0_time(5_800_000, edges, true), SyncVerdict::Ok);
+        assert_eq!(
+            m.on_sync0_time(5_900_001, edges, true),
+            SyncVerdict::FatalSyncError
+        );
+        assert!(m.sync_error());
+        assert_eq!(
+            m.on_sync0_time(9_000_000, edges, true),
+            SyncVerdict::Ok,
+            "once"
+        );
+        // Outside OP it does not count; back in OP it starts from the first look.
+        m.enter_op();
+        assert_eq!(m.on_sync0_time(20_000_000, edges, false), SyncVerdict::Ok);
+        assert_eq!(m.on_sync0_time(21_000_000, edges, true), SyncVerdict::Ok);
+        assert_eq!(m.on_sync0_time(21_900_000, edges, true), SyncVerdict::Ok);
+        assert_eq!(
+            m.on_sync0_time(22_000_001, edges, true),
+            SyncVerdict::FatalSyncError
+        );
+        // Long cycles: twice the cycle.
+        m.start(SyncMode::DcSync0, 4_000_000);
+        assert_eq!(m.sync0_watchdog_ns(), 8_000_000);
+        // Not in DC mode: off.
+        m.start(SyncMode::SmSync, 0);
+        m.enter_op();
+        assert_eq!(m.on_sync0_time(0, 0, true), SyncVerdict::Ok);
+        assert_eq!(m.on_sync0_time(u64::MAX / 2, 0, true), SyncVerdict::Ok);
     }
 
     #[test]
