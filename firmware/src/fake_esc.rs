@@ -36,6 +36,14 @@ pub struct FakeEsc {
     pub reads: usize,
     /// PDI reads touching the SyncManager registers (0x0800..0x0880).
     pub sm_register_reads: usize,
+    /// Bits flipped on the way, as the SPI can: `(address, byte offset, XOR mask, reads)`
+    /// for the next `reads` reads starting at the address, the mask rotated by one bit from
+    /// read to read (the MCU gets them wrong, each differently; the register file keeps the
+    /// data right).
+    pub corrupt_next_read: Option<(u16, usize, u8, u8)>,
+    /// The same for the next write starting at the address (the register file gets it
+    /// wrong).
+    pub corrupt_next_write: Option<(u16, usize, u8)>,
 }
 
 /// A PDI access outside the register file or to a register the PDI cannot write.
@@ -57,6 +65,8 @@ impl FakeEsc {
             writes: 0,
             reads: 0,
             sm_register_reads: 0,
+            corrupt_next_read: None,
+            corrupt_next_write: None,
         };
         esc.set_u16(Register::AlStatus.addr(), 1);
         esc.set_u16(Register::WatchdogStatusProcessData.addr(), 1);
@@ -330,6 +340,15 @@ impl Pdi for FakeEsc {
     fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<AlEvents, Error<BusError>> {
         let (a, events) = self.begin(addr, buf.len())?;
         buf.copy_from_slice(&self.mem[a..a + buf.len()]);
+        if let Some((at, i, mask, reads)) = self.corrupt_next_read {
+            if at == addr {
+                self.corrupt_next_read =
+                    (reads > 1).then_some((at, i, mask.rotate_left(1), reads - 1));
+                if let Some(b) = buf.get_mut(i) {
+                    *b ^= mask;
+                }
+            }
+        }
         self.reads += 1;
         if a < SM_REGISTERS.end && a + buf.len() > SM_REGISTERS.start {
             self.sm_register_reads += 1;
@@ -347,6 +366,12 @@ impl Pdi for FakeEsc {
             return Err(Error::Bus(BusError));
         }
         self.mem[a..a + data.len()].copy_from_slice(data);
+        if let Some((at, i, mask)) = self.corrupt_next_write {
+            if at == addr && i < data.len() {
+                self.corrupt_next_write = None;
+                self.mem[a + i] ^= mask;
+            }
+        }
         self.writes += 1;
         self.after_write(a, data.len());
         Ok(events)

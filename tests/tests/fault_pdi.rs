@@ -116,3 +116,126 @@ fn eeprom_not_loaded_at_start_up() {
     assert_eq!(m.dac(), [dac_code(0x0300), dac_code(0x0400)]);
     assert_eq!(spi_stats(&m).errors, 0);
 }
+
+/// The outputs of cycle `i`: both bytes equal, so a flipped bit or a byte from elsewhere
+/// never forms another output of the sequence.
+fn output(i: usize) -> i16 {
+    let b = (i % 120 + 2) as i16;
+    b << 8 | b
+}
+
+/// Corrupted reads of the outputs, in SM-synchronous and in DC mode: every bit of the SM2
+/// read's data flipped on MISO (the ESC cannot see it), bits of its address and command
+/// flipped on MOSI, SPI_SEL dropped at every byte (the ESC counts a PDI error, 0x030D, and
+/// the MCU reads the idle bus). One fault per cycle, 60 cycles in a row: no value the
+/// master did not send ever reaches the DAC, every cycle's outputs arrive (the read is
+/// confirmed and retried), the module stays in OP, and the ESC's PDI error counter the
+/// master can read shows the SEL drops, which the module reports with an Emergency 0x5000.
+#[test]
+fn corrupted_output_reads_never_reach_the_dac() {
+    use virtual_board::models::spi::{SpiFault, SpiTarget};
+    for sync in [
+        SM_SYNC,
+        Sync::Dc {
+            cycle_ns: CYCLE as u32,
+        },
+    ] {
+        let m = op_with(sync, [Some(0x0123), Some(0x0456)]);
+        good_cycles(&m, 10, output(0), output(0));
+        let sm2 = m.sm(2).unwrap().start;
+        let mut faults = Vec::new();
+        for byte in 3..7 {
+            for bit in 0..8 {
+                faults.push(SpiFault::FlipMiso { byte, bit });
+            }
+        }
+        for byte in 0..2 {
+            for bit in 0..8 {
+                faults.push(SpiFault::FlipMosi { byte, bit });
+            }
+        }
+        for byte in 2..7 {
+            faults.push(SpiFault::DropSel { byte });
+        }
+        let loads_before = dac_loads(&m).len();
+        for (i, fault) in faults.iter().enumerate() {
+            m.board()
+                .borrow()
+                .esc()
+                .borrow_mut()
+                .spi_faults
+                .inject(SpiTarget::Read(sm2), *fault);
+            good_cycles(&m, 1, output(i + 1), output(i + 1));
+            m.wait(CYCLE);
+            assert_eq!(
+                m.dac(),
+                [dac_code(output(i + 1)); 2],
+                "{sync:?}: the outputs of cycle {i} arrived despite {fault:?}"
+            );
+        }
+        let injected = m.board().borrow().esc().borrow().spi_faults.injected.len();
+        assert_eq!(injected, faults.len(), "every fault hit an SM2 read");
+        for (t, ch, code) in &dac_loads(&m)[loads_before..] {
+            let v = (code >> 1) as i16;
+            assert!(
+                *code & 1 == 0 && v >> 8 == v & 0xFF,
+                "{sync:?}: the DAC took {code:#06x} on channel {ch} at {t} ns"
+            );
+        }
+        assert_eq!(al(&m), (state::OP, 0));
+        let pdi_errors = m.read(regs::PDI_ERROR_COUNTER, 1).unwrap()[0];
+        assert!(
+            pdi_errors >= 3,
+            "0x030D counts the reads cut in their data: {pdi_errors}"
+        );
+        // Reported: an Emergency 0x5000 with the ESC's counter, within the safety service.
+        m.wait(150_000_000);
+        let e = emergencies(&m);
+        assert!(
+            e.iter()
+                .any(|e| e.code == emcy::PDI_ERROR && e.data[0] >= 3),
+            "{sync:?}: {e:?}"
+        );
+    }
+}
+
+/// A bit flipped while the firmware writes its AL status (the state answering a request)
+/// or reads AL control: the master still sees the state it asked for, without an error;
+/// the firmware reads back what it wrote and confirms what it read.
+#[test]
+fn corrupted_al_status_and_control_accesses() {
+    use virtual_board::models::spi::{SpiFault, SpiTarget};
+    let m = master();
+    m.configure_mailbox().unwrap();
+    let inject = |target, fault| {
+        m.board()
+            .borrow()
+            .esc()
+            .borrow_mut()
+            .spi_faults
+            .inject(target, fault)
+    };
+    // AL status written with its state bit 2 flipped (PREOP 0x02 -> 0x06).
+    inject(
+        SpiTarget::Write(regs::AL_STATUS),
+        SpiFault::FlipMosi { byte: 2, bit: 2 },
+    );
+    let s = m.request_state(state::PREOP).unwrap();
+    m.wait(2 * TICK_NS);
+    assert_eq!(s.state, state::PREOP);
+    assert_eq!(al(&m), (state::PREOP, 0));
+    // AL control read with bit 3 flipped (SAFEOP 0x04 -> 0x0C, undefined).
+    inject(
+        SpiTarget::Read(regs::AL_CONTROL),
+        SpiFault::FlipMiso { byte: 3, bit: 3 },
+    );
+    m.configure_process_data(SM_SYNC).unwrap();
+    let s = m.request_state(state::SAFEOP).unwrap();
+    assert_eq!(
+        s.pair(),
+        (state::SAFEOP, 0),
+        "no 0x0012 for a state never asked"
+    );
+    let injected = m.board().borrow().esc().borrow().spi_faults.injected.len();
+    assert_eq!(injected, 2);
+}

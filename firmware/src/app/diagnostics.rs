@@ -18,6 +18,10 @@ pub const EMCY_SYNC_ERROR: u16 = 0x8700;
 /// Emergency: manufacturer-specific 0xFF01: an 0x6411 value outside 0..=0x7FFF was clamped
 /// (data byte 0: channel bit mask).
 pub const EMCY_AO_OUT_OF_RANGE: u16 = 0xFF01;
+/// Emergency: device hardware (CiA 301 0x5000): the MCU's SPI link to the ESC saw errors.
+/// Data: the ESC's PDI error counter (0x030D) and code (0x030E), the output reads dropped
+/// because no two reads agreed (u16).
+pub const EMCY_PDI_ERROR: u16 = 0x5000;
 /// Emergency: error reset / no error (0x0000), sent when the error register clears.
 pub const EMCY_NO_ERROR: u16 = 0x0000;
 
@@ -46,6 +50,16 @@ impl Diagnostics {
     /// Sets `bits` and returns the Emergency that reports `code` with `data`.
     pub fn raise(&mut self, bits: u8, code: u16, data: [u8; 5]) -> Emergency {
         self.register |= bits | ERR_GENERIC;
+        Emergency {
+            error_code: code,
+            error_register: self.register,
+            data,
+        }
+    }
+
+    /// The Emergency that reports `code` with `data` without setting an error bit (an
+    /// event that is over when it is reported).
+    pub fn report(&self, code: u16, data: [u8; 5]) -> Emergency {
         Emergency {
             error_code: code,
             error_register: self.register,

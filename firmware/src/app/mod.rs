@@ -40,6 +40,7 @@
 
 pub mod adc_dma;
 pub mod adc_scan;
+pub mod confirm;
 pub mod dac;
 pub mod diagnostics;
 pub mod div;
@@ -57,13 +58,17 @@ pub mod timebase;
 #[cfg(test)]
 mod tests;
 
+use crate::product::capacity::MAX_IMAGE;
 use crate::product::layout::SYNC_MANAGERS;
+use crate::product::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
 use coe_core::device::{sm_control, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
 use coe_core::od::ObjectDictionary;
 use coe_core::{AlState, AlStatusCode};
+use confirm::Confirmed;
 use diagnostics::{
-    EMCY_AO_OUT_OF_RANGE, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION, ERR_MANUFACTURER,
+    EMCY_AO_OUT_OF_RANGE, EMCY_PDI_ERROR, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION,
+    ERR_MANUFACTURER,
 };
 use et1100::{
     AlEvents, AlStatus, Et1100, Pdi, PdiResult, Register, SmMode, SyncManager, WatchdogStatus,
@@ -124,6 +129,15 @@ pub struct SlaveApp {
     mailbox_check_ns: u64,
     /// Time of the background poll's next own event sample (ns).
     event_sample_ns: u64,
+    /// Read changed outputs twice before taking them (decided at PREOP -> SAFEOP).
+    confirm_outputs: bool,
+    /// Buffers of the confirming reads of the outputs.
+    fresh: [u8; MAX_IMAGE],
+    again: [u8; MAX_IMAGE],
+    /// Output reads dropped because no two reads agreed.
+    rejected_reads: u16,
+    /// The ESC's PDI error counter and the dropped reads as last reported.
+    pdi_reported: (u8, u16),
 }
 
 impl SlaveApp {
@@ -139,6 +153,11 @@ impl SlaveApp {
             sync0_seen: 0,
             mailbox_check_ns: 0,
             event_sample_ns: 0,
+            confirm_outputs: true,
+            fresh: [0; MAX_IMAGE],
+            again: [0; MAX_IMAGE],
+            rejected_reads: 0,
+            pdi_reported: (0, 0),
         }
     }
 
@@ -270,6 +289,7 @@ impl SlaveApp {
             };
             let work = self.mailbox.needs_service(events);
             if now_ns >= self.mailbox_check_ns {
+                self.report_pdi_errors(esc)?;
                 let how = Service::Registers {
                     check_repeat: false,
                 };
@@ -284,8 +304,24 @@ impl SlaveApp {
 
     // ------------------------------------------------------------------ ESM
 
+    /// Writes AL status code and AL status and reads them back, writing again what did not
+    /// arrive: the master must see the state the slave is in, and the SPI has no checksum.
     fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
-        esc.write_al_status(AlStatus(self.esm.status()), self.esm.status_code_word())
+        let (status, code) = (self.esm.status(), self.esm.status_code_word());
+        for _ in 0..confirm::MAX_READS {
+            esc.write_al_status(AlStatus(status), code)?;
+            // 0x0130..0x0135: status, reserved, code.
+            let mut back = [0u8; 6];
+            esc.read(Register::AlStatus.addr(), &mut back)?;
+            let got = (
+                u16::from_le_bytes([back[0], back[1]]),
+                u16::from_le_bytes([back[4], back[5]]),
+            );
+            if got == (status, code) {
+                break;
+            }
+        }
+        Ok(())
     }
 
     fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
@@ -311,7 +347,13 @@ impl SlaveApp {
         stage: &OutputStage,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
-        let control = esc.read_al_control()?.0;
+        // Read until two reads agree (a flipped bit would request a state the master never
+        // asked for); if none do, the last read stands and the master sees the outcome.
+        let (mut control, mut again) = ([0u8; 2], [0u8; 2]);
+        confirm::read_confirmed(&mut control, None, &mut again, |b| {
+            esc.read(Register::AlControl.addr(), b).map(drop)
+        })?;
+        let control = u16::from_le_bytes(control);
         let had_error = self.esm.error();
         let decision = self.esm.request(control);
         if had_error && !self.esm.error() {
@@ -407,6 +449,8 @@ impl SlaveApp {
             return Ok(Err(code));
         }
         self.data.sync.start(mode, sync0_cycle_ns);
+        self.confirm_outputs =
+            mode != SyncMode::DcSync0 || sync0_cycle_ns >= CONFIRM_OUTPUTS_MIN_CYCLE_NS;
         stage.set_dc_mode(mode == SyncMode::DcSync0);
         // Inputs are valid in SAFEOP.
         self.write_inputs(esc)?;
@@ -472,6 +516,26 @@ impl SlaveApp {
         self.write_status(esc)
     }
 
+    /// Reports a rise of the ESC's PDI error counter (0x030D, with its code 0x030E) or of the
+    /// dropped output reads with an Emergency, once per rise (the master may clear
+    /// 0x030D). Called with the periodic safety service.
+    fn report_pdi_errors<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        let mut b = [0u8; 2];
+        esc.read(Register::PdiErrorCounter.addr(), &mut b)?;
+        let (counter, rejected) = self.pdi_reported;
+        let rose = b[0] > counter || self.rejected_reads != rejected;
+        self.pdi_reported = (b[0], self.rejected_reads);
+        if rose {
+            let [lo, hi] = self.rejected_reads.to_le_bytes();
+            let e = self
+                .data
+                .diag
+                .report(EMCY_PDI_ERROR, [b[0], b[1], lo, hi, 0]);
+            self.mailbox.queue_emergency(e);
+        }
+        Ok(())
+    }
+
     // ------------------------------------------------------------ process data
 
     fn outputs<P: Pdi>(
@@ -490,7 +554,29 @@ impl SlaveApp {
         if image.is_empty() {
             return Ok(());
         }
-        esc.read_process_data(start, image)?;
+        if self.confirm_outputs {
+            // Taken only when two reads agree (or equal to what is staged already): a
+            // value the ESC never held must not reach the DAC.
+            let n = image.len();
+            let (Some(fresh), Some(again)) = (self.fresh.get_mut(..n), self.again.get_mut(..n))
+            else {
+                return Ok(());
+            };
+            let read = confirm::read_confirmed(fresh, Some(image), again, |b| {
+                esc.read_process_data(start, b).map(drop)
+            })?;
+            match read {
+                Confirmed::Same => {}
+                Confirmed::New => image.copy_from_slice(fresh),
+                Confirmed::Unstable => {
+                    // Dropped: in DC mode the SYNC0 edge counts a missed SM event.
+                    self.rejected_reads = self.rejected_reads.wrapping_add(1);
+                    return Ok(());
+                }
+            }
+        } else {
+            esc.read_process_data(start, image)?;
+        }
         let in_op = state == AlState::Op;
         let verdict = self
             .data

@@ -662,8 +662,9 @@ fn dc_cycle_reads_no_mailbox_registers() {
         r.sync0();
     }
     assert_eq!(r.esc.sm_register_reads, sm_reads);
-    // Per cycle: the event bits (IRQ) and SM2; one write: SM3.
-    assert_eq!(r.esc.reads - reads, 5 * 2);
+    // Per cycle: the event bits (IRQ), SM2 and, the outputs having changed, SM2 again to
+    // confirm them (a 1 ms cycle has room for it); one write: SM3.
+    assert_eq!(r.esc.reads - reads, 5 * 3);
     assert_eq!(r.esc.writes - writes, 5);
     // The mailbox still answers in OP (SM0 event), and the reply leaves SM1 busy until the
     // master has read it.
@@ -722,4 +723,100 @@ fn background_poll_samples_the_events_every_interval() {
     r.now += u64::from(super::mailbox::EVENT_SAMPLE_MS) * 1_000_000;
     r.poll();
     assert_eq!(r.esc.master_read_mailbox().unwrap()[8], 0x43);
+}
+
+/// Outputs read wrong on the SPI (a flipped bit) never reach the DAC: changed outputs are
+/// taken when two reads agree; unchanged ones cost no second read.
+#[test]
+fn a_corrupted_output_read_never_reaches_the_dac() {
+    let mut r = Rig::new();
+    r.goto_op();
+    r.outputs(0x1000, 0x2000);
+    assert_eq!(r.stage.staged().1, DacPair::new(0x2000, 0x4000));
+    // AO1's high byte read with bit 6 flipped (0x10 -> 0x50).
+    r.esc.corrupt_next_read = Some((PD_OUT, 1, 0x40, 1));
+    r.outputs(0x1100, 0x2000);
+    assert_eq!(r.esc.corrupt_next_read, None, "the fault hit");
+    for a in &r.dac {
+        assert_ne!(
+            a.pair().map(|p| p.a),
+            Some(0x5100 << 1),
+            "corrupted value applied"
+        );
+    }
+    assert_eq!(
+        r.dac.last(),
+        Some(&DacAction::WriteAndUpdate(DacPair::new(0x2200, 0x4000)))
+    );
+    // The same outputs again: one read.
+    let reads = r.esc.reads;
+    r.outputs(0x1100, 0x2000);
+    assert_eq!(r.esc.reads - reads, 2, "events and SM2");
+}
+
+/// Output reads that never agree are dropped (the outputs stay as they were) and reported
+/// with the ESC's PDI error counter by an Emergency 0x5000 in the safety service.
+#[test]
+fn unstable_output_reads_are_dropped_and_reported() {
+    let mut r = Rig::new();
+    r.goto_op();
+    r.outputs(0x1000, 0x2000);
+    let applied = r.dac.len();
+    // All three reads of new outputs corrupted, each differently.
+    r.esc.corrupt_next_read = Some((PD_OUT, 0, 0x01, 3));
+    r.outputs(0x3000, 0x2000);
+    assert_eq!(r.esc.corrupt_next_read, None, "three reads hit");
+    assert_eq!(r.dac.len(), applied, "nothing applied");
+    assert_eq!(
+        r.stage.staged().1,
+        DacPair::new(0x2000, 0x4000),
+        "still the last outputs"
+    );
+    // The ESC counted errors of its own as well; the safety service reports both.
+    r.esc.mem[usize::from(Register::PdiErrorCounter.addr())] = 3;
+    r.now += u64::from(super::mailbox::SAFETY_SERVICE_MS) * 1_000_000;
+    r.poll();
+    let frame = r.esc.master_read_mailbox().expect("an Emergency");
+    assert_eq!(&frame[6..8], &[0x00, 0x10], "CoE Emergency");
+    assert_eq!(u16::from_le_bytes([frame[8], frame[9]]), 0x5000);
+    assert_eq!(frame[11], 3, "the ESC's PDI error counter");
+    assert!(
+        u16::from_le_bytes([frame[13], frame[14]]) >= 1,
+        "dropped reads"
+    );
+}
+
+/// At the shortest DC cycles there is no room for the confirming read: changed outputs are
+/// read once.
+#[test]
+fn the_shortest_dc_cycles_read_the_outputs_once() {
+    let mut r = Rig::new();
+    r.goto_preop();
+    r.pd_sms(4, 4);
+    r.esc
+        .master_dc(0x03, crate::product::sync::MIN_CYCLE_TIME_NS);
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(r.request(0x08), (0x08, 0));
+    let reads = r.esc.reads;
+    for k in 1..=5i16 {
+        r.outputs(0x100 * k, 0x80 * k);
+        r.sync0();
+    }
+    assert_eq!(r.esc.reads - reads, 5 * 2, "events and SM2");
+}
+
+/// AL status written wrong on the SPI (a flipped bit) is read back and written again: the
+/// master sees the state the slave is in. AL control read wrong is read again.
+#[test]
+fn al_status_is_read_back_and_al_control_confirmed() {
+    let mut r = Rig::new();
+    r.mailbox_sms();
+    r.esc.corrupt_next_write = Some((Register::AlStatus.addr(), 0, 0x04));
+    assert_eq!(r.request(0x02), (0x02, 0));
+    assert_eq!(r.esc.corrupt_next_write, None, "the fault hit");
+    // AL control SAFEOP (0x04) read as 0x0C (undefined): no refusal.
+    r.pd_sms(4, 4);
+    r.esc.corrupt_next_read = Some((Register::AlControl.addr(), 0, 0x08, 1));
+    assert_eq!(r.request(0x04), (0x04, 0));
+    assert_eq!(r.esc.corrupt_next_read, None, "the fault hit");
 }

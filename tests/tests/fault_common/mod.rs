@@ -49,6 +49,8 @@ pub mod emcy {
     pub const RPDO_TIMEOUT: u16 = 0x8250;
     /// Synchronisation error (as EtherCAT devices use 0x8700 for ETG.1020 sync errors).
     pub const SYNC_ERROR: u16 = 0x8700;
+    /// Device hardware: the module's SPI link to its ESC saw errors.
+    pub const PDI_ERROR: u16 = 0x5000;
 }
 
 /// 0x1001 bits: generic error (b0) and communication error (b4).
