@@ -31,21 +31,6 @@ fn allowed(from: u8, to: u8) -> bool {
     )
 }
 
-/// A tiny reproducible generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
 /// Whether the module accepts BOOT: its SII has a bootstrap mailbox.
 fn boot_supported(m: &ScriptedMaster) -> bool {
     m.slave_info().unwrap().bootstrap_mailbox != [0; 4]
@@ -86,7 +71,7 @@ fn state_cycling_in_random_order() {
     const SEED: u64 = 0x14_0002;
     let m = master();
     let boot = boot_supported(&m);
-    let mut rng = Rng(SEED);
+    let mut rng = Rng::new(SEED);
     m.configure_mailbox().unwrap();
     m.expect_state(state::PREOP).unwrap();
     fault_config(&m, [Some(0x0123), Some(0x0456)]).unwrap();
