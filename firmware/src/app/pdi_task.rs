@@ -19,6 +19,12 @@ use et1100::{Et1100, Pdi};
 /// Self-pends in a row while the IRQ line stays asserted after serving.
 pub const MAX_REPENDS: u8 = 16;
 
+/// How long `init` waits for the ESC's EEPROM_LOADED before it goes on without it (the PDI
+/// task then starts the application when the pin rises): the ET1100 reads its configuration
+/// area (16 words over I2C) within a few ms of its reset; 100 ms covers a slow EEPROM and a
+/// late ESC reset release.
+pub const EEPROM_WAIT_MS: u32 = 100;
+
 /// What woke the PDI task, as the hardware layer saw it at entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Wake {

@@ -43,6 +43,7 @@ use super::ssp::{Ssp, SspConfig};
 use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
 use super::CCLK_HZ;
+use firmware::app::pdi_task::EEPROM_WAIT_MS;
 use lpc17xx_pac as pac;
 
 /// PINMODE (2 bits per pin): the pad's resistor.
@@ -279,17 +280,12 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     (board, clock_result.map_err(BoardError::Clock))
 }
 
-/// How long [`wait_esc_eeprom_loaded`] waits: the ET1100 reads its configuration area
-/// (16 words over I2C) within a few ms of its reset; 100 ms covers a slow EEPROM and a late
-/// ESC reset release.
-pub const ESC_EEPROM_WAIT_MS: u32 = 100;
-
-/// Waits (bounded by [`ESC_EEPROM_WAIT_MS`], polled every 100 us) for EEPROM_LOADED: the
+/// Waits (bounded by [`EEPROM_WAIT_MS`], polled every 100 us) for EEPROM_LOADED: the
 /// ESC's PDI works only after its EEPROM has been loaded. `false` on timeout; the PDI task
 /// then starts the application when the pin rises. Call from `init` (the MCU watchdog is not
 /// running yet). Without PLL0 the CPU runs slower and the wait is longer, still bounded.
 pub fn wait_esc_eeprom_loaded(pin: &InPin) -> bool {
-    for _ in 0..ESC_EEPROM_WAIT_MS * 10 {
+    for _ in 0..EEPROM_WAIT_MS * 10 {
         if pin.is_high() {
             return true;
         }

@@ -43,7 +43,7 @@ use et1100::{Et1100, SpiPdi};
 use firmware::app::adc_scan::SCAN_CONFIG;
 use firmware::app::dac::OutputDac;
 use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
-use firmware::app::pdi_task::{Done, PdiTask, Wake};
+use firmware::app::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
 use firmware::app::process_data::ProcessData;
 use firmware::app::sampler::Sample;
 use firmware::app::{AppConfig, SlaveApp};
@@ -74,9 +74,8 @@ type Esc = Et1100<SpiPdi<EscSpi>>;
 /// The firmware's SysTick period: the PDI task's background work is requested this often.
 pub const TICK_NS: u64 = 1_000_000;
 
-/// How long the firmware's `init` waits for EEPROM_LOADED: `hw::board::ESC_EEPROM_WAIT_MS`
-/// (100 ms), which the host build cannot see (it is in the MCU binary).
-pub const INIT_EEPROM_WAIT_NS: u64 = 100_000_000;
+/// How long the firmware's `init` waits for EEPROM_LOADED.
+pub const INIT_EEPROM_WAIT_NS: u64 = EEPROM_WAIT_MS as u64 * 1_000_000;
 
 /// How often `init` looks at the pin while it waits.
 const INIT_POLL_NS: u64 = 100_000;
