@@ -41,10 +41,10 @@ use crate::product::sync::{
     SYNC_MODE_SM2_INPUTS,
 };
 use coe_core::{AlStatusCode, SdoAbortCode};
+use et1100::SyncActivation;
 
 /// Shortest SYNC0 watchdog time: the SSC's tick (1 ms), its Sync0WdValue at least 1.
 pub const SYNC0_WATCHDOG_MIN_NS: u64 = 1_000_000;
-use et1100::SyncActivation;
 
 /// A sync mode as 0x1C32:01 / 0x1C33:01 give it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
