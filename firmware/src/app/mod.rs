@@ -110,6 +110,8 @@ pub struct PdiOutcome {
     /// Pend the DAC task: fresh outputs (free run, SM-synchronous) or fault values to apply
     /// now ([`DacLatch::apply_now`]).
     pub apply_outputs: bool,
+    /// An SM2 event (the master's outputs of a cycle) was served.
+    pub sm2_event: bool,
 }
 
 /// AL event bits always enabled.
@@ -226,6 +228,7 @@ impl SlaveApp {
         }
         if events.contains(AlEvents::SM2) {
             self.outputs(esc, stage, now_ns, &mut out)?;
+            out.sm2_event = true;
         }
         let activation = events.contains(AlEvents::SM_ACTIVATION);
         if activation {
@@ -288,12 +291,17 @@ impl SlaveApp {
                 None => AlEvents::empty(),
             };
             let work = self.mailbox.needs_service(events);
-            if now_ns >= self.mailbox_check_ns {
-                self.report_pdi_errors(esc)?;
-                let how = Service::Registers {
-                    check_repeat: false,
-                };
-                self.serve_mailbox(esc, stage, now_ns, how, &mut out)?;
+            // In DC mode the periodic register reads, the longest background work, belong
+            // to the PDI task's activation right after the outputs ([`Self::safety_service`]):
+            // anywhere else in the cycle they can hold the next SM2 event, and its DAC
+            // preload, past the SYNC0 edge. Without SM2 events (the master stopped) there
+            // are no outputs to delay: the poll runs them two SYNC0 cycles late.
+            let dc = self.data.sync.mode() == SyncMode::DcSync0 && self.data.sync.armed();
+            let late = self
+                .mailbox_check_ns
+                .saturating_add(2 * u64::from(self.data.sync.sync0_cycle_ns()));
+            if self.safety_service_due(now_ns) && (!dc || now_ns >= late) {
+                self.registers_service(esc, stage, now_ns, &mut out)?;
             } else if work {
                 self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
             }
@@ -640,6 +648,43 @@ impl SlaveApp {
     }
 
     // ------------------------------------------------------------ mailbox
+
+    /// Whether the periodic safety service (the mailbox and PDI error registers read, every
+    /// [`SAFETY_SERVICE_MS`] from PREOP) is due.
+    pub fn safety_service_due(&self, now_ns: u64) -> bool {
+        self.esm.state() != AlState::Init && now_ns >= self.mailbox_check_ns
+    }
+
+    /// The periodic safety service if it is due. The PDI task calls it right after the
+    /// outputs of a cycle are in, where it delays no SM2 event ([`Self::poll`] leaves it
+    /// there in DC mode).
+    pub fn safety_service<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiResult<PdiOutcome, P> {
+        let mut out = PdiOutcome::default();
+        if self.safety_service_due(now_ns) {
+            self.registers_service(esc, stage, now_ns, &mut out)?;
+        }
+        Ok(out)
+    }
+
+    /// The safety service: the PDI error counter, then the mailbox from its registers.
+    fn registers_service<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        self.report_pdi_errors(esc)?;
+        let how = Service::Registers {
+            check_repeat: false,
+        };
+        self.serve_mailbox(esc, stage, now_ns, how, out)
+    }
 
     /// The next safety service of the mailbox: [`SAFETY_SERVICE_MS`] after the registers were
     /// read at `now_ns`.

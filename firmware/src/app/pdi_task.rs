@@ -47,7 +47,8 @@ pub struct Done {
     /// outputs into the input registers and the next SYNC0 only pulses LDAC (it does nothing
     /// when nothing fresh is staged).
     pub preload_outputs: bool,
-    /// Pend the PDI task again: the line is still asserted.
+    /// Pend the PDI task again: the line is still asserted, or background work was put off
+    /// behind the DAC task.
     pub pend_again: bool,
 }
 
@@ -100,6 +101,10 @@ pub struct PdiTask {
     line: LevelIrq,
     started: bool,
     bus_errors: u32,
+    /// Background work put off to the next activation (the DAC task first).
+    poll_deferred: bool,
+    /// The next activation follows a cycle's outputs: it runs the safety service.
+    service_deferred: bool,
 }
 
 impl PdiTask {
@@ -110,6 +115,8 @@ impl PdiTask {
             line: LevelIrq::new(),
             started: false,
             bus_errors: 0,
+            poll_deferred: false,
+            service_deferred: false,
         }
     }
 
@@ -165,16 +172,36 @@ impl PdiTask {
             return Done::default();
         }
         let mut done = Done::default();
+        let deferred = core::mem::take(&mut self.poll_deferred);
+        let after_outputs = core::mem::take(&mut self.service_deferred);
+        let mut poll = wake.poll || deferred;
         if wake.edge || wake.line_asserted {
             let r = self.app.on_pdi_irq(esc, stage, now_ns);
+            let sm2_event = r.as_ref().is_ok_and(|o| o.sm2_event);
             done.apply_outputs |= self.outcome(r, stage);
             done.preload_outputs = stage.dc_mode() && !done.apply_outputs;
+            let service = sm2_event && self.app.safety_service_due(now_ns);
+            if !deferred && (poll || service) && (done.apply_outputs || done.preload_outputs) {
+                // The DAC task is pended only when this activation returns: the outputs
+                // go first, the background work in the next activation, or a long one
+                // would push the DC preload past the SYNC0 edge. Right after the outputs
+                // of a cycle is also the one moment the safety service (the longest
+                // background work) delays no SM2 event. Put off once only, so a stuck
+                // line cannot keep the task pending itself.
+                self.poll_deferred = true;
+                self.service_deferred = sm2_event;
+                poll = false;
+            }
         }
-        if wake.poll {
+        if after_outputs {
+            let r = self.app.safety_service(esc, stage, now_ns);
+            done.apply_outputs |= self.outcome(r, stage);
+        }
+        if poll {
             let r = self.app.poll(esc, stage, now_ns);
             done.apply_outputs |= self.outcome(r, stage);
         }
-        done.pend_again = self.line.after_serve(wake.edge, still_asserted());
+        done.pend_again = self.line.after_serve(wake.edge, still_asserted()) || self.poll_deferred;
         done
     }
 
@@ -333,6 +360,42 @@ mod tests {
         assert!(!done.preload_outputs);
     }
 
+    /// An IRQ and the background work in one activation, in DC mode: the activation
+    /// returns with the preload for the DAC task and puts the background work off to the
+    /// next one (a long poll must not push the preload past the SYNC0 edge).
+    #[test]
+    fn the_outputs_go_before_the_background_work() {
+        let (mut t, mut esc, stage) = task();
+        mailbox_sms(&mut esc);
+        esc.master_al_control(0x02);
+        t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        assert_eq!(t.app().state(), AlState::PreOp);
+        stage.set_dc_mode(true);
+        let both = Wake { poll: true, ..EDGE };
+        let done = t.run(&mut esc.driver(), &stage, 1_000, both, || false);
+        assert!(done.preload_outputs && done.pend_again);
+        // The next activation (no edge, no new request) runs the background work: in PREOP
+        // it samples the event bits, an access of its own.
+        let next = Wake {
+            edge: false,
+            line_asserted: false,
+            poll: false,
+            pdi_ready: true,
+        };
+        let reads = esc.reads;
+        let done = t.run(&mut esc.driver(), &stage, 5_000_000, next, || false);
+        assert!(!done.pend_again);
+        assert!(esc.reads > reads, "the deferred poll ran");
+        // Nothing deferred any more.
+        let reads = esc.reads;
+        t.run(&mut esc.driver(), &stage, 5_000_000, next, || false);
+        assert_eq!(esc.reads, reads);
+        // Outside DC mode and without outputs to apply, both run in one activation.
+        stage.set_dc_mode(false);
+        let done = t.run(&mut esc.driver(), &stage, 9_000_000, both, || false);
+        assert!(!done.pend_again);
+    }
+
     #[test]
     fn a_stuck_line_is_served_a_bounded_number_of_times() {
         let (mut t, mut esc, stage) = task();
@@ -349,6 +412,27 @@ mod tests {
         }
         assert_eq!(activations, 1 + usize::from(MAX_REPENDS));
         assert_eq!(t.line().exhausted(), 1);
+    }
+
+    /// In DC mode with background work requested at every activation, a stuck line still
+    /// ends: the work is put off once, not again and again.
+    #[test]
+    fn a_stuck_line_in_dc_mode_does_not_put_the_background_work_off_for_ever() {
+        let (mut t, mut esc, stage) = task();
+        t.run(&mut esc.driver(), &stage, 0, POLL, || false);
+        stage.set_dc_mode(true);
+        let both = Wake { poll: true, ..EDGE };
+        let mut activations = 1;
+        let mut done = t.run(&mut esc.driver(), &stage, 0, both, || true);
+        while done.pend_again {
+            let wake = Wake {
+                edge: false,
+                ..both
+            };
+            done = t.run(&mut esc.driver(), &stage, 0, wake, || true);
+            activations += 1;
+            assert!(activations <= 2 + usize::from(MAX_REPENDS));
+        }
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Application-level tests: the whole `SlaveApp` against a register-file ESC, driven like a
 //! master drives a slave.
 
+use super::pdi_task::{PdiTask, Wake};
 use super::process_data::{Mapping, ProcessData};
 use super::*;
 use crate::fake_esc::FakeEsc;
@@ -32,6 +33,21 @@ static OD: ObjectDictionary = ObjectDictionary::new(&[
             DataType::Unsigned8,
             Access::RO,
         )],
+    ),
+    ObjectDesc::record(
+        0x10F1,
+        "Error settings",
+        DataType::Unknown(0x0040),
+        &[
+            EntryDesc::count(2),
+            EntryDesc::new(1, "Local error reaction", DataType::Unsigned32, Access::RW),
+            EntryDesc::new(
+                2,
+                "Sync error counter limit",
+                DataType::Unsigned16,
+                Access::RW,
+            ),
+        ],
     ),
     ObjectDesc::record(
         0x1600,
@@ -681,6 +697,112 @@ fn dc_cycle_reads_no_mailbox_registers() {
     r.now += u64::from(super::mailbox::SAFETY_SERVICE_MS) * 1_000_000;
     r.poll();
     assert!(r.esc.sm_register_reads > sm_reads);
+}
+
+impl Rig {
+    /// PREOP -> OP in DC mode with 1 ms SYNC0 cycles, no sync error however many SM events
+    /// are missed (what a test of the master stopping looks at is then the mailbox).
+    fn goto_op_dc_1ms(&mut self) {
+        self.goto_preop();
+        self.pd_sms(4, 4);
+        assert_eq!(self.download(0x1C32, 1, &2u16.to_le_bytes()), Ok(()));
+        assert_eq!(self.download(0x10F1, 2, &u16::MAX.to_le_bytes()), Ok(()));
+        self.esc.master_dc(0x03, 1_000_000);
+        assert_eq!(self.request(0x04), (0x04, 0));
+        assert_eq!(self.request(0x08), (0x08, 0));
+    }
+
+    /// 1 ms DC cycles (outputs, then the edge and the poll after it) until the safety
+    /// service is due; the poll after the edge leaves it. The outputs of the last cycle
+    /// are latched.
+    fn dc_cycles_until_the_safety_service_is_due(&mut self) {
+        for k in 1..200i16 {
+            self.outputs(0x10 * k, 0x08 * k);
+            self.now += 950_000;
+            let sm_reads = self.esc.sm_register_reads;
+            self.sync0();
+            if self.app.safety_service_due(self.now) {
+                assert_eq!(self.esc.sm_register_reads, sm_reads, "not after the edge");
+                return;
+            }
+        }
+        panic!("the safety service never came due");
+    }
+}
+
+/// In DC mode in OP the safety service (the mailbox and PDI error registers) runs in the
+/// PDI task's activation right after a cycle's outputs: the SM2 activation returns first
+/// (the DAC preload), the next one runs the service; a poll elsewhere in the cycle leaves
+/// it, since there it could hold the next SM2 event past the SYNC0 edge.
+#[test]
+fn dc_safety_service_follows_the_outputs() {
+    let mut r = Rig::new();
+    r.goto_op_dc_1ms();
+    r.dc_cycles_until_the_safety_service_is_due();
+    let sm_reads = r.esc.sm_register_reads;
+    r.poll();
+    assert_eq!(
+        r.esc.sm_register_reads, sm_reads,
+        "a poll later in the cycle"
+    );
+    // The master's outputs of the next cycle arrive.
+    let Rig {
+        mut esc,
+        app,
+        stage,
+        now,
+        ..
+    } = r;
+    let mut task = PdiTask::new(app);
+    let irq = Wake {
+        edge: true,
+        line_asserted: true,
+        poll: false,
+        pdi_ready: true,
+    };
+    esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
+    let done = task.run(&mut esc.driver(), &stage, now + 10_000, irq, || false);
+    assert!(done.preload_outputs && done.pend_again);
+    assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
+    assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
+    let again = Wake {
+        edge: false,
+        line_asserted: false,
+        ..irq
+    };
+    let done = task.run(&mut esc.driver(), &stage, now + 20_000, again, || false);
+    assert!(!done.pend_again);
+    assert!(esc.sm_register_reads > sm_reads, "then the safety service");
+    assert!(!task.app().safety_service_due(now + 20_000));
+    // Nothing is put off any more.
+    let sm_reads = esc.sm_register_reads;
+    let done = task.run(&mut esc.driver(), &stage, now + 30_000, again, || false);
+    assert!(!done.pend_again);
+    assert_eq!(esc.sm_register_reads, sm_reads);
+}
+
+/// In DC mode without SM2 events (the master stopped) the safety service has no outputs
+/// to wait for: the poll after an edge runs it two SYNC0 cycles after it came due.
+#[test]
+fn dc_safety_service_runs_late_when_the_master_stops() {
+    let mut r = Rig::new();
+    r.goto_op_dc_1ms();
+    r.dc_cycles_until_the_safety_service_is_due();
+    let mut late = 0;
+    loop {
+        r.now += 950_000;
+        let sm_reads = r.esc.sm_register_reads;
+        let due = r.app.safety_service_due(r.now);
+        r.sync0();
+        if r.esc.sm_register_reads > sm_reads {
+            break;
+        }
+        late += u32::from(due);
+        assert!(late <= 3, "the safety service never ran");
+    }
+    assert_eq!(late, 2, "put off by two cycles");
+    assert!(!r.app.safety_service_due(r.now));
+    assert_eq!(r.esc.al_status(), (0x08, 0));
 }
 
 /// An SDO exchange on the mailbox events reads no SyncManager registers: SM0 full and SM1
