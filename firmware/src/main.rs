@@ -18,7 +18,9 @@
 //!   write-and-update), then requests the PDI task's background work (`SlaveApp::poll`:
 //!   cycle monitor, inputs of the cycle to SM3, mailbox).
 //! - ESC IRQ edge (or the line still asserted): `SlaveApp::on_pdi_irq`; the PDI task pends
-//!   itself again while the line stays asserted, at most `pdi_task::MAX_REPENDS` times.
+//!   itself again while the line stays asserted, at most `pdi_task::MAX_REPENDS` times, and
+//!   in DC mode once after an output event, so the safety service's register reads run in
+//!   their own activation after the DAC task has preloaded the outputs.
 //! - When an outcome says `apply_outputs` (free run, SM-synchronous, fault values), the PDI
 //!   task pends the DAC task with the apply request (`DacLatch::apply_now`); in DC mode it
 //!   pends it without the request after serving events, and the DAC task preloads freshly
@@ -215,7 +217,7 @@ mod rtic_app {
     }
 
     /// ESC SPI_IRQ (P0.22 falling edge), pended after SYNC0 / by the tick, or by itself while
-    /// the line stays asserted.
+    /// the line stays asserted or background work waits behind the DAC task.
     #[task(binds = EINT3, priority = 2, local = [esc, esc_irq, esc_eeprom_loaded, pdi, stage_pdi])]
     fn pdi(cx: pdi::Context) {
         let pdi::LocalResources {
