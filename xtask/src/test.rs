@@ -26,6 +26,14 @@ pub fn run(args: &Args) -> Result {
     setup::all()?;
     if !args.no_lint {
         exec(cargo().args(["fmt", "--all", "--check"]))?;
+        // The fuzz crate is a workspace of its own, out of reach of `--all`.
+        exec(cargo().args([
+            "fmt",
+            "--manifest-path",
+            "tests/fuzz/Cargo.toml",
+            "--all",
+            "--check",
+        ]))?;
         exec(cargo().args([
             "clippy",
             "--workspace",

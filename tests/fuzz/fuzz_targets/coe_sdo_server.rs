@@ -10,8 +10,8 @@
 #![no_main]
 
 use coe_core::esm::AlState;
-use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, OdStore, Value,
-    ValueRange,
+use coe_core::od::{
+    Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, OdStore, Value, ValueRange,
 };
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
 use coe_core::wire::{Mailbox, MailboxRepr, MailboxType};
@@ -40,9 +40,9 @@ static OD: ObjectDictionary = ObjectDictionary::new(&[
         "U16",
         &[EntryDesc::new(0, "U16", DataType::Unsigned16, Access::RW)
             .with_range(&ValueRange {
- min: Value::Int(1),
- max: Value::Int(999),
- })
+                min: Value::Int(1),
+                max: Value::Int(999),
+            })
             .with_default(Value::Int(5))],
     ),
     ObjectDesc::var(

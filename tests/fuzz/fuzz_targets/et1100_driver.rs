@@ -83,7 +83,9 @@ fn exercise<P: Pdi>(esc: &mut Et1100<P>, ops: &[u8]) {
         match op % 12 {
             0 => {
                 let _ = esc.low_events().map(|e| e.bits());
-                let _ = esc.events().map(|e| e.contains(et1100::AlEvents::sm(arg % 16)));
+                let _ = esc
+                    .events()
+                    .map(|e| e.contains(et1100::AlEvents::sm(arg % 16)));
             }
             1 => {
                 let _ = esc.read_al_control().map(|c| (c.state(), c.error_ack()));
@@ -101,7 +103,12 @@ fn exercise<P: Pdi>(esc: &mut Et1100<P>, ops: &[u8]) {
             }
             4 => {
                 if let Ok(sm) = esc.read_sm(arg) {
-                    let _ = (sm.mode(), sm.direction(), sm.last_address(), sm.repeat_requested());
+                    let _ = (
+                        sm.mode(),
+                        sm.direction(),
+                        sm.last_address(),
+                        sm.repeat_requested(),
+                    );
                     let _ = esc.read_mailbox(&sm, &mut buf);
                     let _ = esc.ack_repeat(arg, &sm);
                 }
@@ -119,7 +126,9 @@ fn exercise<P: Pdi>(esc: &mut Et1100<P>, ops: &[u8]) {
                 let _ = esc.write_mailbox(&sm, &buf[..n.min(buf.len())]);
             }
             6 => {
-                let _ = esc.eeprom_status().map(|s| (s.busy(), s.read_size(), s.has_error()));
+                let _ = esc
+                    .eeprom_status()
+                    .map(|s| (s.busy(), s.read_size(), s.has_error()));
                 let n = usize::from(arg) % 64;
                 let _ = esc.eeprom_read(u32::from(arg), &mut buf[..n], MAX_POLLS);
             }

@@ -29,7 +29,12 @@ fuzz_target!(|image: &[u8]| {
         }
         let _ = strings.get(u8::try_from(c.kind & 0xFF).unwrap_or(0));
         let g = General::new(c.data);
-        let _ = (g.name_index(), g.coe_details(), g.ebus_current_ma(), g.physical_ports());
+        let _ = (
+            g.name_index(),
+            g.coe_details(),
+            g.ebus_current_ma(),
+            g.physical_ports(),
+        );
         assert!(SyncManagers::new(c.data).count() <= c.data.len() / 8);
         for pdo in Pdos::new(c.data).flatten() {
             assert!(pdo.entries().count() == pdo.entry_count());
