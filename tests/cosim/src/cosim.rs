@@ -4,8 +4,9 @@
 
 use crate::cpu::{Core, EngineMem, Fault};
 use crate::image::{Crp, Image, ImageError};
-use crate::machine::{ExceptionStats, Machine, Report, ResetCause, Traffic, CPI_DEN, CPI_NUM};
+use crate::machine::{Machine, Report, ResetCause, Traffic, CPI_DEN, CPI_NUM};
 use crate::nvic::exc;
+use crate::profile::{ExceptionStats, THREAD};
 use crate::rtt::Rtt;
 use std::cell::RefCell;
 use std::fmt::Write as _;
@@ -44,8 +45,10 @@ pub struct Facts {
     pub stack_used: u32,
     /// See [`Facts::stack_used`].
     pub stack_size: u32,
-    /// Per exception number: name and figures.
+    /// Per exception number: name and figures (thread mode, number 0, first).
     pub exceptions: Vec<(u32, String, ExceptionStats)>,
+    /// Instructions per context and code chain.
+    pub code: Vec<CodeCycles>,
     /// Crossings to the board's chips.
     pub traffic: Traffic,
     /// Problems the models reported.
@@ -60,7 +63,60 @@ pub struct Facts {
     pub cclk_hz: u64,
 }
 
+/// Instructions one context executed in one chain of functions ([`crate::code`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CodeCycles {
+    /// The context: exception number, 0 for thread mode.
+    pub context: u32,
+    /// The functions, outermost (the symbol) first, the inlined ones after it.
+    pub chain: Vec<String>,
+    /// Instructions executed.
+    pub instructions: u64,
+}
+
+/// Cycles of `instructions` at the time model's CPI.
+pub fn instruction_cycles(instructions: u64) -> u64 {
+    instructions * CPI_NUM / CPI_DEN
+}
+
 impl Facts {
+    /// The functions context `context` executed its own instructions in (the innermost
+    /// function of each chain), with their cycles, most first.
+    pub fn own_functions(&self, context: u32) -> Vec<(String, u64)> {
+        let mut by_name: Vec<(String, u64)> = Vec::new();
+        for c in self.code.iter().filter(|c| c.context == context) {
+            let name = c.chain.last().cloned().unwrap_or_default();
+            match by_name.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, i)) => *i += c.instructions,
+                None => by_name.push((name, c.instructions)),
+            }
+        }
+        let mut out: Vec<(String, u64)> = by_name
+            .into_iter()
+            .map(|(n, i)| (n, instruction_cycles(i)))
+            .collect();
+        out.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        out
+    }
+
+    /// Cycles of instructions (any context, or `context`) in code of a function whose name
+    /// `matches`, inlined or not: every chain with such a function in it counts.
+    pub fn cycles_in(&self, context: Option<u32>, matches: impl Fn(&str) -> bool) -> u64 {
+        instruction_cycles(
+            self.code
+                .iter()
+                .filter(|c| context.is_none_or(|x| x == c.context))
+                .filter(|c| c.chain.iter().any(|n| matches(n)))
+                .map(|c| c.instructions)
+                .sum(),
+        )
+    }
+
+    /// The figures of exception `n` (0: thread mode).
+    pub fn exception(&self, n: u32) -> Option<&ExceptionStats> {
+        self.exceptions.iter().find(|e| e.0 == n).map(|e| &e.2)
+    }
+
     /// CPU load: cycles not asleep.
     pub fn cpu_load(&self) -> f64 {
         if self.cycles == 0 {
@@ -93,11 +149,29 @@ impl Facts {
         for (n, name, e) in &self.exceptions {
             let _ = writeln!(
                 s,
-                "image: exception {n:>2} {name:<8} taken {:>8} times, entry..return {:.0} cycles mean, {} max",
+                "image: {:<17} {:>8} activations, entry..return {:>6.0} cycles mean, {:>6} max; \
+                 own cycles {:>5.1} %; stack {:>4} B",
+                format!("{name} ({n})"),
                 e.count,
                 e.cycles as f64 / e.count.max(1) as f64,
-                e.max_cycles
+                e.max_cycles,
+                100.0 * e.own_cycles as f64 / self.cycles.max(1) as f64,
+                e.max_stack
             );
+            let top: Vec<String> = self
+                .own_functions(*n)
+                .iter()
+                .take(3)
+                .map(|(f, c)| {
+                    format!(
+                        "{f} {:.1} %",
+                        100.0 * *c as f64 / e.own_cycles.max(1) as f64
+                    )
+                })
+                .collect();
+            if !top.is_empty() {
+                let _ = writeln!(s, "image:     most of it in {}", top.join(", "));
+            }
         }
         let t = &self.traffic;
         let _ = writeln!(
@@ -132,6 +206,7 @@ pub fn exception_name(n: u32) -> String {
         "USBACT", "CANACT",
     ];
     match n {
+        THREAD => "thread".into(),
         exc::NMI => "NMI".into(),
         exc::HARD_FAULT => "HardFault".into(),
         exc::SVCALL => "SVCall".into(),
@@ -159,7 +234,7 @@ impl Cosim {
     /// boot ROM would (a wrong vector checksum never starts).
     pub fn new(image: Rc<Image>, io: BoardIo, options: Options) -> Result<Self, ImageError> {
         let crp = image.boot_rom_check()?;
-        let mut machine = Machine::new(io);
+        let mut machine = Machine::new(io, image.clone());
         if let Some(p) = options.pconp_at_reset {
             machine.pconp_at_reset = p;
             machine.reset(ResetCause::SysResetReq);
@@ -208,20 +283,37 @@ impl Cosim {
     pub fn facts(&self) -> Facts {
         let m = self.core.machine.borrow();
         let exceptions = m
+            .profile
             .exceptions
             .iter()
             .enumerate()
-            .filter(|(_, e)| e.count > 0)
+            .filter(|(n, e)| *n == THREAD as usize || e.count > 0)
             .map(|(n, e)| (n as u32, exception_name(n as u32), e.clone()))
+            .collect();
+        let code = m
+            .profile
+            .instructions()
+            .map(|(context, chain, instructions)| CodeCycles {
+                context,
+                chain: m
+                    .blocks
+                    .code
+                    .chain(chain)
+                    .into_iter()
+                    .map(String::from)
+                    .collect(),
+                instructions,
+            })
             .collect();
         Facts {
             instructions: m.instructions,
             cycles: m.cycles,
-            sleep_cycles: m.sleep_cycles,
+            sleep_cycles: m.profile.sleep_cycles,
             time_ns: m.now_ns(),
             stack_used: self.core.stack_high_water(),
             stack_size: self.core.stack_size(),
             exceptions,
+            code,
             traffic: m.traffic.clone(),
             reports: m.reports.clone(),
             fault: self.core.fault.clone(),

@@ -129,8 +129,6 @@ pub struct Core {
     /// Resets taken (cause, time ns).
     pub resets: Vec<(ResetCause, u64)>,
     image: Rc<Image>,
-    /// Lowest SP seen at exception entries and returns.
-    pub lowest_sp: u32,
 }
 
 impl Core {
@@ -218,7 +216,6 @@ impl Core {
             fault: None,
             resets: Vec::new(),
             image,
-            lowest_sp: u32::MAX,
         };
         core.paint_stack();
         core.reset_core()?;
@@ -284,7 +281,6 @@ impl Core {
         set(uc, RegisterARM::LR, 0xFFFF_FFFF);
         set(uc, RegisterARM::PC, pc | 1);
         self.sleeping = false;
-        self.machine.borrow_mut().entries.clear();
         if pc & 1 == 0 {
             return Err(format!("reset vector {pc:#010x} is not a Thumb address"));
         }
@@ -349,7 +345,8 @@ impl Core {
         let uc = &mut self.uc;
         let in_handler = reg(uc, RegisterARM::IPSR) & 0x1FF != 0;
         let psp = !in_handler && reg(uc, RegisterARM::CONTROL) & 2 != 0;
-        let mut sp = reg(uc, RegisterARM::SP);
+        let sp_before = reg(uc, RegisterARM::SP);
+        let mut sp = sp_before;
         let mut xpsr = reg(uc, RegisterARM::XPSR);
         let align = self.machine.borrow().scs.stack_align_8();
         if align && sp & 4 != 0 {
@@ -383,6 +380,8 @@ impl Core {
         };
         let vector_at = {
             let mut m = self.machine.borrow_mut();
+            let (cycle, now) = (m.cycles, m.now_ns());
+            m.profile.entered(e, cycle, now, sp_before, sp);
             m.add_cycles(ENTRY_CYCLES);
             m.scs.activate(e)
         };
@@ -398,11 +397,6 @@ impl Core {
         rebuild_flags(uc);
         set(uc, RegisterARM::LR, exc_return);
         set(uc, RegisterARM::PC, handler);
-        let sp_now = reg(uc, RegisterARM::SP);
-        self.lowest_sp = self.lowest_sp.min(sp_now);
-        let mut m = self.machine.borrow_mut();
-        let cycles = m.cycles - ENTRY_CYCLES;
-        m.entries.push((e, cycles));
         Ok(())
     }
 
@@ -479,23 +473,27 @@ impl Core {
     fn exception_return(uc: &mut Unicorn<'_, Shared>, exc_return: u32) -> Result<(), String> {
         let m = uc.get_data().clone();
         let (primask, basepri, faultmask) = masks(uc);
+        let sp = reg(uc, RegisterARM::SP);
         let chained = {
             let mut m = m.borrow_mut();
             if m.scs.current() == 0 {
                 return Err(format!("exception return ({exc_return:#x}) in thread mode"));
             }
-            if let Some(e) = m.scs.deactivate() {
-                m.exception_returned(e);
-            }
+            m.scs.deactivate();
             m.check_preempt = m.scs.any_pending();
             let next = m.scs.preempting(primask, basepri, faultmask);
             if let Some(e) = next {
+                // The frame stays: the chained handler starts where the returning one
+                // started.
+                let (cycle, now) = (m.cycles, m.now_ns());
+                let sp_before = m.profile.returned(cycle).unwrap_or(sp);
+                m.profile.entered(e, cycle, now, sp_before, sp);
                 m.add_cycles(TAIL_CHAIN_CYCLES);
-                let at = m.cycles - TAIL_CHAIN_CYCLES;
-                m.entries.push((e, at));
                 Some((e, m.scs.activate(e)))
             } else {
                 m.add_cycles(RETURN_CYCLES);
+                let cycle = m.cycles;
+                m.profile.returned(cycle);
                 None
             }
         };
@@ -564,10 +562,10 @@ fn block_hook(uc: &mut Unicorn<'_, Shared>, addr: u64, size: u32) {
             return;
         }
     }
-    let n = m.block_instructions(addr as u32, size, || {
+    let sp = reg(uc, RegisterARM::SP);
+    m.run_block(addr as u32, size, sp, || {
         uc.mem_read_as_vec(addr, size as usize).unwrap_or_default()
     });
-    m.run_instructions(n);
     if m.next_event_ns() <= m.now_ns() {
         m.service_due(&mut EngineMem(uc));
     }

@@ -14,13 +14,17 @@
 //! | [`periph`]   | SYSCON, PINSEL, GPIO, SPI, SSP, timers, GPDMA, WDT from UM10360        |
 //! | [`machine`]  | the bus, time, events, and the board wiring of the pin map            |
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
+//! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
+//! | [`profile`]  | cycles and stack per exception, instructions per function             |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 
+pub mod code;
 pub mod cosim;
 pub mod cpu;
 pub mod image;
 pub mod machine;
 pub mod nvic;
 pub mod periph;
+pub mod profile;
 pub mod rtt;
 pub mod run;

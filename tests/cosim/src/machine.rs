@@ -10,6 +10,8 @@
 //! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3. Anything else moves no data
 //! and is reported, as is any access to a peripheral whose PCONP bit is off.
 
+use crate::code::Blocks;
+use crate::image::Image;
 use crate::nvic::{irq, Scs};
 use crate::periph::gpdma::{After, Gpdma, Transfer};
 use crate::periph::gpio::{Gpio, GpioInt};
@@ -20,9 +22,10 @@ use crate::periph::syscon::{Clocked, Syscon, PCONP_RESET};
 use crate::periph::timer::Timer;
 use crate::periph::wdt::Wdt;
 use crate::periph::{Peripheral, Tick};
+use crate::profile::Profile;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::spi::{Operation, SpiDevice};
-use std::collections::HashMap;
+use std::rc::Rc;
 use virtual_board::models::spi::SpiSession;
 use virtual_board::rig::board::BoardIo;
 
@@ -170,17 +173,6 @@ pub enum ResetCause {
     SysResetReq,
 }
 
-/// Per-exception figures: cycles from entry to return (nested exceptions included).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct ExceptionStats {
-    /// Returns seen.
-    pub count: u64,
-    /// Cycles between entry and return, summed.
-    pub cycles: u64,
-    /// The longest entry-to-return.
-    pub max_cycles: u64,
-}
-
 /// A reported problem, once per message.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Report {
@@ -216,8 +208,6 @@ pub struct Machine {
     insn_rem: u64,
     /// Instructions executed.
     pub instructions: u64,
-    /// Cycles spent asleep in WFI.
-    pub sleep_cycles: u64,
     /// When the current slice ends.
     pub deadline_ns: u64,
     /// Why the CPU must stop at the next block boundary.
@@ -250,18 +240,17 @@ pub struct Machine {
     pub reports: Vec<Report>,
     /// Crossings to the board.
     pub traffic: Traffic,
-    block_insns: HashMap<(u32, u32), u64>,
+    /// The image's blocks (instructions, code chains).
+    pub blocks: Blocks,
     /// PCONP to start from after a reset (tests: what a bootloader leaves).
     pub pconp_at_reset: u32,
-    /// Active exceptions with their entry cycle, innermost last.
-    pub entries: Vec<(u32, u64)>,
-    /// Per exception number.
-    pub exceptions: Vec<ExceptionStats>,
+    /// Cycles, stack and code per exception.
+    pub profile: Profile,
 }
 
 impl Machine {
-    /// A chip at power-on on `io`'s board.
-    pub fn new(io: BoardIo) -> Self {
+    /// A chip at power-on with `image` in its flash, on `io`'s board.
+    pub fn new(io: BoardIo, image: Rc<Image>) -> Self {
         let mut m = Self {
             io,
             now_ps: 0,
@@ -269,7 +258,6 @@ impl Machine {
             cycles: 0,
             insn_rem: 0,
             instructions: 0,
-            sleep_cycles: 0,
             deadline_ns: 0,
             stop: None,
             check_preempt: false,
@@ -293,10 +281,9 @@ impl Machine {
             outputs_last: [true; 3],
             reports: Vec::new(),
             traffic: Traffic::default(),
-            block_insns: HashMap::new(),
+            blocks: Blocks::new(image.clone()),
             pconp_at_reset: PCONP_RESET,
-            entries: Vec::new(),
-            exceptions: vec![ExceptionStats::default(); 64],
+            profile: Profile::new(image.initial_sp()),
         };
         m.now_ps = m.io.now_ns() * 1000;
         m.update_cycle_time();
@@ -324,6 +311,7 @@ impl Machine {
         self.stop = None;
         self.check_preempt = false;
         self.cnv_high = false;
+        self.profile.reset();
         self.update_cycle_time();
         self.refresh_inputs();
         self.reschedule();
@@ -335,18 +323,6 @@ impl Machine {
         }
         self.dac_frame = None;
         self.adc_mosi.clear();
-    }
-
-    /// Exception `e` returned: its entry-to-return cycles are counted (with the return).
-    pub fn exception_returned(&mut self, e: u32) {
-        if let Some(i) = self.entries.iter().rposition(|(x, _)| *x == e) {
-            let (_, start) = self.entries.remove(i);
-            let c = self.cycles + RETURN_CYCLES - start;
-            let s = &mut self.exceptions[e as usize];
-            s.count += 1;
-            s.cycles += c;
-            s.max_cycles = s.max_cycles.max(c);
-        }
     }
 
     /// Reports a problem (once per message).
@@ -389,10 +365,11 @@ impl Machine {
         self.add_cycles(q / CPI_DEN);
     }
 
-    /// Accounts `c` cycles (exception overhead).
+    /// Accounts `c` cycles (exception overhead) to the current context.
     pub fn add_cycles(&mut self, c: u64) {
         self.cycles += c;
         self.now_ps += c * self.cycle_ps;
+        self.profile.charge(c);
     }
 
     /// Sleeps (WFI) until `t_ns`.
@@ -401,7 +378,7 @@ impl Machine {
         if t_ps > self.now_ps {
             let c = (t_ps - self.now_ps).div_ceil(self.cycle_ps);
             self.cycles += c;
-            self.sleep_cycles += c;
+            self.profile.charge_sleep(c);
             self.now_ps += c * self.cycle_ps;
         }
     }
@@ -411,25 +388,13 @@ impl Machine {
         self.next_event_ns
     }
 
-    /// Instructions in a block (cached per address and size).
-    pub fn block_instructions(
-        &mut self,
-        addr: u32,
-        size: u32,
-        code: impl FnOnce() -> Vec<u8>,
-    ) -> u64 {
-        *self.block_insns.entry((addr, size)).or_insert_with(|| {
-            let bytes = code();
-            let mut n = 0;
-            let mut i = 0;
-            while i + 1 < bytes.len() {
-                let hw = u16::from_le_bytes([bytes[i], bytes[i + 1]]);
-                // 32-bit Thumb-2 encodings start with 0b11101, 0b11110 or 0b11111.
-                i += if hw >> 11 >= 0b11101 { 4 } else { 2 };
-                n += 1;
-            }
-            n
-        })
+    /// A block of `size` bytes at `addr` is about to run with SP `sp`: its instructions are
+    /// counted and profiled. `bytes` reads its code when it is not in the image's flash.
+    pub fn run_block(&mut self, addr: u32, size: u32, sp: u32, bytes: impl FnOnce() -> Vec<u8>) {
+        let b = self.blocks.get(addr, size, bytes);
+        self.profile.block(&b.runs, sp);
+        let n = b.instructions;
+        self.run_instructions(n);
     }
 
     // ------------------------------------------------------------------ events
