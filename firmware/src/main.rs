@@ -150,7 +150,7 @@ mod rtic_app {
             )),
             samples_out,
         });
-        let ready = hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded);
+        let ready = hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded, &sync0);
         if !pdi.task.start(&mut esc, ready) {
             defmt::warn!("ET1100 PDI not ready: the PDI task starts the application later");
         }

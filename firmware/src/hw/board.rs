@@ -35,6 +35,7 @@ use super::adc::AdcHw;
 use super::clocks::{self, ClockError, Clocks};
 use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
+use super::delay::CycleDelay;
 use super::esc::{self, Esc};
 use super::gpio::{InPin, OutPin, Pin};
 use super::gpio_irq::EscIrq;
@@ -42,7 +43,7 @@ use super::spi::LegacySpi;
 use super::ssp::{Ssp, SspConfig};
 use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
-use super::CCLK_HZ;
+use embedded_hal::delay::DelayNs;
 use firmware::app::pdi_task::EEPROM_WAIT_MS;
 use lpc17xx_pac as pac;
 
@@ -280,16 +281,34 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     (board, clock_result.map_err(BoardError::Clock))
 }
 
-/// Waits (bounded by [`EEPROM_WAIT_MS`], polled every 100 us) for EEPROM_LOADED: the
-/// ESC's PDI works only after its EEPROM has been loaded. `false` on timeout; the PDI task
-/// then starts the application when the pin rises. Call from `init` (the MCU watchdog is not
-/// running yet). Without PLL0 the CPU runs slower and the wait is longer, still bounded.
-pub fn wait_esc_eeprom_loaded(pin: &InPin) -> bool {
-    for _ in 0..EEPROM_WAIT_MS * 10 {
+/// How long [`wait_esc_eeprom_loaded`] waits: [`EEPROM_WAIT_MS`], the bound the virtual
+/// board's model of init uses too.
+const ESC_EEPROM_WAIT_NS: u64 = EEPROM_WAIT_MS as u64 * 1_000_000;
+
+/// Time between two polls of EEPROM_LOADED in [`wait_esc_eeprom_loaded`].
+const ESC_EEPROM_POLL_NS: u32 = 100_000;
+
+/// Waits for EEPROM_LOADED (the ESC's PDI works only after its EEPROM has been loaded), at
+/// most [`EEPROM_WAIT_MS`] on the Timer1 time base, polling every 100 us. `false` on
+/// timeout; the PDI task then starts the application when the pin rises. Call from `init`
+/// (the MCU watchdog is not running yet).
+///
+/// The time base is Timer1's counter (`time`, started by [`init`]), not a count of delay
+/// loops, whose cycles per iteration depend on the core and the flash. Should the timer not
+/// count, the number of polls still ends the wait: each poll delays at least
+/// [`ESC_EEPROM_POLL_NS`], so the count never cuts the timed wait short. Without PLL0 the
+/// timer and the CPU run slower and the wait is longer, still bounded.
+pub fn wait_esc_eeprom_loaded(pin: &InPin, time: &Sync0Capture) -> bool {
+    const POLLS: u64 = ESC_EEPROM_WAIT_NS / ESC_EEPROM_POLL_NS as u64;
+    let start = time.now_ns();
+    for _ in 0..POLLS {
         if pin.is_high() {
             return true;
         }
-        cortex_m::asm::delay(CCLK_HZ / 10_000);
+        if time.now_ns().wrapping_sub(start) >= ESC_EEPROM_WAIT_NS {
+            break;
+        }
+        CycleDelay.delay_ns(ESC_EEPROM_POLL_NS);
     }
     pin.is_high()
 }

@@ -81,6 +81,12 @@ impl Sync0Capture {
         Self { t }
     }
 
+    /// The time base ([`now_ns`]), for a caller that needs it to be running: Timer1 counts
+    /// from [`Sync0Capture::new`] on.
+    pub fn now_ns(&self) -> u64 {
+        now_ns()
+    }
+
     /// Serves the TIMER1 interrupt: counts a wrap, returns the SYNC0 capture if there is one.
     pub fn on_interrupt(&mut self) -> Timer1Event {
         let ir = self.t.ir.read().bits();
