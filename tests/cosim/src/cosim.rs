@@ -2,6 +2,7 @@
 //! [`crate::cpu::Core`], wired to the board's ET1100, AD5663 and AD7689 models through
 //! [`crate::machine::Machine`], on the board's virtual time.
 
+use crate::ahb_sram::SampleWatch;
 use crate::cpu::{Core, EngineMem, Fault};
 use crate::image::{Crp, Image, ImageError};
 use crate::machine::{Machine, Report, ResetCause, Traffic, CPI_DEN, CPI_NUM};
@@ -51,6 +52,10 @@ pub struct Facts {
     pub code: Vec<CodeCycles>,
     /// Crossings to the board's chips.
     pub traffic: Traffic,
+    /// AD7689 results the GPDMA wrote, read and lost ([`crate::ahb_sram`]).
+    pub samples: SampleWatch,
+    /// AD7689 frames lost to a full SSP1 RX FIFO.
+    pub ssp1_overruns: u64,
     /// Problems the models reported.
     pub reports: Vec<Report>,
     /// The core's fault, if any.
@@ -178,6 +183,13 @@ impl Facts {
             s,
             "image: board traffic: {} ET1100 SPI bytes, {} AD5663 frames, {} LDAC pulses, {} AD7689 conversions, {} SYNC0 captures",
             t.esc_bytes, t.dac_frames, t.ldac_pulses, t.adc_conversions, t.sync0_captures
+        );
+        let w = &self.samples;
+        let _ = writeln!(
+            s,
+            "image: AD7689 results through the GPDMA: {} written, {} read by the CPU, {} lost \
+             (overwritten unread), {} lost to SSP1 RX overruns",
+            w.written, w.read, w.lost, self.ssp1_overruns
         );
         for (cause, t) in &self.resets {
             let _ = writeln!(s, "image: reset by {cause:?} at {:.6} s", *t as f64 * 1e-9);
@@ -315,6 +327,8 @@ impl Cosim {
             exceptions,
             code,
             traffic: m.traffic.clone(),
+            samples: m.ahb_sram.watch.clone(),
+            ssp1_overruns: m.ssp1_overruns(),
             reports: m.reports.clone(),
             fault: self.core.fault.clone(),
             resets: self.core.resets.clone(),
@@ -380,7 +394,7 @@ impl PdiCpu for Cosim {
 
     fn on_sync0(&mut self, _io: &mut BoardIo, _edge: &SyncEdge) {
         let mut m = self.core.machine.borrow_mut();
-        m.sync0_edge(&mut EngineMem(&mut self.core.uc));
+        m.sync0_edge();
     }
 
     fn next_timer_ns(&self) -> Option<u64> {

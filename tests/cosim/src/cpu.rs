@@ -11,10 +11,10 @@
 //! takeable. Pended interrupts are thus taken at the next block boundary (a few
 //! instructions late, never inside an IT block).
 
+use crate::ahb_sram;
 use crate::image::Image;
-use crate::machine::{
-    Machine, Memory, ResetCause, Stop, ENTRY_CYCLES, RETURN_CYCLES, TAIL_CHAIN_CYCLES,
-};
+use crate::machine::{Machine, ResetCause, Stop, ENTRY_CYCLES, RETURN_CYCLES, TAIL_CHAIN_CYCLES};
+use crate::rtt::Memory;
 use std::cell::RefCell;
 use std::fmt;
 use std::rc::Rc;
@@ -28,12 +28,10 @@ pub type Engine = Unicorn<'static, Shared>;
 
 /// Local SRAM (16 KB).
 pub const SRAM: (u32, u32) = (0x1000_0000, 0x4000);
-/// AHB SRAM bank 0 (16 KB).
-pub const AHB_SRAM: (u32, u32) = (0x2007_C000, 0x4000);
 /// The pattern painted over the stack to find its deepest use.
 pub const STACK_PAINT: u32 = 0xC5C5_C5C5;
 
-/// Engine memory for the machine's DMA.
+/// The engine's memory, for the log reader.
 pub(crate) struct EngineMem<'a, 'b>(pub(crate) &'a mut Unicorn<'b, Shared>);
 
 impl Memory for EngineMem<'_, '_> {
@@ -41,9 +39,8 @@ impl Memory for EngineMem<'_, '_> {
         self.0.mem_read(u64::from(addr), buf).is_ok()
     }
     fn write(&mut self, addr: u32, data: &[u8]) -> bool {
-        let ram = |(b, n): (u32, u32)| addr >= b && addr + data.len() as u32 <= b + n;
-        ram(SRAM) && self.0.mem_write(u64::from(addr), data).is_ok()
-            || ram(AHB_SRAM) && self.0.mem_write(u64::from(addr), data).is_ok()
+        let in_sram = addr >= SRAM.0 && addr + data.len() as u32 <= SRAM.0 + SRAM.1;
+        in_sram && self.0.mem_write(u64::from(addr), data).is_ok()
     }
 }
 
@@ -144,10 +141,26 @@ impl Core {
             .map_err(err("flash"))?;
         uc.mem_write(0, &image.flash)
             .map_err(err("flash contents"))?;
-        for (base, size) in [SRAM, AHB_SRAM] {
-            uc.mem_map(u64::from(base), u64::from(size), Prot::ALL)
-                .map_err(err("SRAM"))?;
-        }
+        uc.mem_map(u64::from(SRAM.0), u64::from(SRAM.1), Prot::ALL)
+            .map_err(err("SRAM"))?;
+        // The AHB SRAM belongs to the machine (the GPDMA's memory, watched for samples).
+        uc.mmio_map(
+            u64::from(ahb_sram::BASE),
+            u64::from(ahb_sram::SIZE),
+            Some(|uc: &mut Unicorn<'_, Shared>, off: u64, size: usize| {
+                let m = uc.get_data().clone();
+                let v = m.borrow_mut().ahb_read(ahb_sram::BASE + off as u32, size);
+                u64::from(v)
+            }),
+            Some(
+                |uc: &mut Unicorn<'_, Shared>, off: u64, size: usize, v: u64| {
+                    let m = uc.get_data().clone();
+                    m.borrow_mut()
+                        .ahb_write(ahb_sram::BASE + off as u32, size, v as u32);
+                },
+            ),
+        )
+        .map_err(err("AHB SRAM"))?;
         // One slot per APB peripheral (16 KB each), the FIO block, the GPDMA, the SCS.
         let mut slots: Vec<(u32, u32)> = (0..64)
             .map(|i| (0x4000_0000 + i * 0x4000, 0x4000))
@@ -161,20 +174,13 @@ impl Core {
                 u64::from(size),
                 Some(move |uc: &mut Unicorn<'_, Shared>, off: u64, size: usize| {
                     let m = uc.get_data().clone();
-                    let v = m
-                        .borrow_mut()
-                        .cpu_read(&mut EngineMem(uc), base + off as u32, size);
+                    let v = m.borrow_mut().cpu_read(base + off as u32, size);
                     u64::from(v)
                 }),
                 Some(
                     move |uc: &mut Unicorn<'_, Shared>, off: u64, size: usize, v: u64| {
                         let m = uc.get_data().clone();
-                        m.borrow_mut().cpu_write(
-                            &mut EngineMem(uc),
-                            base + off as u32,
-                            size,
-                            v as u32,
-                        );
+                        m.borrow_mut().cpu_write(base + off as u32, size, v as u32);
                     },
                 ),
             )
@@ -406,7 +412,7 @@ impl Core {
             {
                 let mut m = self.machine.borrow_mut();
                 m.refresh_inputs();
-                m.service_due(&mut EngineMem(&mut self.uc));
+                m.service_due();
             }
             let stop = self.machine.borrow_mut().stop.take();
             match stop {
@@ -567,7 +573,7 @@ fn block_hook(uc: &mut Unicorn<'_, Shared>, addr: u64, size: u32) {
         uc.mem_read_as_vec(addr, size as usize).unwrap_or_default()
     });
     if m.next_event_ns() <= m.now_ns() {
-        m.service_due(&mut EngineMem(uc));
+        m.service_due();
     }
 }
 

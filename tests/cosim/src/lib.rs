@@ -12,12 +12,14 @@
 //! | [`cpu`]      | the Cortex-M3 on unicorn with the ARMv7-M exception model             |
 //! | [`nvic`]     | NVIC, SCB, SysTick: pending, active, priorities, masks                |
 //! | [`periph`]   | SYSCON, PINSEL, GPIO, SPI, SSP, timers, GPDMA, WDT from UM10360        |
+//! | [`ahb_sram`] | the GPDMA's SRAM, watched for samples lost before the CPU read them    |
 //! | [`machine`]  | the bus, time, events, and the board wiring of the pin map            |
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
 //! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
 //! | [`profile`]  | cycles and stack per exception, instructions per function             |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 
+pub mod ahb_sram;
 pub mod code;
 pub mod cosim;
 pub mod cpu;

@@ -10,6 +10,7 @@
 //! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3. Anything else moves no data
 //! and is reported, as is any access to a peripheral whose PCONP bit is off.
 
+use crate::ahb_sram::AhbSram;
 use crate::code::Blocks;
 use crate::image::Image;
 use crate::nvic::{irq, Scs};
@@ -143,14 +144,6 @@ impl Region {
     }
 }
 
-/// What memory the machine's DMA and reports reach (RAM and flash live in the engine).
-pub trait Memory {
-    /// Reads `buf.len()` bytes at `addr`; false when unmapped.
-    fn read(&mut self, addr: u32, buf: &mut [u8]) -> bool;
-    /// Writes; false when unmapped or read-only.
-    fn write(&mut self, addr: u32, data: &[u8]) -> bool;
-}
-
 /// Why the CPU stopped running.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Stop {
@@ -246,6 +239,8 @@ pub struct Machine {
     pub pconp_at_reset: u32,
     /// Cycles, stack and code per exception.
     pub profile: Profile,
+    /// The AHB SRAM (the GPDMA's memory) with its watch over samples.
+    pub ahb_sram: AhbSram,
 }
 
 impl Machine {
@@ -284,6 +279,7 @@ impl Machine {
             blocks: Blocks::new(image.clone()),
             pconp_at_reset: PCONP_RESET,
             profile: Profile::new(image.initial_sp()),
+            ahb_sram: AhbSram::new(),
         };
         m.now_ps = m.io.now_ns() * 1000;
         m.update_cycle_time();
@@ -350,6 +346,11 @@ impl Machine {
 
     fn update_cycle_time(&mut self) {
         self.cycle_ps = 1_000_000_000_000 / self.syscon.cclk_hz().max(1);
+    }
+
+    /// Frames SSP1 lost to a full RX FIFO.
+    pub fn ssp1_overruns(&self) -> u64 {
+        self.ssp1.overruns
     }
 
     /// The CPU clock now.
@@ -434,18 +435,18 @@ impl Machine {
     }
 
     /// Serves everything due at the current time; `mem` is the engine's memory (DMA).
-    pub fn service_due(&mut self, mem: &mut dyn Memory) {
+    pub fn service_due(&mut self) {
         for _ in 0..64 {
             if self.next_event_ns > self.now_ns() {
                 break;
             }
             self.event_ns = Some(self.next_event_ns);
-            self.service_events(mem);
+            self.service_events();
             self.event_ns = None;
         }
     }
 
-    fn service_events(&mut self, mem: &mut dyn Memory) {
+    fn service_events(&mut self) {
         if self
             .scs
             .systick
@@ -472,16 +473,16 @@ impl Machine {
         self.ssp0.on_event(t);
         let t = self.tick_for(Region::Ssp1);
         self.ssp1.on_event(t);
-        self.settle(mem);
+        self.settle();
     }
 
     /// After any change: frames to the devices, pins, DMA, interrupt lines, schedule.
-    pub fn settle(&mut self, mem: &mut dyn Memory) {
+    pub fn settle(&mut self) {
         for _ in 0..16 {
             let mut moved = self.exchange_ssp0();
             moved |= self.exchange_ssp1();
             self.update_cnv();
-            moved |= self.run_dma(mem);
+            moved |= self.run_dma();
             if !moved {
                 break;
             }
@@ -600,7 +601,7 @@ impl Machine {
     }
 
     /// A SYNC0 rising edge from the ESC at the current time.
-    pub fn sync0_edge(&mut self, mem: &mut dyn Memory) {
+    pub fn sync0_edge(&mut self) {
         if self.func(pins::ESC_SYNC0) != 3 {
             let f = self.func(pins::ESC_SYNC0);
             self.report(format!(
@@ -615,7 +616,7 @@ impl Machine {
         self.traffic.sync0_captures += 1;
         let t = self.tick_for(Region::Timer(1));
         self.timers[1].capture(t, 0, true);
-        self.settle(mem);
+        self.settle();
     }
 
     fn spi_byte(&mut self) {
@@ -770,7 +771,7 @@ impl Machine {
         r
     }
 
-    fn run_dma(&mut self, mem: &mut dyn Memory) -> bool {
+    fn run_dma(&mut self) -> bool {
         if !self.syscon.powered(Clocked::Gpdma) {
             return false;
         }
@@ -780,7 +781,7 @@ impl Machine {
                 break;
             };
             moved = true;
-            self.dma_move(mem, &x);
+            self.dma_move(&x);
             if let Some(line) = x.request {
                 if (8..16).contains(&line) {
                     let n = line - 8;
@@ -790,7 +791,7 @@ impl Machine {
             match self.gpdma.transferred(&x) {
                 After::LoadItem(at) => {
                     let mut b = [0u8; 16];
-                    if self.dma_read(mem, at, &mut b) {
+                    if self.dma_read(at, &mut b) {
                         let w =
                             |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
                         self.gpdma.load_item(x.channel, [w(0), w(1), w(2), w(3)]);
@@ -821,7 +822,7 @@ impl Machine {
         addr >= 0x4000_0000 || (0x2009_C000..0x200A_0000).contains(&addr)
     }
 
-    fn dma_read(&mut self, mem: &mut dyn Memory, addr: u32, buf: &mut [u8]) -> bool {
+    fn dma_read(&mut self, addr: u32, buf: &mut [u8]) -> bool {
         if Self::on_bus(addr) {
             let base = Self::slot(addr);
             let v = self.bus_read_region(base, (addr - base) & !3);
@@ -829,19 +830,22 @@ impl Machine {
             let n = buf.len();
             buf.copy_from_slice(&bytes[..n]);
             true
+        } else if AhbSram::contains(addr, buf.len()) {
+            self.ahb_sram.dma_read(addr, buf);
+            true
         } else {
-            mem.read(addr, buf)
+            false
         }
     }
 
-    fn dma_move(&mut self, mem: &mut dyn Memory, x: &Transfer) {
+    fn dma_move(&mut self, x: &Transfer) {
         if !self.dma_reachable(x.src, x.channel) || !self.dma_reachable(x.dst, x.channel) {
             self.gpdma.error(x.channel);
             return;
         }
         let w = x.width as usize;
         let mut buf = [0u8; 4];
-        if !self.dma_read(mem, x.src, &mut buf[..w]) {
+        if !self.dma_read(x.src, &mut buf[..w]) {
             self.gpdma.error(x.channel);
             return;
         }
@@ -849,7 +853,11 @@ impl Machine {
             let v = u32::from_le_bytes(buf);
             let base = Self::slot(x.dst);
             self.bus_write_region(base, (x.dst - base) & !3, v);
-        } else if !mem.write(x.dst, &buf[..w]) {
+        } else if AhbSram::contains(x.dst, w) {
+            let now = self.hw_ns();
+            self.ahb_sram
+                .dma_write(x.dst, &buf[..w], Self::on_bus(x.src), now);
+        } else {
             self.gpdma.error(x.channel);
         }
     }
@@ -969,13 +977,27 @@ impl Machine {
         }
     }
 
+    /// A CPU read of `size` bytes of the AHB SRAM (after the events due by now).
+    pub fn ahb_read(&mut self, addr: u32, size: usize) -> u32 {
+        self.service_due();
+        let mut b = [0u8; 4];
+        self.ahb_sram.cpu_read(addr, &mut b[..size]);
+        u32::from_le_bytes(b)
+    }
+
+    /// A CPU write to the AHB SRAM.
+    pub fn ahb_write(&mut self, addr: u32, size: usize, value: u32) {
+        self.service_due();
+        self.ahb_sram.cpu_write(addr, &value.to_le_bytes()[..size]);
+    }
+
     /// A CPU access of `size` bytes at `addr` (sub-word accesses as the APB's byte lanes).
-    pub fn cpu_read(&mut self, mem: &mut dyn Memory, addr: u32, size: usize) -> u32 {
-        self.service_due(mem);
+    pub fn cpu_read(&mut self, addr: u32, size: usize) -> u32 {
+        self.service_due();
         let base = Self::slot(addr);
         let shift = 8 * (addr & 3);
         let v = self.bus_read_region(base, (addr - base) & !3) >> shift;
-        self.settle(mem);
+        self.settle();
         match size {
             1 => v & 0xFF,
             2 => v & 0xFFFF,
@@ -984,8 +1006,8 @@ impl Machine {
     }
 
     /// A CPU write.
-    pub fn cpu_write(&mut self, mem: &mut dyn Memory, addr: u32, size: usize, value: u32) {
-        self.service_due(mem);
+    pub fn cpu_write(&mut self, addr: u32, size: usize, value: u32) {
+        self.service_due();
         let base = Self::slot(addr);
         let offset = addr - base;
         if Region::of_base(base) == Region::Scs && size < 4 {
@@ -1008,6 +1030,6 @@ impl Machine {
             }
         }
         self.bus_write_region(base, offset & !3, v);
-        self.settle(mem);
+        self.settle();
     }
 }

@@ -3,7 +3,14 @@
 //! buf, size, write, read, flags), drained as a debug probe would and decoded with
 //! defmt-decoder against the image's own tables.
 
-use crate::machine::Memory;
+/// The memory the log reader reaches (the local SRAM, where `_SEGGER_RTT` and its buffer
+/// live).
+pub trait Memory {
+    /// Reads `buf.len()` bytes at `addr`; false when unmapped.
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> bool;
+    /// Writes; false when unmapped or read-only.
+    fn write(&mut self, addr: u32, data: &[u8]) -> bool;
+}
 
 /// The log of one run.
 pub struct Rtt {

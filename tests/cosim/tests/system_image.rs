@@ -241,6 +241,13 @@ fn dc_op_and_ten_thousand_cycles_with_dac_and_adc_checked() {
                 step_to(&board, t0 + resp.extra.next_cycle_wait.as_nanos() as u64);
             }
             assert_eq!(ai_bad, 0, "AI values off the ADC inputs");
+            let facts = handle.with(|c| c.facts()).unwrap();
+            assert!(
+                facts.samples.lost == 0 && facts.ssp1_overruns == 0,
+                "AD7689 results lost: {}",
+                facts.summary()
+            );
+            assert!(facts.samples.read > 200_000, "{}", facts.summary());
             // Every pair loaded at the first SYNC0 edge after its frame, both channels at
             // once (AO << 1: 0..0x7FFF spans the DAC's 0..10 V).
             let b = board.borrow();
