@@ -269,7 +269,9 @@ impl VirtualBoard {
             };
             self.run_cpu_until(t);
             if sync == Some(t) {
-                let now = self.now_ns();
+                // From the ESC's own time: a continuously running CPU may have moved the
+                // board's clock past the edge already (its peripherals act at their time).
+                let now = self.esc.borrow().now_ns();
                 let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
                 self.clock.set_ns(self.esc.borrow().now_ns());
                 for e in edges {
