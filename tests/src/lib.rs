@@ -27,7 +27,8 @@
 //!     firmware's image is generated from its description, [`tools::sim::firmware_device`]).
 //! - [`tools`]: what `cargo xtask` runs on the board: the simulation ([`tools::sim`], also
 //!   on a network interface, [`tools::iface`]), the PDI bus cost ([`tools::bus_cost`]), the
-//!   thesis loop-back ([`tools::loopback`]) and the pcap writer ([`tools::pcap`]).
+//!   thesis loop-back ([`tools::loopback`]), the pcap writer ([`tools::pcap`]) and the format
+//!   of the image co-simulator's bench figures ([`tools::image_figures`]).
 //!
 //! Time: nothing here reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
@@ -56,6 +57,7 @@ pub mod rig {
 pub mod tools {
     pub mod bus_cost;
     pub mod iface;
+    pub mod image_figures;
     pub mod loopback;
     pub mod pcap;
     pub mod sim;

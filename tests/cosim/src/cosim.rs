@@ -46,10 +46,18 @@ pub struct Facts {
     pub stack_used: u32,
     /// See [`Facts::stack_used`].
     pub stack_size: u32,
+    /// Thread mode's deepest stack since the first exception (idle's, under the tasks;
+    /// init's is in thread mode's [`ExceptionStats::max_stack`]).
+    pub thread_stack_with_tasks: u32,
     /// Per exception number: name and figures (thread mode, number 0, first).
     pub exceptions: Vec<(u32, String, ExceptionStats)>,
+    /// NVIC priority byte of each exception in [`Facts::exceptions`] (thread mode has none).
+    pub priorities: Vec<(u32, u8)>,
     /// Instructions per context and code chain.
     pub code: Vec<CodeCycles>,
+    /// The chains of functions by number ([`crate::code`]): outermost (the symbol) first,
+    /// the inlined ones after it.
+    pub chains: Vec<Vec<String>>,
     /// Crossings to the board's chips.
     pub traffic: Traffic,
     /// AD7689 results the GPDMA wrote, read and lost ([`crate::ahb_sram`]).
@@ -73,8 +81,8 @@ pub struct Facts {
 pub struct CodeCycles {
     /// The context: exception number, 0 for thread mode.
     pub context: u32,
-    /// The functions, outermost (the symbol) first, the inlined ones after it.
-    pub chain: Vec<String>,
+    /// The chain of functions (a number into [`Facts::chains`]).
+    pub chain: u32,
     /// Instructions executed.
     pub instructions: u64,
 }
@@ -88,12 +96,37 @@ impl Facts {
     /// The functions context `context` executed its own instructions in (the innermost
     /// function of each chain), with their cycles, most first.
     pub fn own_functions(&self, context: u32) -> Vec<(String, u64)> {
+        self.innermost(
+            self.code
+                .iter()
+                .filter(|c| c.context == context)
+                .map(|c| (c.chain, c.instructions)),
+        )
+    }
+
+    /// The functions of the longest activation of exception `n` (its own code), with their
+    /// cycles, most first.
+    pub fn longest_functions(&self, n: u32) -> Vec<(String, u64)> {
+        self.exception(n)
+            .map(|e| self.innermost(e.longest_code.iter().copied()))
+            .unwrap_or_default()
+    }
+
+    /// The functions of `chain`.
+    pub fn chain(&self, chain: u32) -> &[String] {
+        self.chains
+            .get(chain as usize)
+            .map_or(&[], |c| c.as_slice())
+    }
+
+    /// (chain, instructions) summed per innermost function, in cycles, most first.
+    fn innermost(&self, code: impl Iterator<Item = (u32, u64)>) -> Vec<(String, u64)> {
         let mut by_name: Vec<(String, u64)> = Vec::new();
-        for c in self.code.iter().filter(|c| c.context == context) {
-            let name = c.chain.last().cloned().unwrap_or_default();
-            match by_name.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, i)) => *i += c.instructions,
-                None => by_name.push((name, c.instructions)),
+        for (chain, n) in code {
+            let name = self.chain(chain).last().cloned().unwrap_or_default();
+            match by_name.iter_mut().find(|(f, _)| *f == name) {
+                Some((_, i)) => *i += n,
+                None => by_name.push((name, n)),
             }
         }
         let mut out: Vec<(String, u64)> = by_name
@@ -111,7 +144,7 @@ impl Facts {
             self.code
                 .iter()
                 .filter(|c| context.is_none_or(|x| x == c.context))
-                .filter(|c| c.chain.iter().any(|n| matches(n)))
+                .filter(|c| self.chain(c.chain).iter().any(|n| matches(n)))
                 .map(|c| c.instructions)
                 .sum(),
         )
@@ -302,19 +335,31 @@ impl Cosim {
             .filter(|(n, e)| *n == THREAD as usize || e.count > 0)
             .map(|(n, e)| (n as u32, exception_name(n as u32), e.clone()))
             .collect();
+        let priorities = m
+            .profile
+            .exceptions
+            .iter()
+            .enumerate()
+            .filter(|(n, e)| *n != THREAD as usize && e.count > 0)
+            .map(|(n, _)| (n as u32, m.scs.priority(n as u32).clamp(0, 255) as u8))
+            .collect();
         let code = m
             .profile
             .instructions()
             .map(|(context, chain, instructions)| CodeCycles {
                 context,
-                chain: m
-                    .blocks
+                chain,
+                instructions,
+            })
+            .collect();
+        let chains = (0..m.blocks.code.chains() as u32)
+            .map(|c| {
+                m.blocks
                     .code
-                    .chain(chain)
+                    .chain(c)
                     .into_iter()
                     .map(String::from)
-                    .collect(),
-                instructions,
+                    .collect()
             })
             .collect();
         Facts {
@@ -324,8 +369,11 @@ impl Cosim {
             time_ns: m.now_ns(),
             stack_used: self.core.stack_high_water(),
             stack_size: self.core.stack_size(),
+            thread_stack_with_tasks: m.profile.thread_stack_with_tasks(),
             exceptions,
+            priorities,
             code,
+            chains,
             traffic: m.traffic.clone(),
             samples: m.ahb_sram.watch.clone(),
             ssp1_overruns: m.ssp1_overruns(),

@@ -17,9 +17,11 @@
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
 //! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
 //! | [`profile`]  | cycles and stack per exception, instructions per function             |
+//! | [`bench`]    | the image's figures for `cargo xtask bench` (profile run, cycle sweep) |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 
 pub mod ahb_sram;
+pub mod bench;
 pub mod code;
 pub mod cosim;
 pub mod cpu;

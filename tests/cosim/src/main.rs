@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! lpc1754-cosim sim [the options of `cargo xtask sim`]   # what `cargo xtask sim --image` runs
+//! lpc1754-cosim bench [--quick] [--json FILE]             # the image rows of `cargo xtask bench`
 //! ```
 //!
 //! The image is `$LPC1754_IMAGE` (set by xtask after it built the image), else the release
@@ -9,7 +10,7 @@
 
 use clap::{Parser, Subcommand};
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_target, load_image, CosimHandle};
+use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
 use std::process::ExitCode;
 use virtual_board::tools::sim::cli::{self, SimArgs};
 
@@ -35,6 +36,41 @@ enum Command {
         #[arg(long)]
         log: bool,
     },
+    /// The image's figures for `cargo xtask bench`: a profile run (per task cycles and
+    /// stack, the sampler's share, SYNC0 -> LDAC) and the sweep for the shortest DC cycle.
+    Bench {
+        /// The short form (CI): fewer cycles per run, a coarser sweep.
+        #[arg(long)]
+        quick: bool,
+        /// Write the figures as JSON to FILE (the format of
+        /// `virtual_board::tools::image_figures`).
+        #[arg(long, value_name = "FILE")]
+        json: Option<std::path::PathBuf>,
+        /// Only judge this DC cycle (us), with the plan's cycles, and print the verdict.
+        #[arg(long, value_name = "US")]
+        cycle_us: Option<u64>,
+    },
+}
+
+fn bench(quick: bool, json: Option<&std::path::Path>, cycle_us: Option<u64>) -> Result<(), String> {
+    let image = load_image()?;
+    if let Some(us) = cycle_us {
+        let plan = lpc1754_cosim::bench::Plan::new(quick);
+        let run = lpc1754_cosim::bench::dc_run(&image, us * 1000, plan.sweep_cycles, false)?;
+        println!("{us} us: {} ({:?})", run.check.verdict(), run.check);
+        print!("{}", run.after.summary());
+        return Ok(());
+    }
+    let elf = image_path().display().to_string();
+    let figures = lpc1754_cosim::bench::measure(&image, &elf, quick, &mut |line| {
+        eprintln!("[image bench] {line}")
+    })?;
+    print!("{}", lpc1754_cosim::bench::summary(&figures));
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&figures).map_err(|e| e.to_string())?;
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
@@ -77,6 +113,11 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sim { args, log } => sim(&args, log),
+        Command::Bench {
+            quick,
+            json,
+            cycle_us,
+        } => bench(quick, json.as_deref(), cycle_us),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

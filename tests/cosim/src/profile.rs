@@ -34,6 +34,8 @@ pub struct ExceptionStats {
     pub max_stack: u32,
     /// Virtual time (ns) of the first entry.
     pub first_entry_ns: Option<u64>,
+    /// Instructions per chain of the longest activation's own code, most first.
+    pub longest_code: Vec<(u32, u64)>,
 }
 
 #[derive(Clone, Debug)]
@@ -43,6 +45,8 @@ struct Activation {
     entry_ns: u64,
     sp_before: u32,
     lowest_sp: u32,
+    /// (chain, instructions) of its own blocks, as they ran.
+    code: Vec<(u32, u32)>,
 }
 
 /// The profile of a run.
@@ -55,6 +59,9 @@ pub struct Profile {
     active: Vec<Activation>,
     thread_top_sp: u32,
     thread_lowest_sp: u32,
+    /// Thread mode's lowest SP since the first exception (RTIC's init runs with interrupts
+    /// off: what thread mode uses from then on is idle's, which tasks can preempt).
+    thread_lowest_sp_with_tasks: Option<u32>,
     /// Instructions per context (exception number) and chain.
     instructions: Vec<Vec<u64>>,
 }
@@ -68,6 +75,7 @@ impl Profile {
             active: Vec::new(),
             thread_top_sp: initial_sp,
             thread_lowest_sp: initial_sp,
+            thread_lowest_sp_with_tasks: None,
             instructions: vec![Vec::new(); EXCEPTIONS],
         }
     }
@@ -95,6 +103,9 @@ impl Profile {
 
     /// A block of the current context ran: `runs` are (chain, instructions); `sp` is SP.
     pub fn block(&mut self, runs: &[(u32, u32)], sp: u32) {
+        if let Some(a) = self.active.last_mut() {
+            a.code.extend_from_slice(runs);
+        }
         let c = self.context() as usize % EXCEPTIONS;
         let per_chain = &mut self.instructions[c];
         for &(chain, n) in runs {
@@ -111,7 +122,12 @@ impl Profile {
     pub fn saw_sp(&mut self, sp: u32) {
         match self.active.last_mut() {
             Some(a) => a.lowest_sp = a.lowest_sp.min(sp),
-            None => self.thread_lowest_sp = self.thread_lowest_sp.min(sp),
+            None => {
+                self.thread_lowest_sp = self.thread_lowest_sp.min(sp);
+                if let Some(low) = self.thread_lowest_sp_with_tasks.as_mut() {
+                    *low = (*low).min(sp);
+                }
+            }
         }
         let thread = &mut self.exceptions[THREAD as usize];
         thread.max_stack = self.thread_top_sp.saturating_sub(self.thread_lowest_sp);
@@ -120,6 +136,10 @@ impl Profile {
     /// Exception `e` is entered at `cycle` (its entry cycles not yet counted); `sp_before` is
     /// SP before its frame was stacked, `sp_after` the SP its handler starts with.
     pub fn entered(&mut self, e: u32, cycle: u64, now_ns: u64, sp_before: u32, sp_after: u32) {
+        if self.active.is_empty() {
+            let low = self.thread_lowest_sp_with_tasks.get_or_insert(sp_before);
+            *low = (*low).min(sp_before);
+        }
         let s = &mut self.exceptions[e as usize % EXCEPTIONS];
         s.first_entry_ns.get_or_insert(now_ns);
         self.active.push(Activation {
@@ -128,6 +148,7 @@ impl Profile {
             entry_ns: now_ns,
             sp_before,
             lowest_sp: sp_after,
+            code: Vec::new(),
         });
     }
 
@@ -142,6 +163,7 @@ impl Profile {
         if c > s.max_cycles {
             s.max_cycles = c;
             s.max_at_ns = a.entry_ns;
+            s.longest_code = merged(&a.code);
         }
         s.max_stack = s.max_stack.max(a.sp_before.saturating_sub(a.lowest_sp));
         Some(a.sp_before)
@@ -161,10 +183,27 @@ impl Profile {
             })
     }
 
+    /// Deepest stack of thread mode since the first exception (idle's, under the tasks).
+    pub fn thread_stack_with_tasks(&self) -> u32 {
+        self.thread_lowest_sp_with_tasks
+            .map_or(0, |low| self.thread_top_sp.saturating_sub(low))
+    }
+
     /// Total own cycles of all contexts plus sleep.
     pub fn total_cycles(&self) -> u64 {
         self.exceptions.iter().map(|e| e.own_cycles).sum::<u64>() + self.sleep_cycles
     }
+}
+
+/// (chain, instructions) runs summed per chain, most first.
+fn merged(runs: &[(u32, u32)]) -> Vec<(u32, u64)> {
+    let mut sums: std::collections::BTreeMap<u32, u64> = Default::default();
+    for &(chain, n) in runs {
+        *sums.entry(chain).or_insert(0) += u64::from(n);
+    }
+    let mut v: Vec<(u32, u64)> = sums.into_iter().collect();
+    v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    v
 }
 
 #[cfg(test)]
@@ -198,12 +237,20 @@ mod tests {
             "its frame and its locals, not TIMER1's"
         );
         assert_eq!(eint3.first_entry_ns, Some(1_000));
+        assert_eq!(
+            eint3.longest_code,
+            [(2, 12)],
+            "its own blocks, not TIMER1's"
+        );
         let t1 = &p.exceptions[18];
         assert_eq!((t1.cycles, t1.own_cycles, t1.max_stack), (27, 27, 0x30));
         assert_eq!(p.exceptions[0].own_cycles, 5);
         assert_eq!(p.exceptions[0].max_stack, 0x100);
+        assert_eq!(p.thread_stack_with_tasks(), 0x100);
+        p.block(&[(1, 1)], 0x1000_3FF0);
+        assert_eq!(p.thread_stack_with_tasks(), 0x100);
         let n: Vec<_> = p.instructions().collect();
-        assert_eq!(n, [(0, 1, 4), (18, 3, 4), (37, 2, 12)]);
+        assert_eq!(n, [(0, 1, 5), (18, 3, 4), (37, 2, 12)]);
         assert_eq!(p.total_cycles(), 5 + 37 + 27);
     }
 }

@@ -7,27 +7,21 @@
 //! passes it in `LPC1754_IMAGE`); a missing image fails the tests, it never skips them.
 
 use ethercrab::error::{CoeAbortCode, Error, MailboxError};
-use ethercrab::subdevice_group::DcConfiguration;
-use ethercrab::{
-    std::ethercat_now, DcSync, MainDevice, MainDeviceConfig, PduStorage, SubDeviceState,
-};
+use ethercrab::{std::ethercat_now, PduStorage, SubDeviceState};
 use firmware::product::device::DEVICE;
 use firmware::product::identity::{IDENTITY, NAMES};
 use firmware::product::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use futures_lite::future::{block_on, or};
+use lpc1754_cosim::bench::{al_status, master, step_to, Board};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::machine::ResetCause;
 use lpc1754_cosim::run::{image_target, load_image, CosimHandle};
 use std::cell::RefCell;
 use std::rc::Rc;
-use std::time::Duration;
-use virtual_board::models::adc::Signal;
 use virtual_board::models::esc::regs;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
-use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
+use virtual_board::rig::master::tx_rx_task;
 use virtual_board::rig::sdo_client::SdoClient;
-
-type Board = Rc<RefCell<VirtualBoard>>;
 
 fn image_board_with(options: Options, sii: impl FnOnce(&mut Vec<u8>)) -> (Board, CosimHandle) {
     let image = load_image().expect("the release image");
@@ -43,38 +37,6 @@ fn image_board_with(options: Options, sii: impl FnOnce(&mut Vec<u8>)) -> (Board,
 
 fn image_board() -> (Board, CosimHandle) {
     image_board_with(Options::default(), |_| {})
-}
-
-fn master(
-    storage: &PduStorage<16, { PduStorage::element_size(1100) }>,
-) -> (MainDevice<'_>, ethercrab::PduTx<'_>, ethercrab::PduRx<'_>) {
-    let (tx, rx, pdu_loop) = storage.try_split().expect("split once");
-    let md = MainDevice::new(
-        pdu_loop,
-        in_process_timeouts(),
-        MainDeviceConfig {
-            dc_static_sync_iterations: 50,
-            ..Default::default()
-        },
-    );
-    (md, tx, rx)
-}
-
-fn step_to(board: &Board, t: u64) {
-    let mut b = board.borrow_mut();
-    let now = b.now_ns();
-    if t > now {
-        b.step(t - now);
-    }
-}
-
-fn al(board: &Board) -> (u16, u16) {
-    let b = board.borrow();
-    let esc = b.esc().borrow();
-    (
-        esc.peek_u16(regs::AL_STATUS),
-        esc.peek_u16(regs::AL_STATUS_CODE),
-    )
 }
 
 /// No fault, no reported problem, no protocol error on any chip.
@@ -119,7 +81,7 @@ fn aborted(r: Result<(), Error>) -> Option<CoeAbortCode> {
 fn boot_to_preop_sdo_sdo_info_and_segmented_upload() {
     let (board, handle) = image_board();
     let storage = Box::new(PduStorage::new());
-    let (md, tx, rx) = master(&storage);
+    let (md, tx, rx) = master(&storage).unwrap();
     block_on(or(
         async {
             let group = md
@@ -170,140 +132,36 @@ fn boot_to_preop_sdo_sdo_info_and_segmented_upload() {
     assert_clean(&board, &handle);
 }
 
-/// INIT -> OP with DC SYNC0, then 10 000 process-data cycles both ways: every output pair
-/// the master sends reaches both DAC channels together at the SYNC0 edge after its frame
-/// (none missed, none stale), and the AI values follow the ADC model's inputs. Then the
-/// master stops in SM-synchronous terms: see `sm_watchdog_fault_values`.
+/// INIT -> OP with DC SYNC0 at 100 us, then 10 000 process-data cycles both ways, judged
+/// as `cargo xtask bench` judges a cycle time (`lpc1754_cosim::bench::dc_run`): every SYNC0
+/// edge loads both DAC channels together with the pair of the frame before it (no missed
+/// SYNC0, no stale output), within 2 us of the edge; no AD7689 result is lost; and the AI
+/// values follow the ADC model's inputs.
 #[test]
 fn dc_op_and_ten_thousand_cycles_with_dac_and_adc_checked() {
-    const CYCLE: u64 = 100_000;
-    const CYCLES: u64 = 10_000;
-    let (board, handle) = image_board();
-    let storage = Box::new(PduStorage::new());
-    let (md, tx, rx) = master(&storage);
-    block_on(or(
-        async {
-            let mut group = md
-                .init_single_group::<2, 64>(ethercat_now)
-                .await
-                .expect("init");
-            for mut sd in group.iter_mut(&md) {
-                sd.set_dc_sync(DcSync::Sync0);
-            }
-            let group = group.into_pre_op_pdi(&md).await.expect("PDI");
-            let group = group
-                .configure_dc_sync(
-                    &md,
-                    DcConfiguration {
-                        start_delay: Duration::from_millis(1),
-                        sync0_period: Duration::from_nanos(CYCLE),
-                        sync0_shift: Duration::from_nanos(CYCLE / 2),
-                    },
-                )
-                .await
-                .expect("DC");
-            let group = group.into_safe_op(&md).await.expect("SAFE-OP");
-            let group = group.into_op(&md).await.expect("OP");
-            {
-                let adc = board.borrow().adc().clone();
-                let mut adc = adc.borrow_mut();
-                adc.inputs[0] = Signal::Constant(1.0);
-                adc.inputs[5] = Signal::Constant(7.5);
-                adc.inputs[7] = Signal::Constant(9.0);
-            }
-            let mut sent = Vec::new();
-            let mut ai_bad = 0;
-            for i in 0..CYCLES {
-                // Both in the 0..10 V range (INTEGER16 0..=0x7FFF), different every cycle.
-                let a = ((i * 3) % 0x7FFF) as i16;
-                let b = (0x7FFF - (i * 7) % 0x7FFF) as i16;
-                {
-                    let sd = group.subdevice(&md, 0).unwrap();
-                    let mut o = sd.outputs_raw_mut();
-                    o[0..2].copy_from_slice(&a.to_le_bytes());
-                    o[2..4].copy_from_slice(&b.to_le_bytes());
-                }
-                let t0 = board.borrow().now_ns();
-                let resp = group.tx_rx_dc(&md).await.expect("cycle");
-                assert!(resp.all_op(), "left OP at cycle {i}");
-                sent.push((t0, a, b));
-                if i > 20 {
-                    let sd = group.subdevice(&md, 0).unwrap();
-                    let img = sd.inputs_raw();
-                    let ai = |ch: usize| i16::from_le_bytes([img[2 * ch], img[2 * ch + 1]]);
-                    for (ch, volts) in [(0, 1.0), (5, 7.5), (7, 9.0)] {
-                        let want = volts / 10.0 * 32768.0;
-                        if (f64::from(ai(ch)) - want).abs() > 1.0 {
-                            ai_bad += 1;
-                        }
-                    }
-                }
-                step_to(&board, t0 + resp.extra.next_cycle_wait.as_nanos() as u64);
-            }
-            assert_eq!(ai_bad, 0, "AI values off the ADC inputs");
-            let facts = handle.with(|c| c.facts()).unwrap();
-            assert!(
-                facts.samples.lost == 0 && facts.ssp1_overruns == 0,
-                "AD7689 results lost: {}",
-                facts.summary()
-            );
-            assert!(facts.samples.read > 200_000, "{}", facts.summary());
-            // Every pair loaded at the first SYNC0 edge after its frame, both channels at
-            // once (AO << 1: 0..0x7FFF spans the DAC's 0..10 V).
-            let b = board.borrow();
-            let updates = b.dac().borrow().updates.clone();
-            let edges: Vec<u64> = b.sync_edges.iter().map(|e| e.time_ns).collect();
-            // On the image the LDAC edge follows SYNC0 by the capture interrupt's latency
-            // (the host-compiled harness latches at the edge itself): within 2 us here.
-            let mut missing = 0;
-            let mut latency_max = 0;
-            // From the first SYNC0 edge on (the frames before it are overwritten before any
-            // edge latches them), up to the last edge.
-            let first_edge = edges[0];
-            for &(t0, a, bb) in sent
-                .iter()
-                .filter(|s| s.0 > first_edge)
-                .take(sent.len() - 40)
-            {
-                let edge = edges.iter().copied().find(|&e| e > t0).unwrap();
-                let code = |v: i16| (v as u16) << 1;
-                let at: Vec<_> = updates
-                    .iter()
-                    .filter(|u| u.time_ns >= edge && u.time_ns <= edge + 2_000)
-                    .collect();
-                let a_at = at.iter().find(|u| u.channel == 0 && u.code == code(a));
-                let b_at = at.iter().find(|u| u.channel == 1 && u.code == code(bb));
-                match (a_at, b_at) {
-                    (Some(x), Some(y)) if x.time_ns == y.time_ns => {
-                        latency_max = latency_max.max(x.time_ns - edge);
-                    }
-                    _ => {
-                        if missing < 3 {
-                            eprintln!(
-                                "pair {a:#06x}/{bb:#06x} sent at {t0} ns, edge {edge} ns: {:?}",
-                                updates
-                                    .iter()
-                                    .filter(|u| u.time_ns + 200_000 >= edge
-                                        && u.time_ns <= edge + 200_000)
-                                    .collect::<Vec<_>>()
-                            );
-                        }
-                        missing += 1
-                    }
-                }
-            }
-            assert_eq!(
-                missing, 0,
-                "output pairs not latched together after their SYNC0 edge"
-            );
-            assert!(
-                latency_max > 0,
-                "the image latches after the edge, not at it"
-            );
-        },
-        tx_rx_task(board.clone(), tx, rx),
-    ));
-    assert_clean(&board, &handle);
+    let image = load_image().expect("the release image");
+    let run = lpc1754_cosim::bench::dc_run(&image, 100_000, 10_000, false).unwrap();
+    let c = &run.check;
+    assert!(
+        c.sustained(),
+        "{}: {c:?}\n{}",
+        c.verdict(),
+        run.after.summary()
+    );
+    assert_eq!(c.edges, 10_000);
+    assert_eq!(c.stale_inputs, 0, "AI values off the ADC inputs");
+    assert!(
+        c.sync0_to_ldac.min_ns > 0 && c.sync0_to_ldac.max_ns <= 2_000,
+        "the image latches after the edge (its capture interrupt), within 2 us: {:?}",
+        c.sync0_to_ldac
+    );
+    let facts = &run.after;
+    assert!(facts.samples.read > 200_000, "{}", facts.summary());
+    assert!(
+        facts.fault.is_none() && facts.reports.is_empty(),
+        "{}",
+        facts.summary()
+    );
 }
 
 /// SM-synchronous OP, then the master stops: the ESC's process-data watchdog expires, the
@@ -313,7 +171,7 @@ fn dc_op_and_ten_thousand_cycles_with_dac_and_adc_checked() {
 fn sm_watchdog_fault_values() {
     let (board, handle) = image_board();
     let storage = Box::new(PduStorage::new());
-    let (md, tx, rx) = master(&storage);
+    let (md, tx, rx) = master(&storage).unwrap();
     block_on(or(
         async {
             let group = md
@@ -339,10 +197,10 @@ fn sm_watchdog_fault_values() {
                 step_to(&board, t);
             }
             assert_eq!(board.borrow().dac().borrow().dac, [0x8000, 0xE000]);
-            assert_eq!(al(&board), (0x0008, 0));
+            assert_eq!(al_status(&board), (0x0008, 0));
             let t = board.borrow().now_ns() + 150_000_000;
             step_to(&board, t);
-            assert_eq!(al(&board), (0x0014, 0x001B));
+            assert_eq!(al_status(&board), (0x0014, 0x001B));
             assert_eq!(
                 board.borrow().dac().borrow().dac,
                 [0x8000, 0x0200],
@@ -367,7 +225,7 @@ fn mcu_watchdog_resets_a_stuck_firmware() {
         |_| {},
     );
     step_to(&board, 4_000_000);
-    assert_eq!(al(&board), (0x0001, 0), "INIT after the first boot");
+    assert_eq!(al_status(&board), (0x0001, 0), "INIT after the first boot");
     // Make the ESC's AL status differ from INIT, as a master would have moved it.
     board
         .borrow()
@@ -388,7 +246,11 @@ fn mcu_watchdog_resets_a_stuck_firmware() {
         (100_000_000..=120_000_000).contains(&at),
         "reset {at} ns: 100 ms after the last feed before 5 ms"
     );
-    assert_eq!(al(&board), (0x0001, 0), "back to INIT after the reset");
+    assert_eq!(
+        al_status(&board),
+        (0x0001, 0),
+        "back to INIT after the reset"
+    );
     assert!(
         facts.fault.is_none() && facts.reports.is_empty(),
         "{}",

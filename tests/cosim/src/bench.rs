@@ -1,0 +1,768 @@
+//! The image's figures for `cargo xtask bench` (issue 12, section 3), measured by running the
+//! release image on the co-simulator under ethercrab ([`measure`], `lpc1754-cosim bench`):
+//!
+//! - a **profile run** ([`dc_run`] with mailbox traffic): per RTIC task (exception) its
+//!   entry-to-exit cycles, own share of the CPU and stack; the sampler's share at 250 kSPS;
+//!   SYNC0 edge -> LDAC edge; where the PDI task's cycles go;
+//! - a **sweep** of DC cycle times ([`sweep`]) for the shortest one the image sustains
+//!   with 2 AO + 8 AI (criteria: [`virtual_board::tools::image_figures::DcCheck`]).
+//!
+//! The format of the figures is the virtual board's ([`virtual_board::tools::image_figures`]),
+//! so xtask reads them without linking this crate.
+
+use crate::cosim::{Facts, Options};
+use crate::image::Image;
+use crate::profile::THREAD;
+use crate::run::image_target;
+use ethercrab::subdevice_group::DcConfiguration;
+use ethercrab::{std::ethercat_now, DcSync, MainDevice, MainDeviceConfig, PduStorage};
+use firmware::product::device::DEVICE;
+use firmware::product::od::MODULE_DESCRIPTION_INDEX;
+use std::cell::RefCell;
+use std::rc::Rc;
+use std::time::Duration;
+use virtual_board::models::adc::Signal;
+use virtual_board::models::esc::regs;
+use virtual_board::models::esc::SyncSignal;
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
+use virtual_board::rig::sdo_client::SdoClient;
+use virtual_board::tools::image_figures::{
+    DcCheck, ImageFigures, Latency, Longest, ProfileRun, SamplerShare, Sweep, Vector,
+};
+
+/// A board shared between the master's rig and the measurement.
+pub type Board = Rc<RefCell<VirtualBoard>>;
+
+/// The ADC inputs of every DC run (volts, per channel): constants the AI values are checked
+/// against.
+pub const INPUTS_V: [f64; 8] = [1.0, 2.0, 3.0, 4.0, 5.0, 7.5, 8.0, 9.0];
+
+/// Cycles run in OP before the judged ones (the first SYNC0 edges meet no outputs yet).
+const WARM_UP_CYCLES: u64 = 20;
+/// Cycles run after the judged ones (the last judged edge needs the next edge).
+const TAIL_CYCLES: u64 = 2;
+
+/// The cycle of the profile run: the virtual board's default (`cargo xtask sim`).
+pub const PROFILE_CYCLE_NS: u64 = virtual_board::tools::sim::DEFAULT_CYCLE_US as u64 * 1000;
+
+/// Cycle times the sweep starts from, longest first; it stops at the first that is not
+/// sustained and then halves the gap to the last sustained one.
+const SWEEP_START_US: [u64; 9] = [100, 80, 60, 50, 45, 40, 35, 30, 25];
+
+/// How much to run: the short form for CI, the full one for the README.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// Judged cycles of the profile run.
+    pub profile_cycles: u64,
+    /// Judged cycles per cycle time of the sweep.
+    pub sweep_cycles: u64,
+    /// The sweep stops halving the gap below this (ns).
+    pub resolution_ns: u64,
+}
+
+impl Plan {
+    /// The plan of `cargo xtask bench` (`quick`: `--quick`).
+    pub fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                profile_cycles: 1_000,
+                sweep_cycles: 1_000,
+                resolution_ns: 5_000,
+            }
+        } else {
+            Self {
+                profile_cycles: 10_000,
+                sweep_cycles: 10_000,
+                resolution_ns: 1_000,
+            }
+        }
+    }
+}
+
+/// Phases of a run, for where a long activation fell.
+#[derive(Clone, Debug, Default)]
+pub struct Phases {
+    /// (start ns, name), in order.
+    pub starts: Vec<(u64, &'static str)>,
+}
+
+impl Phases {
+    fn enter(&mut self, t: u64, name: &'static str) {
+        self.starts.push((t, name));
+    }
+
+    /// The phase `t` falls in.
+    pub fn at(&self, t: u64) -> &'static str {
+        self.starts
+            .iter()
+            .rev()
+            .find(|(s, _)| *s <= t)
+            .map_or("boot", |(_, n)| n)
+    }
+}
+
+/// A DC run and the co-simulator's facts around its judged cycles.
+pub struct DcRun {
+    /// The criteria and figures of the judged cycles.
+    pub check: DcCheck,
+    /// Facts when the judged cycles started.
+    pub before: Option<Facts>,
+    /// Facts at the end of the run.
+    pub after: Facts,
+    /// Phases of the run.
+    pub phases: Phases,
+}
+
+/// ethercrab's frame storage for one in-process master.
+pub type Storage = PduStorage<16, { PduStorage::element_size(1100) }>;
+
+/// ethercrab on `storage`, with the in-process rig's timeouts: the master and the two ends
+/// of its frame loop for [`tx_rx_task`].
+pub fn master(
+    storage: &Storage,
+) -> Result<(MainDevice<'_>, ethercrab::PduTx<'_>, ethercrab::PduRx<'_>), String> {
+    let (tx, rx, pdu_loop) = storage
+        .try_split()
+        .map_err(|_| "PDU storage split twice".to_string())?;
+    let md = MainDevice::new(
+        pdu_loop,
+        in_process_timeouts(),
+        MainDeviceConfig {
+            dc_static_sync_iterations: 50,
+            ..Default::default()
+        },
+    );
+    Ok((md, tx, rx))
+}
+
+/// A pair the master sent: frame time, AO1, AO2.
+type Sent = (u64, i16, i16);
+
+/// Runs the board up to virtual time `t` (nothing when it is there already).
+pub fn step_to(board: &Board, t: u64) {
+    let mut b = board.borrow_mut();
+    let now = b.now_ns();
+    if t > now {
+        b.step(t - now);
+    }
+}
+
+/// AL status and AL status code as the ESC holds them.
+pub fn al_status(board: &Board) -> (u16, u16) {
+    let b = board.borrow();
+    let esc = b.esc().borrow();
+    (
+        esc.peek_u16(regs::AL_STATUS),
+        esc.peek_u16(regs::AL_STATUS_CODE),
+    )
+}
+
+/// The output pair of cycle `i`: both channels change every cycle, within 0..=0x7FFF (0..10 V).
+fn pair(i: u64) -> (i16, i16) {
+    (
+        ((i * 3 + 1) % 0x7FFF) as i16,
+        (0x7FFF - (i * 7) % 0x7FFF) as i16,
+    )
+}
+
+/// The DAC code an AO value loads (INTEGER16 0..=0x7FFF spans the 16-bit DAC's 0..10 V).
+fn dac_code(v: i16) -> u16 {
+    (v as u16) << 1
+}
+
+/// Mailbox traffic in PRE-OP: SDO uploads and a download, SDO Information, a segmented upload.
+async fn mailbox_traffic<S>(sd: &ethercrab::SubDeviceRef<'_, S>) -> Result<(), String>
+where
+    S: std::ops::Deref<Target = ethercrab::SubDevice>,
+{
+    let (mbx_out, mbx_in) = (DEVICE.sync_managers[0], DEVICE.sync_managers[1]);
+    let mut client = SdoClient::<128>::new(mbx_out.start, mbx_in.start, 1);
+    let up = client
+        .upload(sd, MODULE_DESCRIPTION_INDEX, 0)
+        .await
+        .map_err(|e| e.to_string())?;
+    if up.segments == 0 {
+        return Err("the module description came without segments".into());
+    }
+    let e = |e: ethercrab::error::Error| e.to_string();
+    sd.sdo_read::<u32>(0x1000, 0).await.map_err(e)?;
+    sd.sdo_read::<heapless::String<64>>(0x1008, 0)
+        .await
+        .map_err(e)?;
+    for sub in 1..=4 {
+        sd.sdo_read::<u32>(0x1018, sub).await.map_err(e)?;
+    }
+    sd.sdo_write(0x6444, 1, 0i32).await.map_err(e)?;
+    sd.sdo_info_object_description_list(ethercrab::ObjectDescriptionListQuery::All)
+        .await
+        .map_err(e)?;
+    Ok(())
+}
+
+/// Runs the image from reset to OP with DC SYNC0 at `cycle_ns` and judges `cycles` cycles
+/// ([`DcCheck`]); with `mailbox`, mailbox traffic in PRE-OP first.
+pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Result<DcRun, String> {
+    let (mut target, handle) = image_target(image.clone(), Options::default())?;
+    let board = Rc::new(RefCell::new(VirtualBoard::new({
+        let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
+        cfg.capture = false;
+        cfg
+    })));
+    let cpu = (target.make_cpu)(board.borrow().io());
+    board.borrow_mut().set_cpu(cpu);
+    {
+        let adc = board.borrow().adc().clone();
+        let mut adc = adc.borrow_mut();
+        for (i, v) in INPUTS_V.iter().enumerate() {
+            adc.inputs[i] = Signal::Constant(*v);
+        }
+    }
+    let facts = || {
+        handle
+            .with(|c| c.facts())
+            .ok_or_else(|| "the co-simulator did not start".to_string())
+    };
+    let storage: Box<Storage> = Box::new(PduStorage::new());
+    let (md, tx, rx) = master(&storage)?;
+    let mut phases = Phases::default();
+    let mut check = DcCheck {
+        cycle_ns,
+        planned: cycles,
+        ..Default::default()
+    };
+    let mut sent: Vec<Sent> = Vec::new();
+    let mut before: Option<Facts> = None;
+    let mut start = 0u64;
+    let mut adc_violations = 0;
+    let master = async {
+        phases.enter(0, "boot and INIT -> PRE-OP");
+        let mut group = md
+            .init_single_group::<2, 64>(ethercat_now)
+            .await
+            .map_err(|e| format!("INIT -> PRE-OP: {e}"))?;
+        if mailbox {
+            phases.enter(board.borrow().now_ns(), "mailbox traffic in PRE-OP");
+            let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+            mailbox_traffic(&sd).await?;
+        }
+        phases.enter(board.borrow().now_ns(), "PRE-OP -> OP with DC");
+        for mut sd in group.iter_mut(&md) {
+            sd.set_dc_sync(DcSync::Sync0);
+        }
+        let group = group
+            .into_pre_op_pdi(&md)
+            .await
+            .map_err(|e| format!("process data: {e}"))?;
+        let group = group
+            .configure_dc_sync(
+                &md,
+                DcConfiguration {
+                    start_delay: Duration::from_millis(1),
+                    sync0_period: Duration::from_nanos(cycle_ns),
+                    sync0_shift: Duration::from_nanos(cycle_ns / 2),
+                },
+            )
+            .await
+            .map_err(|e| format!("DC: {e}"))?;
+        let refused = |step: &str, e: ethercrab::error::Error| {
+            let (status, code) = al_status(&board);
+            format!("{step} refused: {e} (AL status {status:#06x}, AL status code {code:#06x})")
+        };
+        let group = group
+            .into_safe_op(&md)
+            .await
+            .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
+        let group = group
+            .into_op(&md)
+            .await
+            .map_err(|e| refused("SAFE-OP -> OP", e))?;
+        phases.enter(board.borrow().now_ns(), "OP with process data");
+        for i in 0..WARM_UP_CYCLES + cycles + TAIL_CYCLES {
+            if i == WARM_UP_CYCLES {
+                before = Some(facts()?);
+                start = board.borrow().now_ns();
+                adc_violations = board.borrow().adc().borrow().cycle_violations;
+            }
+            let (a, b) = pair(i);
+            {
+                let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+                let mut o = sd.outputs_raw_mut();
+                o[0..2].copy_from_slice(&a.to_le_bytes());
+                o[2..4].copy_from_slice(&b.to_le_bytes());
+            }
+            let t0 = board.borrow().now_ns();
+            let resp = match group.tx_rx_dc(&md).await {
+                Ok(r) => r,
+                Err(e) => return Err(format!("cycle {i}: {e}")),
+            };
+            if !resp.all_op() {
+                let (status, code) = al_status(&board);
+                return Err(format!(
+                    "the slave left OP at cycle {i} (AL status {status:#06x}, AL status code \
+                     {code:#06x})"
+                ));
+            }
+            sent.push((t0, a, b));
+            if i >= WARM_UP_CYCLES {
+                let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+                let img = sd.inputs_raw();
+                let off = INPUTS_V.iter().enumerate().any(|(ch, v)| {
+                    let ai = i16::from_le_bytes([img[2 * ch], img[2 * ch + 1]]);
+                    (f64::from(ai) - v / 10.0 * 32768.0).abs() > 1.0
+                });
+                check.stale_inputs += u64::from(off);
+            }
+            step_to(&board, t0 + resp.extra.next_cycle_wait.as_nanos() as u64);
+        }
+        Ok::<(), String>(())
+    };
+    let result = futures_lite::future::block_on(futures_lite::future::or(
+        master,
+        tx_rx_task(board.clone(), tx, rx),
+    ));
+    let after = facts()?;
+    if let Some(f) = &after.fault {
+        check.failure = Some(format!("the image faulted: {f}"));
+    } else if !after.reports.is_empty() {
+        check.failure = Some(format!(
+            "a model reported a problem: {}",
+            after.reports[0].message
+        ));
+    } else if let Err(e) = result {
+        check.failure = Some(e);
+    }
+    if let Some(b) = &before {
+        judge(&board, &sent, start, adc_violations, b, &after, &mut check);
+    }
+    Ok(DcRun {
+        check,
+        before,
+        after,
+        phases,
+    })
+}
+
+/// The criteria over the judged cycles, from `start` on (the ADC model had counted
+/// `adc_violations` then).
+fn judge(
+    board: &Board,
+    sent: &[Sent],
+    start: u64,
+    adc_violations: u64,
+    before: &Facts,
+    after: &Facts,
+    check: &mut DcCheck,
+) {
+    let b = board.borrow();
+    let edges: Vec<u64> = b
+        .sync_edges
+        .iter()
+        .filter(|e| e.signal == SyncSignal::Sync0 && e.time_ns >= start)
+        .map(|e| e.time_ns)
+        .collect();
+    // Both channels loaded at the same instant: an LDAC edge (or a write-and-update-all).
+    let updates = b.dac().borrow().updates.clone();
+    let latches: Vec<(u64, u16, u16)> = updates
+        .windows(2)
+        .filter(|w| w[0].time_ns >= start && w[0].time_ns == w[1].time_ns)
+        .filter_map(|w| match (w[0].channel, w[1].channel) {
+            (0, 1) => Some((w[0].time_ns, w[0].code, w[1].code)),
+            (1, 0) => Some((w[0].time_ns, w[1].code, w[0].code)),
+            _ => None,
+        })
+        .collect();
+    let mut latencies = Vec::new();
+    let last_frame = sent.last().map_or(0, |s| s.0);
+    for pairs in edges.windows(2) {
+        let (edge, next) = (pairs[0], pairs[1]);
+        if edge > last_frame || check.edges == check.planned {
+            break;
+        }
+        check.edges += 1;
+        let Some(&(t, a, bb)) = latches.iter().find(|l| l.0 >= edge && l.0 < next) else {
+            check.missed_sync0 += 1;
+            continue;
+        };
+        latencies.push(t - edge);
+        let expected = sent
+            .iter()
+            .rev()
+            .find(|s| s.0 < edge)
+            .map(|s| (dac_code(s.1), dac_code(s.2)));
+        if expected != Some((a, bb)) {
+            check.stale_outputs += 1;
+        }
+    }
+    check.sync0_to_ldac = latency(&latencies);
+    check.lost_samples = (after.samples.lost - before.samples.lost)
+        + (after.ssp1_overruns - before.ssp1_overruns)
+        + (b.adc().borrow().cycle_violations - adc_violations);
+    let cycles = after.cycles - before.cycles;
+    let sleep = after.sleep_cycles - before.sleep_cycles;
+    check.cpu_load = 1.0 - sleep as f64 / cycles.max(1) as f64;
+}
+
+fn latency(ns: &[u64]) -> Latency {
+    if ns.is_empty() {
+        return Latency::default();
+    }
+    Latency {
+        count: ns.len() as u64,
+        min_ns: *ns.iter().min().expect("not empty"),
+        mean_ns: ns.iter().sum::<u64>() as f64 / ns.len() as f64,
+        max_ns: *ns.iter().max().expect("not empty"),
+    }
+}
+
+/// Exception number of the PDI task (EINT3, the ESC's IRQ line).
+pub const PDI_TASK: u32 = crate::nvic::exc::IRQ0 + crate::nvic::irq::EINT3;
+/// Exception number of the GPDMA interrupt (the sampler's half-ring count).
+pub const DMA_IRQ: u32 = crate::nvic::exc::IRQ0 + crate::nvic::irq::DMA;
+
+/// What the PDI task's cycles are spent on: (label, functions any of which in a code chain
+/// puts it there), checked in order. Calls out of line are chains of their own, so the ESC
+/// accesses of every caller count as ESC accesses.
+const PDI_WORK: [(&str, &[&str]); 6] = [
+    (
+        "ET1100 accesses (legacy SPI byte loop with its SPIF polling, chip select, et1100 driver)",
+        &["LegacySpi", "CsDevice", "et1100::", "EscPdi"],
+    ),
+    ("ADC ring drain", &["AdcSource::drain_into"]),
+    (
+        "inputs to SM3 (sampler publish, packing)",
+        &["write_inputs"],
+    ),
+    (
+        "mailbox (CoE, SDO server, SDO Information)",
+        &["mailbox", "Mailbox", "sdo_server", "coe_core::"],
+    ),
+    (
+        "outputs from SM2 (unpacking, staging)",
+        &["outputs", "Outputs"],
+    ),
+    ("time base", &["now_ns"]),
+];
+
+/// Cycles per [`PDI_WORK`] label (and "other") of `code` (chain, instructions), as shares.
+fn pdi_breakdown(facts: &Facts, code: impl Iterator<Item = (u32, u64)>) -> Vec<(String, f64)> {
+    let mut sums = vec![0u64; PDI_WORK.len() + 1];
+    for (chain, n) in code {
+        let names = facts.chain(chain);
+        let i = PDI_WORK
+            .iter()
+            .position(|(_, keys)| names.iter().any(|f| keys.iter().any(|k| f.contains(k))))
+            .unwrap_or(PDI_WORK.len());
+        sums[i] += n;
+    }
+    let total = sums.iter().sum::<u64>().max(1) as f64;
+    PDI_WORK
+        .iter()
+        .map(|(label, _)| *label)
+        .chain(["other (ESM, sync monitor, events, task glue)"])
+        .zip(sums)
+        .map(|(label, n)| (label.to_string(), n as f64 / total))
+        .collect()
+}
+
+/// (chain, instructions) that context `context` executed between `before` and `after`.
+fn code_between(before: &Facts, after: &Facts, context: u32) -> Vec<(u32, u64)> {
+    after
+        .code
+        .iter()
+        .filter(|c| c.context == context)
+        .map(|c| {
+            let earlier = before
+                .code
+                .iter()
+                .find(|b| b.context == context && b.chain == c.chain)
+                .map_or(0, |b| b.instructions);
+            (c.chain, c.instructions - earlier)
+        })
+        .filter(|(_, n)| *n > 0)
+        .collect()
+}
+
+fn own_cycles(facts: &Facts, n: u32) -> u64 {
+    facts.exception(n).map_or(0, |e| e.own_cycles)
+}
+
+/// The profile run: from reset with mailbox traffic, then `cycles` DC cycles at
+/// [`PROFILE_CYCLE_NS`]; and the CPU clock the image ran at (Hz).
+pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), String> {
+    let run = dc_run(image, PROFILE_CYCLE_NS, cycles, true)?;
+    if let Some(f) = &run.check.failure {
+        return Err(format!("the profile run failed: {f}"));
+    }
+    let before = run
+        .before
+        .as_ref()
+        .ok_or("the profile run reached no process data")?;
+    let after = &run.after;
+    let vectors: Vec<Vector> = after
+        .exceptions
+        .iter()
+        .map(|(n, name, e)| Vector {
+            number: *n,
+            name: if *n == THREAD {
+                "thread mode (init, idle)".into()
+            } else {
+                name.clone()
+            },
+            priority: after.priorities.iter().find(|p| p.0 == *n).map(|p| p.1),
+            activations: e.count,
+            mean_cycles: e.cycles as f64 / e.count.max(1) as f64,
+            max_cycles: e.max_cycles,
+            own_share: e.own_cycles as f64 / after.cycles.max(1) as f64,
+            max_stack: u64::from(e.max_stack),
+        })
+        .collect();
+    // Tasks of one priority level never nest; the levels can, on top of idle.
+    let mut levels: Vec<(u8, u64)> = Vec::new();
+    for v in &vectors {
+        if let Some(p) = v.priority {
+            match levels.iter_mut().find(|l| l.0 == p) {
+                Some(l) => l.1 = l.1.max(v.max_stack),
+                None => levels.push((p, v.max_stack)),
+            }
+        }
+    }
+    let init_stack = vectors.first().map_or(0, |v| v.max_stack);
+    let stack_bound = init_stack
+        .max(u64::from(after.thread_stack_with_tasks) + levels.iter().map(|l| l.1).sum::<u64>());
+    let cycles_window = (after.cycles - before.cycles).max(1) as f64;
+    let seconds = (after.time_ns - before.time_ns).max(1) as f64 * 1e-9;
+    let drain = |f: &Facts| f.cycles_in(None, |n| n.contains("AdcSource::drain_into"));
+    let dma_irq = own_cycles(after, DMA_IRQ) - own_cycles(before, DMA_IRQ);
+    let drain_cycles = drain(after) - drain(before);
+    let sampler = SamplerShare {
+        conversions_per_s: (after.traffic.adc_conversions - before.traffic.adc_conversions) as f64
+            / seconds,
+        dma_irq_cycles_per_s: dma_irq as f64 / seconds,
+        drain_cycles_per_s: drain_cycles as f64 / seconds,
+        share: (dma_irq + drain_cycles) as f64 / cycles_window,
+    };
+    let pdi = after.exception(PDI_TASK).ok_or("the PDI task never ran")?;
+    let profile = ProfileRun {
+        dc: run.check.clone(),
+        vectors,
+        deepest_stack: u64::from(after.stack_used),
+        stack_bound,
+        sampler,
+        pdi_task: pdi_breakdown(after, code_between(before, after, PDI_TASK).into_iter()),
+        pdi_longest: Longest {
+            cycles: pdi.max_cycles,
+            phase: run.phases.at(pdi.max_at_ns).to_string(),
+            work: pdi_breakdown(after, pdi.longest_code.iter().copied()),
+        },
+    };
+    Ok((profile, after.cclk_hz))
+}
+
+/// The shortest DC cycle the image sustains: from [`SWEEP_START_US`] down until a cycle is
+/// not sustained (or the firmware refuses it), then the gap to the last sustained one halved
+/// down to the plan's resolution.
+pub fn sweep(image: &Image, plan: &Plan, progress: &mut dyn FnMut(&DcCheck)) -> Sweep {
+    let mut points: Vec<DcCheck> = Vec::new();
+    let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| -> bool {
+        let check = match dc_run(image, cycle_ns, plan.sweep_cycles, false) {
+            Ok(r) => r.check,
+            Err(e) => DcCheck {
+                cycle_ns,
+                planned: plan.sweep_cycles,
+                failure: Some(e),
+                ..Default::default()
+            },
+        };
+        progress(&check);
+        let ok = check.sustained();
+        points.push(check);
+        ok
+    };
+    let mut good = None;
+    let mut bad = None;
+    for us in SWEEP_START_US {
+        if run(us * 1000, &mut points) {
+            good = Some(us * 1000);
+        } else {
+            bad = Some(us * 1000);
+            break;
+        }
+    }
+    if let (Some(mut g), Some(mut b)) = (good, bad) {
+        while g - b > plan.resolution_ns {
+            let mid = (g + b) / 2 / plan.resolution_ns * plan.resolution_ns;
+            let mid = mid.clamp(b + plan.resolution_ns, g - plan.resolution_ns);
+            if run(mid, &mut points) {
+                g = mid;
+            } else {
+                b = mid;
+            }
+        }
+    }
+    Sweep {
+        points,
+        method: format!(
+            "{} judged cycles per cycle time; from {} us down ({} us first, then halving the \
+             gap to {} us)",
+            plan.sweep_cycles,
+            SWEEP_START_US[0],
+            SWEEP_START_US
+                .iter()
+                .map(|u| u.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            plan.resolution_ns / 1000
+        ),
+    }
+}
+
+/// Everything `cargo xtask bench` takes from the image.
+pub fn measure(
+    image: &Image,
+    elf: &str,
+    quick: bool,
+    progress: &mut dyn FnMut(&str),
+) -> Result<ImageFigures, String> {
+    let plan = Plan::new(quick);
+    progress(&format!(
+        "profile run: mailbox traffic, then {} DC cycles of {} us",
+        plan.profile_cycles,
+        PROFILE_CYCLE_NS / 1000
+    ));
+    let (profile, cclk_hz) = profile_run(image, plan.profile_cycles)?;
+    let sweep = sweep(image, &plan, &mut |c| {
+        progress(&format!(
+            "cycle {:.1} us: {} (CPU load {:.1} %)",
+            c.cycle_ns as f64 / 1e3,
+            c.verdict(),
+            100.0 * c.cpu_load
+        ))
+    });
+    Ok(ImageFigures {
+        quick,
+        elf: elf.to_string(),
+        flash_bytes: image.flash_used as u64,
+        static_ram_bytes: u64::from(image.static_ram),
+        stack_bytes: u64::from(image.initial_sp().saturating_sub(crate::cpu::SRAM.0)),
+        cpi: (crate::machine::CPI_NUM, crate::machine::CPI_DEN),
+        cclk_hz,
+        profile,
+        sweep,
+    })
+}
+
+/// The figures as text, one line each.
+pub fn summary(f: &ImageFigures) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let us = |cycles: f64| cycles / f.cclk_hz as f64 * 1e6;
+    let _ = writeln!(
+        s,
+        "image {}: {} B flash, {} B static RAM, {} B stack; CPI {}/{} at {} MHz",
+        f.elf,
+        f.flash_bytes,
+        f.static_ram_bytes,
+        f.stack_bytes,
+        f.cpi.0,
+        f.cpi.1,
+        f.cclk_hz / 1_000_000
+    );
+    let p = &f.profile;
+    let _ = writeln!(
+        s,
+        "profile run, OP at {} us: {} ({} edges), CPU load {:.1} %",
+        p.dc.cycle_ns / 1000,
+        p.dc.verdict(),
+        p.dc.edges,
+        100.0 * p.dc.cpu_load
+    );
+    for v in &p.vectors {
+        let _ = writeln!(
+            s,
+            "  {:<26} prio {:>4}: {:>7} activations, entry..exit {:>6.0} cycles mean ({:.2} us), \
+             {:>6} max ({:.2} us); own {:>5.1} % of the CPU; stack {:>4} B",
+            format!("{} ({})", v.name, v.number),
+            v.priority.map_or("-".into(), |p| format!("{p:#04x}")),
+            v.activations,
+            v.mean_cycles,
+            us(v.mean_cycles),
+            v.max_cycles,
+            us(v.max_cycles as f64),
+            100.0 * v.own_share,
+            v.max_stack
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  stack: deepest seen {} B; bound (init, or idle + the deepest task of each priority level) {} B",
+        p.deepest_stack, p.stack_bound
+    );
+    let l = &p.dc.sync0_to_ldac;
+    let _ = writeln!(
+        s,
+        "  SYNC0 -> LDAC: {:.0} ns mean ({:.0} cycles), {} ns min, {} ns max ({:.0} cycles) over {} edges",
+        l.mean_ns,
+        l.mean_ns * f.cclk_hz as f64 / 1e9,
+        l.min_ns,
+        l.max_ns,
+        l.max_ns as f64 * f.cclk_hz as f64 / 1e9,
+        l.count
+    );
+    let a = &p.sampler;
+    let _ = writeln!(
+        s,
+        "  sampler: {:.1} kSPS, {:.2} % of the CPU (GPDMA interrupt {:.0} cycles/s, ring drain {:.0} cycles/s)",
+        a.conversions_per_s / 1e3,
+        100.0 * a.share,
+        a.dma_irq_cycles_per_s,
+        a.drain_cycles_per_s
+    );
+    let work = |w: &[(String, f64)]| {
+        w.iter()
+            .filter(|(_, x)| *x >= 0.005)
+            .map(|(l, x)| format!("{l} {:.0} %", 100.0 * x))
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let _ = writeln!(s, "  PDI task in OP: {}", work(&p.pdi_task));
+    let _ = writeln!(
+        s,
+        "  PDI task's longest activation: {} cycles, in {}: {}",
+        p.pdi_longest.cycles,
+        p.pdi_longest.phase,
+        work(&p.pdi_longest.work)
+    );
+    let _ = writeln!(s, "sweep ({}):", f.sweep.method);
+    for c in &f.sweep.points {
+        let _ = writeln!(
+            s,
+            "  {:>6.1} us: {} (CPU load {:.1} %, SYNC0 -> LDAC max {} ns)",
+            c.cycle_ns as f64 / 1e3,
+            c.verdict(),
+            100.0 * c.cpu_load,
+            c.sync0_to_ldac.max_ns
+        );
+    }
+    match f.sweep.shortest_sustained() {
+        Some(c) => {
+            let _ = writeln!(
+                s,
+                "shortest DC cycle sustained: {:.1} us{}",
+                c.cycle_ns as f64 / 1e3,
+                f.sweep.first_failing().map_or(String::new(), |b| format!(
+                    " ({:.1} us is not: {})",
+                    b.cycle_ns as f64 / 1e3,
+                    b.verdict()
+                ))
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "shortest DC cycle sustained: none of the cycle times tried"
+            );
+        }
+    }
+    s
+}

@@ -1,0 +1,279 @@
+//! The figures the LPC1754 co-simulator (`tests/cosim`, GPL-2.0) measures on the release
+//! image for `cargo xtask bench` (issue 12, section 3), as its `bench` command writes them
+//! (JSON) and xtask reads them. The format lives here, in the MIT/Apache virtual board, so
+//! xtask reads it without linking the co-simulator.
+//!
+//! The criteria of a sustained DC cycle are defined here, once ([`DcCheck::sustained`]).
+
+use serde::{Deserialize, Serialize};
+
+/// Everything `lpc1754-cosim bench` measured.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ImageFigures {
+    /// The short form (CI) rather than the full one.
+    pub quick: bool,
+    /// The ELF that ran.
+    pub elf: String,
+    /// Flash the ELF occupies (bytes, its loadable segments' end).
+    pub flash_bytes: u64,
+    /// Static RAM of the ELF (.data + .bss + .uninit, bytes).
+    pub static_ram_bytes: u64,
+    /// Stack the ELF leaves (the local SRAM below its initial SP, bytes).
+    pub stack_bytes: u64,
+    /// The time model: cycles per instruction as numerator and denominator.
+    pub cpi: (u64, u64),
+    /// CPU clock the image set up (Hz).
+    pub cclk_hz: u64,
+    /// The profile run: per task, the sampler, SYNC0 -> LDAC.
+    pub profile: ProfileRun,
+    /// The shortest DC cycle.
+    pub sweep: Sweep,
+}
+
+/// One run from reset: INIT -> PRE-OP, mailbox traffic (SDO uploads and downloads, SDO
+/// Information, a segmented upload), then INIT -> OP with DC SYNC0 and process data.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ProfileRun {
+    /// The OP part of the run.
+    pub dc: DcCheck,
+    /// Per exception (RTIC task) and thread mode, over the whole run.
+    pub vectors: Vec<Vector>,
+    /// Deepest stack seen over the whole run (the stack painted at power-on, bytes).
+    pub deepest_stack: u64,
+    /// The most the stack can need: init's (which runs with interrupts off), or idle's plus,
+    /// per priority level, the deepest stack of a task of that level (tasks of one level
+    /// never nest), whichever is more.
+    pub stack_bound: u64,
+    /// The AD7689 sampler's share of the CPU in the OP part.
+    pub sampler: SamplerShare,
+    /// The PDI task in the OP part: where its cycles go.
+    pub pdi_task: Vec<(String, f64)>,
+    /// The longest activation of the PDI task: when (phase of the run) and where its cycles
+    /// went.
+    pub pdi_longest: Longest,
+}
+
+/// One exception (an RTIC task's vector) or thread mode (number 0: init and idle).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Vector {
+    /// Exception number (16 + IRQ), 0 for thread mode.
+    pub number: u32,
+    /// Its name (LPC17xx vector table).
+    pub name: String,
+    /// NVIC priority byte (lower preempts); None for thread mode.
+    pub priority: Option<u8>,
+    /// Completed activations.
+    pub activations: u64,
+    /// Mean entry-to-exit cycles (exception entry and return included, nested preemptions
+    /// included).
+    pub mean_cycles: f64,
+    /// Longest entry-to-exit cycles.
+    pub max_cycles: u64,
+    /// Share of all cycles spent in its own code (nested preemptions excluded).
+    pub own_share: f64,
+    /// Deepest stack one activation used itself (bytes, its 32-byte exception frame and
+    /// alignment pad included).
+    pub max_stack: u64,
+}
+
+/// The AD7689 sampler's work on the CPU.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SamplerShare {
+    /// AD7689 conversions per second in the OP part.
+    pub conversions_per_s: f64,
+    /// Cycles per second of the GPDMA interrupt (entry to exit).
+    pub dma_irq_cycles_per_s: f64,
+    /// Cycles per second of the PDI task's drain of the ring (`AdcSource::drain_into`, with
+    /// what it inlines and calls).
+    pub drain_cycles_per_s: f64,
+    /// Both, as a share of the CPU's cycles.
+    pub share: f64,
+}
+
+/// The longest activation of a task.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Longest {
+    /// Its entry-to-exit cycles.
+    pub cycles: u64,
+    /// The phase of the run it fell in.
+    pub phase: String,
+    /// Where its own cycles went (label, share).
+    pub work: Vec<(String, f64)>,
+}
+
+/// SYNC0 edge -> LDAC falling edge (both DAC channels loaded together), per SYNC0 edge.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct Latency {
+    /// Edges measured.
+    pub count: u64,
+    /// Shortest (ns).
+    pub min_ns: u64,
+    /// Mean (ns).
+    pub mean_ns: f64,
+    /// Longest (ns).
+    pub max_ns: u64,
+}
+
+/// A DC cycle run with 2 AO + 8 AI, and the criteria it is judged by.
+///
+/// The master (ethercrab, in process) sends one frame per cycle with a new output pair (both
+/// channels change every cycle), SYNC0 lies half a cycle after the frame
+/// (`sync0_shift` = cycle / 2), and the ADC inputs are constants. Judged over the
+/// `cycles` cycles after the first SYNC0 edge in OP:
+/// - **missed SYNC0**: a SYNC0 edge after which no LDAC falling edge loads both DAC
+///   channels before the next edge;
+/// - **stale output**: a SYNC0 edge whose LDAC edge loads another pair than the one the last
+///   frame before the edge carried (too late for its edge: the pair comes one cycle late or
+///   never);
+/// - **lost sample**: an AD7689 result the GPDMA wrote into the ring and overwrote before the
+///   CPU read it, a frame lost to a full SSP1 RX FIFO, or two conversions closer than the
+///   ADC's tCYC;
+/// - and the slave stays in OP with the working counters right.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct DcCheck {
+    /// DC cycle (ns).
+    pub cycle_ns: u64,
+    /// Cycles the run was to judge.
+    pub planned: u64,
+    /// SYNC0 edges judged.
+    pub edges: u64,
+    /// See the type's documentation.
+    pub missed_sync0: u64,
+    /// See the type's documentation.
+    pub stale_outputs: u64,
+    /// See the type's documentation.
+    pub lost_samples: u64,
+    /// Cycles whose inputs were off the ADC model's constant inputs by more than 1 LSB (a
+    /// figure, not a criterion: inputs are read a cycle later than they are sampled).
+    pub stale_inputs: u64,
+    /// Why the run stopped early (the slave left OP, a frame failed, the image faulted, the
+    /// firmware refused the cycle), if it did.
+    pub failure: Option<String>,
+    /// CPU load over the judged cycles (cycles not asleep).
+    pub cpu_load: f64,
+    /// SYNC0 edge -> LDAC edge over the judged cycles.
+    pub sync0_to_ldac: Latency,
+}
+
+impl DcCheck {
+    /// No missed SYNC0, no stale output, no lost sample, no failure, over all planned cycles.
+    pub fn sustained(&self) -> bool {
+        self.failure.is_none()
+            && self.edges >= self.planned
+            && self.missed_sync0 == 0
+            && self.stale_outputs == 0
+            && self.lost_samples == 0
+    }
+
+    /// What broke, for a report ("sustained" when nothing did).
+    pub fn verdict(&self) -> String {
+        if let Some(f) = &self.failure {
+            return f.clone();
+        }
+        let mut why = Vec::new();
+        if self.edges < self.planned {
+            why.push(format!("{} of {} edges judged", self.edges, self.planned));
+        }
+        for (n, what) in [
+            (self.missed_sync0, "missed SYNC0"),
+            (self.stale_outputs, "stale outputs"),
+            (self.lost_samples, "lost samples"),
+        ] {
+            if n > 0 {
+                why.push(format!("{n} {what}"));
+            }
+        }
+        if why.is_empty() {
+            "sustained".into()
+        } else {
+            why.join(", ")
+        }
+    }
+}
+
+/// The cycle times tried, longest first, and what the shortest sustained one is.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct Sweep {
+    /// Every cycle time tried, in the order tried.
+    pub points: Vec<DcCheck>,
+    /// What the sweep covered (the short form checks one cycle time only).
+    pub method: String,
+}
+
+impl Sweep {
+    /// The shortest cycle time that was sustained, if any.
+    pub fn shortest_sustained(&self) -> Option<&DcCheck> {
+        self.points
+            .iter()
+            .filter(|p| p.sustained())
+            .min_by_key(|p| p.cycle_ns)
+    }
+
+    /// The longest cycle time that was not sustained and is shorter than every sustained
+    /// one (the bound from below), if any.
+    pub fn first_failing(&self) -> Option<&DcCheck> {
+        let best = self.shortest_sustained().map_or(u64::MAX, |p| p.cycle_ns);
+        self.points
+            .iter()
+            .filter(|p| !p.sustained() && p.cycle_ns < best)
+            .max_by_key(|p| p.cycle_ns)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(cycle_us: u64, missed: u64) -> DcCheck {
+        DcCheck {
+            cycle_ns: cycle_us * 1000,
+            planned: 100,
+            edges: 100,
+            missed_sync0: missed,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn every_criterion_breaks_a_cycle() {
+        assert!(point(50, 0).sustained());
+        assert_eq!(point(50, 0).verdict(), "sustained");
+        assert!(!point(50, 1).sustained());
+        let mut p = point(50, 0);
+        p.stale_outputs = 2;
+        assert!(!p.sustained());
+        assert_eq!(p.verdict(), "2 stale outputs");
+        let mut p = point(50, 0);
+        p.lost_samples = 1;
+        assert!(!p.sustained());
+        let mut p = point(50, 0);
+        p.edges = 99;
+        assert!(!p.sustained());
+        assert_eq!(p.verdict(), "99 of 100 edges judged");
+        let mut p = point(50, 0);
+        p.failure = Some("left OP".into());
+        assert!(!p.sustained());
+        // Inputs a cycle old are a figure, not a criterion.
+        let mut p = point(50, 0);
+        p.stale_inputs = 5;
+        assert!(p.sustained());
+    }
+
+    #[test]
+    fn the_sweep_reports_the_shortest_sustained_and_the_bound_below() {
+        let s = Sweep {
+            points: vec![
+                point(100, 0),
+                point(60, 0),
+                point(40, 3),
+                point(50, 0),
+                point(45, 1),
+            ],
+            method: String::new(),
+        };
+        assert_eq!(s.shortest_sustained().unwrap().cycle_ns, 50_000);
+        assert_eq!(s.first_failing().unwrap().cycle_ns, 45_000);
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<Sweep>(&json).unwrap(), s);
+    }
+}
