@@ -15,9 +15,10 @@ use crate::image::Image;
 use crate::profile::THREAD;
 use crate::run::image_target;
 use ethercrab::subdevice_group::DcConfiguration;
-use ethercrab::{std::ethercat_now, DcSync, MainDevice, MainDeviceConfig, PduStorage};
+use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage};
 use firmware::product::device::DEVICE;
 use firmware::product::od::MODULE_DESCRIPTION_INDEX;
+use firmware::product::sync::MIN_CYCLE_TIME_NS;
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Duration;
@@ -28,7 +29,7 @@ use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::rig::sdo_client::SdoClient;
 use virtual_board::tools::image_figures::{
-    DcCheck, ImageFigures, Latency, Longest, ProfileRun, SamplerShare, Sweep, Vector,
+    shares_text, DcCheck, ImageFigures, Latency, Longest, ProfileRun, SamplerShare, Sweep, Vector,
 };
 
 /// A board shared between the master's rig and the measurement.
@@ -50,12 +51,17 @@ pub const PROFILE_CYCLE_NS: u64 = virtual_board::tools::sim::DEFAULT_CYCLE_US as
 /// sustained and then halves the gap to the last sustained one.
 const SWEEP_START_US: [u64; 9] = [100, 80, 60, 50, 45, 40, 35, 30, 25];
 
+/// The shortest stretch a cycle time is judged over: longer than the firmware's slowest
+/// periodic work (the PDI task's safety service, every 100 ms), which a short run would
+/// never meet.
+const SWEEP_MIN_WINDOW_NS: u64 = 150_000_000;
+
 /// How much to run: the short form for CI, the full one for the README.
 #[derive(Clone, Copy, Debug)]
 pub struct Plan {
     /// Judged cycles of the profile run.
     pub profile_cycles: u64,
-    /// Judged cycles per cycle time of the sweep.
+    /// Judged cycles per cycle time of the sweep, at least (see [`Plan::sweep_cycles`]).
     pub sweep_cycles: u64,
     /// The sweep stops halving the gap below this (ns).
     pub resolution_ns: u64,
@@ -77,6 +83,13 @@ impl Plan {
                 resolution_ns: 1_000,
             }
         }
+    }
+
+    /// Judged cycles at `cycle_ns`: the plan's count, or more to span
+    /// [`SWEEP_MIN_WINDOW_NS`].
+    pub fn sweep_cycles(&self, cycle_ns: u64) -> u64 {
+        self.sweep_cycles
+            .max(SWEEP_MIN_WINDOW_NS.div_ceil(cycle_ns.max(1)))
     }
 }
 
@@ -171,6 +184,26 @@ fn dac_code(v: i16) -> u16 {
     (v as u16) << 1
 }
 
+/// Stops the DC unit's SYNC0 and starts it again at `cycle_ns`, 1 ms from now, at a whole
+/// number of cycles of system time (ETG.1020: 0x0981 off, cycle, start time, 0x0981 on).
+async fn restart_sync0<S>(
+    sd: &ethercrab::SubDeviceRef<'_, S>,
+    cycle_ns: u64,
+) -> Result<(), ethercrab::error::Error>
+where
+    S: std::ops::Deref<Target = ethercrab::SubDevice>,
+{
+    sd.register_write(regs::DC_ACTIVATION, 0u8).await?;
+    sd.register_write(regs::DC_SYNC0_CYCLE, cycle_ns as u32)
+        .await?;
+    let now: u64 = sd.register_read(regs::DC_SYSTEM_TIME).await?;
+    let start = (now + 1_000_000).div_ceil(cycle_ns) * cycle_ns;
+    sd.register_write(regs::DC_START_TIME, start).await?;
+    // Cyclic unit on, SYNC0 on.
+    sd.register_write(regs::DC_ACTIVATION, 0x03u8).await?;
+    Ok(())
+}
+
 /// Mailbox traffic in PRE-OP: SDO uploads and a download, SDO Information, a segmented upload.
 async fn mailbox_traffic<S>(sd: &ethercrab::SubDeviceRef<'_, S>) -> Result<(), String>
 where
@@ -237,8 +270,11 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
     let mut adc_violations = 0;
     let master = async {
         phases.enter(0, "boot and INIT -> PRE-OP");
+        // DC time from the board's clock, not the wall clock: the cycle's phase against the
+        // firmware's periodic work is then the same in every run.
+        let clock = board.borrow().clock().clone();
         let mut group = md
-            .init_single_group::<2, 64>(ethercat_now)
+            .init_single_group::<2, 64>(|| clock.now_ns())
             .await
             .map_err(|e| format!("INIT -> PRE-OP: {e}"))?;
         if mailbox {
@@ -254,13 +290,17 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
             .into_pre_op_pdi(&md)
             .await
             .map_err(|e| format!("process data: {e}"))?;
+        // The firmware refuses a SYNC0 cycle below its advertised minimum at PRE-OP ->
+        // SAFE-OP (0x0035); it reads the cycle there only. Below it, the check sees the
+        // minimum and the DC unit runs the cycle under test from SAFE-OP on.
+        let checked_ns = cycle_ns.max(u64::from(MIN_CYCLE_TIME_NS));
         let group = group
             .configure_dc_sync(
                 &md,
                 DcConfiguration {
                     start_delay: Duration::from_millis(1),
-                    sync0_period: Duration::from_nanos(cycle_ns),
-                    sync0_shift: Duration::from_nanos(cycle_ns / 2),
+                    sync0_period: Duration::from_nanos(checked_ns),
+                    sync0_shift: Duration::from_nanos(checked_ns / 2),
                 },
             )
             .await
@@ -273,6 +313,12 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
             .into_safe_op(&md)
             .await
             .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
+        if checked_ns != cycle_ns {
+            let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+            restart_sync0(&sd, cycle_ns)
+                .await
+                .map_err(|e| format!("SYNC0 reprogrammed to {cycle_ns} ns: {e}"))?;
+        }
         let group = group
             .into_op(&md)
             .await
@@ -313,7 +359,10 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
                 });
                 check.stale_inputs += u64::from(off);
             }
-            step_to(&board, t0 + resp.extra.next_cycle_wait.as_nanos() as u64);
+            // ethercrab paces by the cycle it configured; the SYNC0 edges run at `cycle_ns`
+            // from a start that is a whole number of cycles, half a cycle after the frame.
+            let phase = resp.extra.dc_system_time % cycle_ns;
+            step_to(&board, t0 + (cycle_ns - phase) + cycle_ns / 2);
         }
         Ok::<(), String>(())
     };
@@ -380,21 +429,18 @@ fn judge(
             break;
         }
         check.edges += 1;
-        let Some(&(t, a, bb)) = latches.iter().find(|l| l.0 >= edge && l.0 < next) else {
-            check.missed_sync0 += 1;
-            continue;
-        };
-        latencies.push(t - edge);
         let expected = sent
             .iter()
             .rev()
             .find(|s| s.0 < edge)
             .map(|s| (dac_code(s.1), dac_code(s.2)));
-        if expected != Some((a, bb)) {
-            check.stale_outputs += 1;
+        match latches.iter().find(|l| l.0 >= edge && l.0 < next) {
+            Some(&(t, a, bb)) if expected == Some((a, bb)) => latencies.push(t - edge),
+            _ => check.stale_outputs += 1,
         }
     }
     check.sync0_to_ldac = latency(&latencies);
+    check.missed_sync0 = after.sync0_unserved - before.sync0_unserved;
     check.lost_samples = (after.samples.lost - before.samples.lost)
         + (after.ssp1_overruns - before.ssp1_overruns)
         + (b.adc().borrow().cycle_violations - adc_violations);
@@ -487,6 +533,22 @@ fn own_cycles(facts: &Facts, n: u32) -> u64 {
     facts.exception(n).map_or(0, |e| e.own_cycles)
 }
 
+/// The RTIC task exception `n` (named `vector`) runs, from the image's debug information:
+/// RTIC's handler `VECTOR` calls `rtic_app::VECTOR::exec`, which inlines the task's function;
+/// thread mode runs `init` and `idle`.
+fn task_name(facts: &Facts, n: u32, vector: &str) -> Option<String> {
+    if n == THREAD {
+        return Some("init, idle".into());
+    }
+    let exec = format!("::{vector}::exec");
+    facts.code.iter().filter(|c| c.context == n).find_map(|c| {
+        let chain = facts.chain(c.chain);
+        let at = chain.iter().position(|f| f.ends_with(&exec))?;
+        let task = chain.get(at + 1)?;
+        Some(task.rsplit("::").next()?.to_string())
+    })
+}
+
 /// The profile run: from reset with mailbox traffic, then `cycles` DC cycles at
 /// [`PROFILE_CYCLE_NS`]; and the CPU clock the image ran at (Hz).
 pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), String> {
@@ -505,10 +567,11 @@ pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), Stri
         .map(|(n, name, e)| Vector {
             number: *n,
             name: if *n == THREAD {
-                "thread mode (init, idle)".into()
+                "thread mode".into()
             } else {
                 name.clone()
             },
+            task: task_name(after, *n, name),
             priority: after.priorities.iter().find(|p| p.0 == *n).map(|p| p.1),
             activations: e.count,
             mean_cycles: e.cycles as f64 / e.count.max(1) as f64,
@@ -561,15 +624,22 @@ pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), Stri
 
 /// The shortest DC cycle the image sustains: from [`SWEEP_START_US`] down until a cycle is
 /// not sustained (or the firmware refuses it), then the gap to the last sustained one halved
-/// down to the plan's resolution.
-pub fn sweep(image: &Image, plan: &Plan, progress: &mut dyn FnMut(&DcCheck)) -> Sweep {
+/// down to the plan's resolution; then `also_ns`, if given and not tried yet (a cycle time a
+/// caller's rule turns on).
+pub fn sweep(
+    image: &Image,
+    plan: &Plan,
+    also_ns: Option<u64>,
+    progress: &mut dyn FnMut(&DcCheck),
+) -> Sweep {
     let mut points: Vec<DcCheck> = Vec::new();
     let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| -> bool {
-        let check = match dc_run(image, cycle_ns, plan.sweep_cycles, false) {
+        let cycles = plan.sweep_cycles(cycle_ns);
+        let check = match dc_run(image, cycle_ns, cycles, false) {
             Ok(r) => r.check,
             Err(e) => DcCheck {
                 cycle_ns,
-                planned: plan.sweep_cycles,
+                planned: cycles,
                 failure: Some(e),
                 ..Default::default()
             },
@@ -600,12 +670,16 @@ pub fn sweep(image: &Image, plan: &Plan, progress: &mut dyn FnMut(&DcCheck)) -> 
             }
         }
     }
+    if let Some(ns) = also_ns.filter(|ns| !points.iter().any(|p| p.cycle_ns == *ns)) {
+        run(ns, &mut points);
+    }
     Sweep {
         points,
         method: format!(
-            "{} judged cycles per cycle time; from {} us down ({} us first, then halving the \
-             gap to {} us)",
+            "{} judged cycles per cycle time, at least {} ms; from {} us down ({} us first, then \
+             halving the gap to {} us)",
             plan.sweep_cycles,
+            SWEEP_MIN_WINDOW_NS / 1_000_000,
             SWEEP_START_US[0],
             SWEEP_START_US
                 .iter()
@@ -617,11 +691,13 @@ pub fn sweep(image: &Image, plan: &Plan, progress: &mut dyn FnMut(&DcCheck)) -> 
     }
 }
 
-/// Everything `cargo xtask bench` takes from the image.
+/// Everything `cargo xtask bench` takes from the image; `also_ns`: a cycle time the sweep
+/// tries too.
 pub fn measure(
     image: &Image,
     elf: &str,
     quick: bool,
+    also_ns: Option<u64>,
     progress: &mut dyn FnMut(&str),
 ) -> Result<ImageFigures, String> {
     let plan = Plan::new(quick);
@@ -631,7 +707,7 @@ pub fn measure(
         PROFILE_CYCLE_NS / 1000
     ));
     let (profile, cclk_hz) = profile_run(image, plan.profile_cycles)?;
-    let sweep = sweep(image, &plan, &mut |c| {
+    let sweep = sweep(image, &plan, also_ns, &mut |c| {
         progress(&format!(
             "cycle {:.1} us: {} (CPU load {:.1} %)",
             c.cycle_ns as f64 / 1e3,
@@ -642,7 +718,7 @@ pub fn measure(
     Ok(ImageFigures {
         quick,
         elf: elf.to_string(),
-        flash_bytes: image.flash_used as u64,
+        flash_bytes: u64::from(image.flash_bytes),
         static_ram_bytes: u64::from(image.static_ram),
         stack_bytes: u64::from(image.initial_sp().saturating_sub(crate::cpu::SRAM.0)),
         cpi: (crate::machine::CPI_NUM, crate::machine::CPI_DEN),
@@ -680,9 +756,14 @@ pub fn summary(f: &ImageFigures) -> String {
     for v in &p.vectors {
         let _ = writeln!(
             s,
-            "  {:<26} prio {:>4}: {:>7} activations, entry..exit {:>6.0} cycles mean ({:.2} us), \
+            "  {:<30} prio {:>4}: {:>7} activations, entry..exit {:>6.0} cycles mean ({:.2} us), \
              {:>6} max ({:.2} us); own {:>5.1} % of the CPU; stack {:>4} B",
-            format!("{} ({})", v.name, v.number),
+            format!(
+                "{} ({}, {})",
+                v.task.as_deref().unwrap_or("-"),
+                v.name,
+                v.number
+            ),
             v.priority.map_or("-".into(), |p| format!("{p:#04x}")),
             v.activations,
             v.mean_cycles,
@@ -718,20 +799,13 @@ pub fn summary(f: &ImageFigures) -> String {
         a.dma_irq_cycles_per_s,
         a.drain_cycles_per_s
     );
-    let work = |w: &[(String, f64)]| {
-        w.iter()
-            .filter(|(_, x)| *x >= 0.005)
-            .map(|(l, x)| format!("{l} {:.0} %", 100.0 * x))
-            .collect::<Vec<_>>()
-            .join("; ")
-    };
-    let _ = writeln!(s, "  PDI task in OP: {}", work(&p.pdi_task));
+    let _ = writeln!(s, "  PDI task in OP: {}", shares_text(&p.pdi_task));
     let _ = writeln!(
         s,
         "  PDI task's longest activation: {} cycles, in {}: {}",
         p.pdi_longest.cycles,
         p.pdi_longest.phase,
-        work(&p.pdi_longest.work)
+        shares_text(&p.pdi_longest.work)
     );
     let _ = writeln!(s, "sweep ({}):", f.sweep.method);
     for c in &f.sweep.points {

@@ -64,6 +64,8 @@ pub struct Facts {
     pub samples: SampleWatch,
     /// AD7689 frames lost to a full SSP1 RX FIFO.
     pub ssp1_overruns: u64,
+    /// SYNC0 edges captured by CAP1.0 whose capture the CPU never read before the next one.
+    pub sync0_unserved: u64,
     /// Problems the models reported.
     pub reports: Vec<Report>,
     /// The core's fault, if any.
@@ -377,6 +379,7 @@ impl Cosim {
             traffic: m.traffic.clone(),
             samples: m.ahb_sram.watch.clone(),
             ssp1_overruns: m.ssp1_overruns(),
+            sync0_unserved: m.sync0_unserved(),
             reports: m.reports.clone(),
             fault: self.core.fault.clone(),
             resets: self.core.resets.clone(),

@@ -5,7 +5,7 @@
 //! word at 0x2FC.
 
 use object::elf::PT_LOAD;
-use object::read::elf::{ElfFile32, ProgramHeader};
+use object::read::elf::{ElfFile32, ProgramHeader, SectionHeader};
 use object::{Endianness, Object, ObjectSection, ObjectSymbol};
 use std::fmt;
 use std::path::Path;
@@ -99,6 +99,9 @@ pub struct Image {
     pub functions: Vec<(u32, u32, String)>,
     /// Sizes of .data + .bss + .uninit in the local SRAM (static RAM).
     pub static_ram: u32,
+    /// Bytes the flash holds: the allocated sections with contents (vector table, CRP
+    /// word, code, read-only data, .data's initial values), gaps between them excluded.
+    pub flash_bytes: u32,
 }
 
 impl Image {
@@ -153,9 +156,19 @@ impl Image {
             .filter(|s| matches!(s.name(), Ok(".data" | ".bss" | ".uninit")))
             .map(|s| s.size() as u32)
             .sum();
+        let flash_bytes = elf
+            .elf_section_table()
+            .iter()
+            .filter(|h| {
+                h.sh_type(e) == object::elf::SHT_PROGBITS
+                    && h.sh_flags(e) & object::elf::SHF_ALLOC != 0
+            })
+            .map(|h| h.sh_size(e))
+            .sum();
         Ok(Self {
             flash,
             flash_used: used,
+            flash_bytes,
             rtt,
             elf: data,
             functions,
@@ -232,6 +245,7 @@ mod tests {
             elf: Vec::new(),
             functions: Vec::new(),
             static_ram: 0,
+            flash_bytes: 0,
         };
         for i in 0..7 {
             img.flash[4 * i..4 * i + 4].copy_from_slice(&(0x1000_0000u32 + i as u32).to_le_bytes());

@@ -348,6 +348,12 @@ impl Machine {
         self.cycle_ps = 1_000_000_000_000 / self.syscon.cclk_hz().max(1);
     }
 
+    /// SYNC0 captures (CAP1.0) overwritten by the next edge before the CPU read them: edges
+    /// the SYNC0 task never served.
+    pub fn sync0_unserved(&self) -> u64 {
+        self.timers[1].captures_unread[0]
+    }
+
     /// Frames SSP1 lost to a full RX FIFO.
     pub fn ssp1_overruns(&self) -> u64 {
         self.ssp1.overruns

@@ -43,32 +43,46 @@ enum Command {
         #[arg(long)]
         quick: bool,
         /// Write the figures as JSON to FILE (the format of
-        /// `virtual_board::tools::image_figures`).
+        /// `virtual_board::tools::image_figures`) instead of printing them as text.
         #[arg(long, value_name = "FILE")]
         json: Option<std::path::PathBuf>,
         /// Only judge this DC cycle (us), with the plan's cycles, and print the verdict.
         #[arg(long, value_name = "US")]
         cycle_us: Option<u64>,
+        /// Let the sweep try this DC cycle (us) too (the cycle a rule on its figure turns
+        /// on).
+        #[arg(long, value_name = "US")]
+        also_cycle_us: Option<u64>,
     },
 }
 
-fn bench(quick: bool, json: Option<&std::path::Path>, cycle_us: Option<u64>) -> Result<(), String> {
+fn bench(
+    quick: bool,
+    json: Option<&std::path::Path>,
+    cycle_us: Option<u64>,
+    also_cycle_us: Option<u64>,
+) -> Result<(), String> {
     let image = load_image()?;
     if let Some(us) = cycle_us {
         let plan = lpc1754_cosim::bench::Plan::new(quick);
-        let run = lpc1754_cosim::bench::dc_run(&image, us * 1000, plan.sweep_cycles, false)?;
+        let run =
+            lpc1754_cosim::bench::dc_run(&image, us * 1000, plan.sweep_cycles(us * 1000), false)?;
         println!("{us} us: {} ({:?})", run.check.verdict(), run.check);
         print!("{}", run.after.summary());
         return Ok(());
     }
     let elf = image_path().display().to_string();
-    let figures = lpc1754_cosim::bench::measure(&image, &elf, quick, &mut |line| {
+    let also_ns = also_cycle_us.map(|us| us * 1000);
+    let figures = lpc1754_cosim::bench::measure(&image, &elf, quick, also_ns, &mut |line| {
         eprintln!("[image bench] {line}")
     })?;
-    print!("{}", lpc1754_cosim::bench::summary(&figures));
-    if let Some(path) = json {
-        let text = serde_json::to_string_pretty(&figures).map_err(|e| e.to_string())?;
-        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    match json {
+        Some(path) => {
+            let text = serde_json::to_string_pretty(&figures).map_err(|e| e.to_string())?;
+            std::fs::write(path, text)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        }
+        None => print!("{}", lpc1754_cosim::bench::summary(&figures)),
     }
     Ok(())
 }
@@ -117,7 +131,8 @@ fn main() -> ExitCode {
             quick,
             json,
             cycle_us,
-        } => bench(quick, json.as_deref(), cycle_us),
+            also_cycle_us,
+        } => bench(quick, json.as_deref(), cycle_us, also_cycle_us),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -14,7 +14,8 @@ pub struct ImageFigures {
     pub quick: bool,
     /// The ELF that ran.
     pub elf: String,
-    /// Flash the ELF occupies (bytes, its loadable segments' end).
+    /// Flash the ELF occupies (bytes: its allocated sections with contents, as
+    /// `cargo xtask size` counts them).
     pub flash_bytes: u64,
     /// Static RAM of the ELF (.data + .bss + .uninit, bytes).
     pub static_ram_bytes: u64,
@@ -60,6 +61,8 @@ pub struct Vector {
     pub number: u32,
     /// Its name (LPC17xx vector table).
     pub name: String,
+    /// The RTIC task bound to it, as the image's debug information names it.
+    pub task: Option<String>,
     /// NVIC priority byte (lower preempts); None for thread mode.
     pub priority: Option<u8>,
     /// Completed activations.
@@ -119,12 +122,12 @@ pub struct Latency {
 /// The master (ethercrab, in process) sends one frame per cycle with a new output pair (both
 /// channels change every cycle), SYNC0 lies half a cycle after the frame
 /// (`sync0_shift` = cycle / 2), and the ADC inputs are constants. Judged over the
-/// `cycles` cycles after the first SYNC0 edge in OP:
-/// - **missed SYNC0**: a SYNC0 edge after which no LDAC falling edge loads both DAC
-///   channels before the next edge;
-/// - **stale output**: a SYNC0 edge whose LDAC edge loads another pair than the one the last
-///   frame before the edge carried (too late for its edge: the pair comes one cycle late or
-///   never);
+/// `cycles` SYNC0 edges after the first ones in OP:
+/// - **missed SYNC0**: an edge the SYNC0 task never served: its capture (CAP1.0 -> T1CR0)
+///   was overwritten by the next edge's before the CPU read it;
+/// - **stale output**: an edge after which both DAC channels were not loaded together, before
+///   the next edge, with the pair the last frame before the edge carried (the pair came too
+///   late for its edge, or never: the firmware had no fresh pair to latch, or latched another);
 /// - **lost sample**: an AD7689 result the GPDMA wrote into the ring and overwrote before the
 ///   CPU read it, a frame lost to a full SSP1 RX FIFO, or two conversions closer than the
 ///   ADC's tCYC;
@@ -189,6 +192,15 @@ impl DcCheck {
             why.join(", ")
         }
     }
+}
+
+/// (label, share) pairs as text, shares of at least 0.5 %: "label 58 %; other 10 %".
+pub fn shares_text(work: &[(String, f64)]) -> String {
+    work.iter()
+        .filter(|(_, x)| *x >= 0.005)
+        .map(|(l, x)| format!("{l} {:.0} %", 100.0 * x))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// The cycle times tried, longest first, and what the shortest sustained one is.
@@ -273,6 +285,8 @@ mod tests {
         };
         assert_eq!(s.shortest_sustained().unwrap().cycle_ns, 50_000);
         assert_eq!(s.first_failing().unwrap().cycle_ns, 45_000);
+        let work = [("SPI".to_string(), 0.581), ("tiny".to_string(), 0.004)];
+        assert_eq!(shares_text(&work), "SPI 58 %");
         let json = serde_json::to_string(&s).unwrap();
         assert_eq!(serde_json::from_str::<Sweep>(&json).unwrap(), s);
     }

@@ -33,8 +33,14 @@ pub struct Timer {
     held_tc: u32,
     pclk_hz: u64,
     dma_request: [bool; 2],
+    /// CRn holds a capture no read has taken yet.
+    cr_unread: [bool; 2],
     /// Matches fired, per MR.
     pub matches: [u64; 4],
+    /// Captures into CRn, per n.
+    pub captures: [u64; 2],
+    /// Captures overwritten by the next one before any read of CRn took them.
+    pub captures_unread: [u64; 2],
 }
 
 impl Timer {
@@ -167,6 +173,11 @@ impl Timer {
         let bits = self.ccr >> (3 * n);
         let edge = if rising { bits & 1 } else { bits & 2 };
         if edge != 0 {
+            self.captures[n] += 1;
+            if self.cr_unread[n] {
+                self.captures_unread[n] += 1;
+            }
+            self.cr_unread[n] = true;
             self.cr[n] = self.tc_at(t.now_ns);
             if bits & 4 != 0 {
                 self.ir |= 1 << (4 + n);
@@ -197,8 +208,11 @@ impl Peripheral for Timer {
             0x14 => self.mcr,
             0x18..=0x24 => self.mr[((offset - 0x18) / 4) as usize],
             0x28 => self.ccr,
-            0x2C => self.cr[0],
-            0x30 => self.cr[1],
+            0x2C | 0x30 => {
+                let n = ((offset - 0x2C) / 4) as usize;
+                self.cr_unread[n] = false;
+                self.cr[n]
+            }
             0x3C => self.emr,
             0x70 => self.ctcr,
             _ => 0,
@@ -331,6 +345,14 @@ mod tests {
         assert!(!tm.irq(), "falling edge not enabled");
         tm.capture(t(12_345), 0, true);
         assert_eq!(tm.read(t(20_000), 0x2C), 1234);
+        tm.capture(t(30_000), 0, true);
+        tm.capture(t(40_000), 0, true);
+        assert_eq!(
+            (tm.captures[0], tm.captures_unread[0]),
+            (3, 1),
+            "the second unread"
+        );
+        assert_eq!(tm.read(t(40_000), 0x2C), 4000);
         assert_eq!(tm.read(t(20_000), 0x00), 1 << 4);
         tm.write(t(20_000), 0x00, 1 << 4);
         let wrap = tm.next_event().unwrap();
