@@ -28,6 +28,13 @@ impl MinCycle {
         }
     }
 
+    /// The longest measured minimum cycle the product's advertised figure still covers with
+    /// its margin (whole us): the cycle time the measurement must sustain for the rule to hold.
+    pub fn product_allows_us() -> u64 {
+        let advertised = u64::from(MIN_CYCLE_TIME_NS) / 1000;
+        advertised * 100 / (100 + u64::from(MIN_CYCLE_MARGIN_PERCENT))
+    }
+
     /// The least the module may advertise: the measurement plus the margin.
     pub fn required_us(&self) -> f64 {
         self.measured_us * (1.0 + f64::from(self.margin_percent) / 100.0)
@@ -107,5 +114,9 @@ mod tests {
         let c = MinCycle::of_product(0.0);
         assert_eq!(c.advertised_us, f64::from(MIN_CYCLE_TIME_NS) / 1e3);
         assert_eq!(c.margin_percent, MIN_CYCLE_MARGIN_PERCENT);
+        // A measurement at the cycle the product allows keeps the rule; 1 us more breaks it.
+        let allows = MinCycle::product_allows_us() as f64;
+        assert!(!MinCycle::of_product(allows).too_low());
+        assert!(MinCycle::of_product(allows + 1.0).too_low());
     }
 }

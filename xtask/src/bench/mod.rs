@@ -8,9 +8,13 @@
 //! 4. Flash and static RAM of the release image, per crate (the `size` code).
 //! 5. ADC: conversions per second on the virtual board and the sampler's CPU share.
 //! 6. The thesis loop-back on the virtual board (amplitude error, THD), with a PNG plot.
+//! 7. The release image on the LPC1754 co-simulator ([`image_rows`]): the shortest DC cycle,
+//!    SYNC0 -> LDAC and the sampler's share (beside the formulas of 3 and 5, which they
+//!    supersede), per task cycles and stack, flash and RAM of the same ELF.
 
 mod advertised;
 mod cm3;
+mod image_rows;
 mod model;
 mod plot;
 mod report;
@@ -42,9 +46,10 @@ Needs qemu-system-arm (Debian package; `cargo xtask setup` installs it as root) 
 compiler (`cc`) for the instruction-counting plugin. Counts (instructions, bytes) are exact and
 repeat from run to run; times follow from them with the constants printed under the table.";
 
-/// DC cycle time of the process-data measurement and of the loop-back (the thesis requires
-/// 20 kHz = 50 us).
-const CYCLE_US: u32 = 50;
+/// DC cycle time of the process-data measurement and of the loop-back: the shortest the
+/// module accepts (its advertised minimum; the thesis asks for 20 kHz = 50 us, which the
+/// image does not sustain: group 3).
+const CYCLE_US: u32 = firmware::product::sync::MIN_CYCLE_TIME_NS / 1000;
 /// Loop-back frequencies (the thesis' 50, 500 and 1000 Hz).
 const FREQS_HZ: [f64; 3] = [50.0, 500.0, 1000.0];
 /// Periods shown per frequency in the plot.
@@ -82,28 +87,37 @@ pub fn run(args: &Args) -> Result {
     let plan = Plan::new(args.quick);
     let cycle_ns = u64::from(CYCLE_US) * 1000;
 
-    eprintln!("[bench] 1/6 PDI bus cost on the virtual board");
+    eprintln!("[bench] 1/7 PDI bus cost on the virtual board");
     let bus = bus_cost::measure(sim::firmware_target()?, cycle_ns, plan.pd_cycles)?;
-    eprintln!("[bench] 2/6 CPU cost on a Cortex-M3 (QEMU)");
+    eprintln!("[bench] 2/7 CPU cost on a Cortex-M3 (QEMU)");
     let cpu = cm3::measure(plan.qemu_runs)?;
-    eprintln!("[bench] 4/6 footprint of the release image");
+    eprintln!("[bench] 4/7 footprint of the release image");
     let footprint = footprint()?;
-    eprintln!("[bench] 5/6 ADC on the virtual board");
+    eprintln!("[bench] 5/7 ADC on the virtual board");
     let adc = adc_rate(plan.adc_ms)?;
-    eprintln!("[bench] 6/6 loop-back on the virtual board");
+    eprintln!("[bench] 6/7 loop-back on the virtual board");
     let sim = loopback(plan.loopback_s)?;
+    eprintln!("[bench] 7/7 the release image on the co-simulated LPC1754");
+    let on_image = image_rows::measure(args.quick, advertised::MinCycle::product_allows_us())?;
+    let image = image_rows::rows(&on_image);
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
     rows.extend(cpu_rows(&cpu));
     let derived = Derived::new(&bus, &cpu)?;
-    rows.extend(derived.rows());
-    let min_cycle = advertised::MinCycle::of_product(derived.cycle_us);
+    rows.extend(image.derived);
+    rows.extend(derived.rows().into_iter().map(Row::into_model));
+    let image_min_us = image_rows::min_cycle_us(&on_image)
+        .ok_or("the image sustains none of the DC cycle times tried: see group 7")?;
+    let min_cycle = advertised::MinCycle::of_product(image_min_us);
     rows.push(min_cycle.row());
     rows.extend(footprint.rows());
+    rows.extend(image.footprint);
     let adc_share = AdcShare::new(&cpu)?;
+    rows.extend(image.adc);
     rows.extend(adc_rows(&adc, &adc_share));
     rows.extend(loopback_rows(&sim)?);
+    rows.extend(image.tasks);
 
     let plot_path = args
         .plot
@@ -115,7 +129,8 @@ pub fn run(args: &Args) -> Result {
     }
     plot::write_png(&plot_path, &traces(&sim, plan.loopback_s)?)?;
 
-    let notes = notes(&bus, &cpu, &derived, &adc_share, &footprint);
+    let mut notes = notes(&bus, &cpu, &derived, &adc_share, &footprint);
+    notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
     println!("loop-back plot: {}", plot_path.display());
     if let Some(path) = &args.json {
@@ -722,7 +737,8 @@ fn adc_rows(rate: &AdcRate, share: &AdcShare) -> Vec<Row> {
                 ))
             },
         )
-        .with_number(100.0 * share.share, "%"),
+        .with_number(100.0 * share.share, "%")
+        .into_model(),
         Row::new(
             Group::Adc,
             "sampler CPU share at 250 kSPS, interrupt path (`adc-irq` build, F3-irq)".into(),
