@@ -94,8 +94,8 @@ mod runner {
     static IRQ_HALVES: HalfCounter = HalfCounter::new();
 
     fn run() -> Result<(), CheckFailed> {
-        // DC SYNC0 at 50 us, the cycle of the bench's bus-cost run.
-        let mut rig = Rig::new(50_000)?;
+        // DC SYNC0 at the module's shortest cycle, the cycle of the bench's bus-cost run.
+        let mut rig = Rig::new(firmware::product::sync::MIN_CYCLE_TIME_NS)?;
         for _ in 0..4 {
             rig.cycle()?;
         }

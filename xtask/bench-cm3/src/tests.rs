@@ -5,7 +5,7 @@ use firmware::app::sampler::SampleRing;
 use firmware::app::sync::SyncMode;
 
 fn rig() -> Rig {
-    let mut r = Rig::new(50_000).unwrap();
+    let mut r = Rig::new(firmware::product::sync::MIN_CYCLE_TIME_NS).unwrap();
     assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
     for _ in 0..4 {
         r.cycle().unwrap();
