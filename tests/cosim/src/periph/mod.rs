@@ -40,10 +40,34 @@ pub trait Peripheral {
 
 /// ns of `ticks` periods of a clock of `hz`, rounded up (the edge after).
 pub fn ticks_to_ns(ticks: u64, hz: u64) -> u64 {
-    (u128::from(ticks) * 1_000_000_000).div_ceil(u128::from(hz.max(1))) as u64
+    match ticks.checked_mul(1_000_000_000) {
+        Some(n) => n.div_ceil(hz.max(1)),
+        None => (u128::from(ticks) * 1_000_000_000).div_ceil(u128::from(hz.max(1))) as u64,
+    }
 }
 
 /// Whole periods of a clock of `hz` in `ns`.
 pub fn ns_to_ticks(ns: u64, hz: u64) -> u64 {
-    (u128::from(ns) * u128::from(hz) / 1_000_000_000) as u64
+    match ns.checked_mul(hz) {
+        Some(n) => n / 1_000_000_000,
+        None => (u128::from(ns) * u128::from(hz) / 1_000_000_000) as u64,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn conversions_round_as_stated_and_do_not_overflow() {
+        assert_eq!(ticks_to_ns(1, 100_000_000), 10);
+        assert_eq!(ticks_to_ns(1, 12_000_000), 84, "rounded up");
+        assert_eq!(ns_to_ticks(84, 12_000_000), 1, "whole periods");
+        // Beyond u64 in the intermediate product: the wide path.
+        assert_eq!(
+            ticks_to_ns(u64::MAX / 1_000, 1_000_000_000),
+            u64::MAX / 1_000
+        );
+        assert_eq!(ns_to_ticks(u64::MAX / 2, 4), (u64::MAX / 2) / 250_000_000);
+    }
 }

@@ -41,6 +41,8 @@ pub struct Timer {
     pub captures: [u64; 2],
     /// Captures overwritten by the next one before any read of CRn took them.
     pub captures_unread: [u64; 2],
+    /// [`Timer::next_match`] as of the last change (asked for after every access).
+    next: Option<(u64, u32)>,
 }
 
 impl Timer {
@@ -94,6 +96,15 @@ impl Timer {
 
     /// The next match instant, if running.
     fn next_match(&self) -> Option<(u64, u32)> {
+        self.next
+    }
+
+    /// Recomputes [`Timer::next_match`] after a change.
+    fn changed(&mut self) {
+        self.next = self.compute_next_match();
+    }
+
+    fn compute_next_match(&self) -> Option<(u64, u32)> {
         if !self.running() || self.pclk_hz == 0 {
             return None;
         }
@@ -113,13 +124,14 @@ impl Timer {
     }
 
     fn catch_up(&mut self, t: Tick) {
-        while let Some((at, tc)) = self.next_match() {
+        while let Some((at, tc)) = self.compute_next_match() {
             if at > t.now_ns {
                 break;
             }
             self.fire(at, tc);
         }
         self.rebase(t);
+        self.changed();
     }
 
     fn fire(&mut self, at: u64, tc: u32) {
@@ -270,6 +282,7 @@ impl Peripheral for Timer {
             0x70 => self.ctcr = value & 0xF,
             _ => {}
         }
+        self.changed();
     }
 
     fn next_event(&self) -> Option<u64> {
