@@ -18,41 +18,15 @@
 
 use ethercrab::std::{ethercat_now, tx_rx_task};
 use ethercrab::{MainDevice, MainDeviceConfig, PduStorage, Timeouts};
-use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::sii_builder::minimal_io_device;
-use virtual_board::tools::iface::{serve, RawSocket, ServeOptions};
+use virtual_board::tools::iface::{
+    ip, serve, veth_missing, veth_pair_in_new_namespace, RawSocket, ServeOptions,
+};
 use virtual_board::tools::sim::responder::EchoResponder;
-
-fn ip(args: &str) -> Result<(), String> {
-    let out = Command::new("ip")
-        .args(args.split_whitespace())
-        .output()
-        .map_err(|e| format!("ip: {e}"))?;
-    if out.status.success() {
-        Ok(())
-    } else {
-        Err(format!(
-            "`ip {args}` failed: {}",
-            String::from_utf8_lossy(&out.stderr).trim()
-        ))
-    }
-}
-
-/// Why the test cannot run here, if it cannot.
-fn missing() -> Option<String> {
-    // SAFETY: plain getter.
-    if unsafe { libc::geteuid() } != 0 {
-        return Some("not running as root".into());
-    }
-    if Command::new("ip").arg("-V").output().is_err() {
-        return Some("`ip` (iproute2) is not installed".into());
-    }
-    None
-}
 
 struct Outcome {
     frames: u64,
@@ -62,16 +36,7 @@ struct Outcome {
 }
 
 fn run_in_namespace() -> Result<Outcome, String> {
-    // SAFETY: affects only this thread (and threads it spawns from now on).
-    if unsafe { libc::unshare(libc::CLONE_NEWNET) } != 0 {
-        return Err(format!(
-            "cannot create a network namespace ({})",
-            std::io::Error::last_os_error()
-        ));
-    }
-    ip("link add vb0 type veth peer name vb1")?;
-    ip("link set vb0 up")?;
-    ip("link set vb1 up")?;
+    veth_pair_in_new_namespace("vb0", "vb1")?;
 
     let stop = Arc::new(AtomicBool::new(false));
     let board_stop = stop.clone();
@@ -173,7 +138,7 @@ fn run_in_namespace() -> Result<Outcome, String> {
 #[test]
 #[ignore = "needs root, iproute2 (ip) and tshark: `cargo xtask test` runs it as root"]
 fn ethercrab_drives_the_board_over_a_veth_pair() {
-    if let Some(why) = missing() {
+    if let Some(why) = veth_missing() {
         panic!("this test cannot run here: {why}");
     }
     let o = std::thread::spawn(run_in_namespace)

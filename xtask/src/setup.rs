@@ -22,11 +22,17 @@ pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "
 /// (libclang) at every build.
 pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
 
-/// Everything: targets, cargo tools and Debian packages.
+/// Python packages the system tests use: pysoem (SOEM's Python binding, a wheel with SOEM
+/// inside), the second EtherCAT master of the system tests on a veth pair. Pinned, so the test
+/// drives the SOEM it was written against.
+pub const PYTHON_PACKAGES: [(&str, &str); 1] = [("pysoem", "1.1.13")];
+
+/// Everything: targets, cargo tools, Debian and Python packages.
 pub fn all() -> Result {
     targets()?;
     flip_link()?;
     debian(&DEBIAN_PACKAGES);
+    python(&PYTHON_PACKAGES);
     cosim()
 }
 
@@ -40,6 +46,48 @@ pub fn cosim() -> Result {
             "the image co-simulator (tests/cosim) needs the Debian packages {COSIM_PACKAGES:?} to build"
         ))
     }
+}
+
+/// Installs Python packages (`name`, `version`) with pip when that version is not installed.
+/// Returns whether all of them are there afterwards; failing to install is not an error, the
+/// tests that need them say so.
+pub fn python(packages: &[(&str, &str)]) -> bool {
+    let installed = |name: &str, version: &str| {
+        Command::new("python3")
+            .args(["-m", "pip", "show", name])
+            .output()
+            .map(|o| {
+                o.status.success()
+                    && String::from_utf8_lossy(&o.stdout)
+                        .lines()
+                        .any(|l| l.trim() == format!("Version: {version}"))
+            })
+            .unwrap_or(false)
+    };
+    let missing: Vec<String> = packages
+        .iter()
+        .filter(|(n, v)| !installed(n, v))
+        .map(|(n, v)| format!("{n}=={v}"))
+        .collect();
+    if missing.is_empty() {
+        return true;
+    }
+    if !have("python3") {
+        eprintln!("note: Python packages {missing:?} are missing and python3 is not installed");
+        return false;
+    }
+    exec(
+        Command::new("python3")
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ])
+            .args(&missing),
+    )
+    .is_ok()
 }
 
 /// Adds the rustup targets (a no-op when present).

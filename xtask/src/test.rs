@@ -9,8 +9,13 @@ const CI_FUZZ_SECONDS: u32 = 30;
 
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
-/// The test ignored by default because it needs root (a network namespace, raw sockets).
-const ROOT_TEST: &str = "ethercrab_drives_the_board_over_a_veth_pair";
+/// The tests ignored by default because they need root (a network namespace, raw sockets):
+/// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, each
+/// on a veth pair.
+const ROOT_TESTS: [&str; 2] = [
+    "ethercrab_drives_the_board_over_a_veth_pair",
+    "pysoem_drives_the_image_over_a_veth_pair",
+];
 
 /// The `no_std` crates that must build for every embedded target.
 const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
@@ -93,7 +98,7 @@ pub fn run(args: &Args) -> Result {
 
 /// The tests ignored by default because they need what a developer's machine may lack:
 /// the capture checks (tshark, which the setup installs, so its absence is an error) and
-/// the network-interface test (root: run when this is root, else said loudly). The tests
+/// the network-interface tests (root: run when this is root, else said loudly). The tests
 /// that read the shared vectors beside the checkout show as ignored where they are absent
 /// and run with the others where they are present (`has_shared_vectors`).
 fn ignored_tests(image: &Path) -> Result {
@@ -116,9 +121,9 @@ fn ignored_tests(image: &Path) -> Result {
     ])
     .env("LPC1754_IMAGE", image);
     if setup::is_root() {
-        cmd.arg(ROOT_TEST);
+        cmd.args(ROOT_TESTS);
     } else {
-        eprintln!("NOT RUN (needs root): {ROOT_TEST}");
+        eprintln!("NOT RUN (needs root): {}", ROOT_TESTS.join(", "));
     }
     exec(&mut cmd)
 }

@@ -7,8 +7,10 @@
 //! ports 1..3 are closed. Frames the socket itself sent (`PACKET_OUTGOING`) are skipped.
 //!
 //! Virtual time follows the wall clock here: before each frame, and at least every
-//! [`ServeOptions::tick`], the board is stepped up to the time elapsed since the start,
-//! so SYNC0, the process-data watchdog and the ADC sampling run at real speed.
+//! [`ServeOptions::tick`], the board is stepped towards the time elapsed since the start
+//! (by at most one tick each time), so SYNC0, the process-data watchdog and the ADC sampling
+//! run at real speed; a board that cannot keep up runs slower and answers every frame all
+//! the same.
 //!
 //! Needs `CAP_NET_RAW` (root). Linux only.
 
@@ -283,10 +285,14 @@ pub fn serve(
             next_progress += opts.progress_every;
         }
         let got = sock.recv(&mut buf, opts.tick)?;
-        // Bring the board's virtual time up to the wall clock (never backwards).
+        // Bring the board's virtual time up to the wall clock (never backwards), by at most
+        // one tick per frame or wait: a board slower than real time (the image
+        // co-simulator on a busy machine) then runs slow instead of leaving the frames
+        // unanswered while it catches up.
         let wall = t0 + start.elapsed().as_nanos() as u64;
         if wall > board.now_ns() {
-            board.step(wall - board.now_ns());
+            let tick = opts.tick.as_nanos() as u64;
+            board.step((wall - board.now_ns()).min(tick.max(1)));
         }
         let Some(n) = got else { continue };
         let frame = &buf[..n];
@@ -303,6 +309,50 @@ pub fn serve(
         .borrow()
         .peek_u16(crate::models::esc::regs::AL_STATUS);
     Ok(stats)
+}
+
+/// Runs `ip ARGS` (iproute2).
+pub fn ip(args: &str) -> Result<(), String> {
+    let out = std::process::Command::new("ip")
+        .args(args.split_whitespace())
+        .output()
+        .map_err(|e| format!("ip: {e}"))?;
+    if out.status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "`ip {args}` failed: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        ))
+    }
+}
+
+/// Why a veth pair cannot be set up here (root, iproute2), if it cannot.
+pub fn veth_missing() -> Option<String> {
+    // SAFETY: plain getter.
+    if unsafe { libc::geteuid() } != 0 {
+        return Some("not running as root".into());
+    }
+    if std::process::Command::new("ip").arg("-V").output().is_err() {
+        return Some("`ip` (iproute2) is not installed".into());
+    }
+    None
+}
+
+/// Moves the calling thread (and the threads it spawns from then on) into a new network
+/// namespace and creates the veth pair `a` <-> `b` there, both up: nothing shows on the host,
+/// and the pair goes with the namespace when the thread ends. For tests (root).
+pub fn veth_pair_in_new_namespace(a: &str, b: &str) -> Result<(), String> {
+    // SAFETY: affects only this thread (and threads it spawns from now on).
+    if unsafe { libc::unshare(libc::CLONE_NEWNET) } != 0 {
+        return Err(format!(
+            "cannot create a network namespace ({})",
+            io::Error::last_os_error()
+        ));
+    }
+    ip(&format!("link add {a} type veth peer name {b}"))?;
+    ip(&format!("link set {a} up"))?;
+    ip(&format!("link set {b} up"))
 }
 
 static CTRL_C: AtomicBool = AtomicBool::new(false);
