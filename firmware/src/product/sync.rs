@@ -23,8 +23,9 @@ pub const SUPPORTED_MODES: u16 = 0x0007;
 /// The rule: at least the shortest DC cycle with 2 AO + 8 AI that the release image sustains
 /// on the co-simulated LPC1754 (`cargo xtask bench`, group 3: no missed SYNC0, no stale
 /// output, no lost sample), plus [`MIN_CYCLE_MARGIN_PERCENT`]. The bench prints the figure
-/// and fails when this constant is below it; re-run it after any change of the firmware or
-/// of the co-simulator's time model, and set the constant here.
+/// and fails when this constant is below it; after any change of the firmware or of the
+/// co-simulator's time model, `cargo xtask bench --min-cycle` runs that rule alone (and says
+/// when the constant could be lower): set the constant here.
 pub const MIN_CYCLE_TIME_NS: u32 = 100_000;
 /// Margin of [`MIN_CYCLE_TIME_NS`] over the measured minimum DC cycle, in percent: the
 /// measurement rests on a time model no board has confirmed (the co-simulator's flat cycles

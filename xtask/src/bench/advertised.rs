@@ -45,6 +45,19 @@ impl MinCycle {
         self.advertised_us < self.required_us()
     }
 
+    /// An error naming the constant to raise when the advertised figure is too low.
+    pub fn check(&self) -> crate::util::Result {
+        if self.too_low() {
+            return Err(format!(
+                "the advertised minimum cycle ({:.1} us, firmware::product::sync::MIN_CYCLE_TIME_NS) \
+                 is below the measured minimum DC cycle plus the margin ({:.1} us): see the table",
+                self.advertised_us,
+                self.required_us()
+            ));
+        }
+        Ok(())
+    }
+
     /// The smallest whole microsecond the rule allows.
     fn suggestion_us(&self) -> f64 {
         self.required_us().ceil()
