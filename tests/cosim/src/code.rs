@@ -7,6 +7,7 @@
 //! innermost (the source of the instruction) last; chains are interned and numbered.
 
 use crate::image::Image;
+use crate::thumb;
 use std::collections::HashMap;
 use std::rc::Rc;
 
@@ -110,6 +111,8 @@ pub struct Block {
     pub instructions: u64,
     /// (chain, instructions), in the order of the code.
     pub runs: Vec<(u32, u32)>,
+    /// How far SP goes below its value at the block's start while the block runs (bytes).
+    pub sp_dip: u32,
 }
 
 /// The blocks of an image, decoded once each: flash blocks in a table by address, others
@@ -156,6 +159,7 @@ impl Blocks {
     fn decode(&mut self, addr: u32, size: u32, code: &[u8]) -> Block {
         let mut block = Block {
             size,
+            sp_dip: thumb::deepest_below_start(code),
             ..Default::default()
         };
         let mut i = 0;
@@ -166,19 +170,9 @@ impl Blocks {
                 _ => block.runs.push((chain, 1)),
             }
             block.instructions += 1;
-            i += thumb_length(u16::from_le_bytes([code[i], code[i + 1]]));
+            i += thumb::length(u16::from_le_bytes([code[i], code[i + 1]]));
         }
         block
-    }
-}
-
-/// Bytes of the Thumb instruction whose first halfword is `hw`: 32-bit encodings start with
-/// 0b11101, 0b11110 or 0b11111.
-pub fn thumb_length(hw: u16) -> usize {
-    if hw >> 11 >= 0b11101 {
-        4
-    } else {
-        2
     }
 }
 
@@ -212,15 +206,7 @@ fn load_dwarf(elf: &[u8]) -> Option<addr2line::Context<Reader>> {
 
 #[cfg(test)]
 mod tests {
-    use super::{strip_hash, thumb_length};
-
-    #[test]
-    fn thumb_lengths() {
-        assert_eq!(thumb_length(0xBF30), 2, "wfi");
-        assert_eq!(thumb_length(0xF000), 4, "bl, first half");
-        assert_eq!(thumb_length(0xE92D), 4, "push.w");
-        assert_eq!(thumb_length(0xE7FE), 2, "b .");
-    }
+    use super::strip_hash;
 
     #[test]
     fn hashes_are_stripped() {

@@ -17,6 +17,7 @@
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
 //! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
 //! | [`profile`]  | cycles and stack per exception, instructions per function             |
+//! | [`thumb`]    | Thumb instruction length and how each moves SP                        |
 //! | [`bench`]    | the image's figures for `cargo xtask bench` (profile run, cycle sweep) |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 
@@ -32,3 +33,4 @@ pub mod periph;
 pub mod profile;
 pub mod rtt;
 pub mod run;
+pub mod thumb;

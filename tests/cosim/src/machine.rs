@@ -396,10 +396,11 @@ impl Machine {
     }
 
     /// A block of `size` bytes at `addr` is about to run with SP `sp`: its instructions are
-    /// counted and profiled. `bytes` reads its code when it is not in the image's flash.
+    /// counted and profiled, with the deepest SP it reaches. `bytes` reads its code when it is
+    /// not in the image's flash.
     pub fn run_block(&mut self, addr: u32, size: u32, sp: u32, bytes: impl FnOnce() -> Vec<u8>) {
         let b = self.blocks.get(addr, size, bytes);
-        self.profile.block(&b.runs, sp);
+        self.profile.block(&b.runs, sp.saturating_sub(b.sp_dip));
         let n = b.instructions;
         self.run_instructions(n);
     }

@@ -8,7 +8,9 @@
 //!   run's cycles.
 //! - Per activation: cycles from entry to return (nested preemptions included) and the stack
 //!   it used itself: SP before its frame was stacked minus the lowest SP seen while it was the
-//!   innermost exception (its frame included; what nested exceptions push is theirs).
+//!   innermost exception (its frame included; what nested exceptions push is theirs). The
+//!   lowest SP of a block is decoded from its instructions ([`crate::thumb`]), so a push
+//!   and pop within one block count too.
 //! - Per context and code chain ([`crate::code`]): instructions executed, so a function's
 //!   cycles can be told inlined or not.
 
@@ -101,7 +103,8 @@ impl Profile {
         self.sleep_cycles += cycles;
     }
 
-    /// A block of the current context ran: `runs` are (chain, instructions); `sp` is SP.
+    /// A block of the current context ran: `runs` are (chain, instructions); `sp` is the
+    /// deepest SP it reached.
     pub fn block(&mut self, runs: &[(u32, u32)], sp: u32) {
         if let Some(a) = self.active.last_mut() {
             a.code.extend_from_slice(runs);
