@@ -50,6 +50,9 @@ pub const PROFILE_CYCLE_NS: u64 = virtual_board::tools::sim::DEFAULT_CYCLE_US as
 /// Cycle times the sweep starts from, longest first; it stops at the first that is not
 /// sustained and then halves the gap to the last sustained one.
 const SWEEP_START_US: [u64; 9] = [100, 80, 60, 50, 45, 40, 35, 30, 25];
+/// Cycle times tried upwards, shortest first, when the first of [`SWEEP_START_US`] is not
+/// sustained (a firmware slower than the advertised minimum), until one is.
+const SWEEP_UP_US: [u64; 6] = [125, 150, 200, 300, 500, 1000];
 
 /// The shortest stretch a cycle time is judged over: longer than the firmware's slowest
 /// periodic work (the PDI task's safety service, every 100 ms), which a short run would
@@ -622,10 +625,45 @@ pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), Stri
     Ok((profile, after.cclk_hz))
 }
 
-/// The shortest DC cycle the image sustains: from [`SWEEP_START_US`] down until a cycle is
-/// not sustained (or the firmware refuses it), then the gap to the last sustained one halved
-/// down to the plan's resolution; then `also_ns`, if given and not tried yet (a cycle time a
-/// caller's rule turns on).
+/// The cycle times to try, in order, until the shortest sustained one is known to
+/// `resolution_ns`: from [`SWEEP_START_US`] down until a cycle is not sustained (or, when the
+/// first is not, up through [`SWEEP_UP_US`] until one is), then the gap between the two
+/// halved. `sustained` runs a cycle time (ns) and judges it.
+fn search(resolution_ns: u64, mut sustained: impl FnMut(u64) -> bool) {
+    let mut good = None;
+    let mut bad = None;
+    for us in SWEEP_START_US {
+        if sustained(us * 1000) {
+            good = Some(us * 1000);
+        } else {
+            bad = Some(us * 1000);
+            break;
+        }
+    }
+    if good.is_none() {
+        for us in SWEEP_UP_US {
+            if sustained(us * 1000) {
+                good = Some(us * 1000);
+                break;
+            }
+            bad = Some(us * 1000);
+        }
+    }
+    if let (Some(mut g), Some(mut b)) = (good, bad) {
+        while g - b > resolution_ns {
+            let mid = (g + b) / 2 / resolution_ns * resolution_ns;
+            let mid = mid.clamp(b + resolution_ns, g - resolution_ns);
+            if sustained(mid) {
+                g = mid;
+            } else {
+                b = mid;
+            }
+        }
+    }
+}
+
+/// The shortest DC cycle the image sustains, searched as [`search`] does; then `also_ns`, if
+/// given and not tried yet (a cycle time a caller's rule turns on).
 pub fn sweep(
     image: &Image,
     plan: &Plan,
@@ -649,46 +687,32 @@ pub fn sweep(
         points.push(check);
         ok
     };
-    let mut good = None;
-    let mut bad = None;
-    for us in SWEEP_START_US {
-        if run(us * 1000, &mut points) {
-            good = Some(us * 1000);
-        } else {
-            bad = Some(us * 1000);
-            break;
-        }
-    }
-    if let (Some(mut g), Some(mut b)) = (good, bad) {
-        while g - b > plan.resolution_ns {
-            let mid = (g + b) / 2 / plan.resolution_ns * plan.resolution_ns;
-            let mid = mid.clamp(b + plan.resolution_ns, g - plan.resolution_ns);
-            if run(mid, &mut points) {
-                g = mid;
-            } else {
-                b = mid;
-            }
-        }
-    }
+    search(plan.resolution_ns, |ns| run(ns, &mut points));
     if let Some(ns) = also_ns.filter(|ns| !points.iter().any(|p| p.cycle_ns == *ns)) {
         run(ns, &mut points);
     }
     Sweep {
         points,
         method: format!(
-            "{} judged cycles per cycle time, at least {} ms; from {} us down ({} us first, then \
-             halving the gap to {} us)",
+            "{} judged cycles per cycle time, at least {} ms; from {} us down ({} us first; up \
+             through {} us when {} us is not sustained; then halving the gap to {} us)",
             plan.sweep_cycles,
             SWEEP_MIN_WINDOW_NS / 1_000_000,
             SWEEP_START_US[0],
-            SWEEP_START_US
-                .iter()
-                .map(|u| u.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
+            list(&SWEEP_START_US),
+            list(&SWEEP_UP_US),
+            SWEEP_START_US[0],
             plan.resolution_ns / 1000
         ),
     }
+}
+
+/// "a, b, c".
+fn list(us: &[u64]) -> String {
+    us.iter()
+        .map(|u| u.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Everything `cargo xtask bench` takes from the image; `also_ns`: a cycle time the sweep
@@ -839,4 +863,49 @@ pub fn summary(f: &ImageFigures) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::search;
+
+    /// The cycle times [`search`] tries against a firmware that sustains `limit_ns` and more.
+    fn tried(limit_ns: u64, resolution_ns: u64) -> Vec<u64> {
+        let mut tried = Vec::new();
+        search(resolution_ns, |ns| {
+            tried.push(ns);
+            ns >= limit_ns
+        });
+        tried
+    }
+
+    fn shortest(tried: &[u64], limit_ns: u64) -> Option<u64> {
+        tried.iter().copied().filter(|&ns| ns >= limit_ns).min()
+    }
+
+    #[test]
+    fn down_from_the_start_then_halving_the_gap() {
+        let t = tried(82_000, 1_000);
+        assert_eq!(&t[..2], [100_000, 80_000]);
+        assert_eq!(shortest(&t, 82_000), Some(82_000));
+        assert!(t.contains(&81_000), "the cycle just below is tried: {t:?}");
+    }
+
+    #[test]
+    fn up_from_the_start_when_it_is_not_sustained() {
+        let t = tried(103_000, 1_000);
+        assert_eq!(&t[..2], [100_000, 125_000]);
+        assert_eq!(shortest(&t, 103_000), Some(103_000));
+        assert!(t.contains(&102_000), "{t:?}");
+        let t = tried(180_000, 5_000);
+        assert_eq!(&t[..4], [100_000, 125_000, 150_000, 200_000]);
+        assert_eq!(shortest(&t, 180_000), Some(180_000));
+    }
+
+    #[test]
+    fn nothing_sustained_ends_the_search() {
+        let t = tried(u64::MAX, 1_000);
+        assert_eq!(t.len(), 1 + super::SWEEP_UP_US.len());
+        assert_eq!(shortest(&t, u64::MAX), None);
+    }
 }
