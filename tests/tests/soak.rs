@@ -1,4 +1,4 @@
-//! SOAK TEST (issue 14 section 2): one million process-data cycles (100 us, in virtual
+//! SOAK TEST (issue 14 section 2): one million process-data cycles (fault_common::CYCLE, in virtual
 //! time) of the firmware's slave application on the virtual board, with the faults of the
 //! campaign injected at random between stretches of normal operation, seeded and
 //! reproducible. After every fault the master recovers the way masters do (acknowledge,

@@ -621,7 +621,7 @@ mod tests {
 
     #[test]
     fn requested_dc_needs_sync0_active() {
-        let mut i = dc(100_000);
+        let mut i = dc(MIN_CYCLE_TIME_NS);
         i.requested = Some(SyncMode::DcSync0);
         assert_eq!(check_sync(&i), Ok(SyncMode::DcSync0));
         i.dc_activation = SyncActivation::empty();
@@ -708,7 +708,7 @@ mod tests {
 
     #[test]
     fn input_mode_must_agree_on_dc() {
-        let mut i = dc(100_000);
+        let mut i = dc(MIN_CYCLE_TIME_NS);
         i.requested_inputs = Some(SyncMode::SmSync);
         assert_eq!(
             check_sync(&i),

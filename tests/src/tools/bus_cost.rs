@@ -477,6 +477,7 @@ pub fn measure(target: Target, cycle_ns: u64, cycles: u64) -> Result<BusReport, 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firmware::product::sync::MIN_CYCLE_TIME_NS;
 
     #[test]
     fn minimum_follows_the_spi_protocol() {
@@ -491,7 +492,7 @@ mod tests {
     #[test]
     fn firmware_costs_are_counted_and_consistent() {
         let target = crate::tools::sim::firmware_target().unwrap();
-        let r = measure(target, 100_000, 20).unwrap();
+        let r = measure(target, u64::from(MIN_CYCLE_TIME_NS), 20).unwrap();
         for c in &r.costs {
             assert!(c.transactions >= 1.0, "{}: no SPI traffic", c.name);
             let (a, w, rd, wr) = c.split;
@@ -522,7 +523,12 @@ mod tests {
             pd.accesses
         );
         // Reruns count the same bytes.
-        let again = measure(crate::tools::sim::firmware_target().unwrap(), 100_000, 20).unwrap();
+        let again = measure(
+            crate::tools::sim::firmware_target().unwrap(),
+            u64::from(MIN_CYCLE_TIME_NS),
+            20,
+        )
+        .unwrap();
         assert_eq!(r, again);
     }
 
@@ -531,7 +537,12 @@ mod tests {
     /// written as its frame and SM1's last byte (or the whole buffer when it fills it).
     #[test]
     fn segmented_upload_is_measured() {
-        let r = measure(crate::tools::sim::firmware_target().unwrap(), 100_000, 10).unwrap();
+        let r = measure(
+            crate::tools::sim::firmware_target().unwrap(),
+            u64::from(MIN_CYCLE_TIME_NS),
+            10,
+        )
+        .unwrap();
         assert!(r.not_measured.is_empty(), "{:?}", r.not_measured);
         let seg = r
             .costs
