@@ -10,6 +10,7 @@ use crate::image::{self, Crp, Usage, BUDGET};
 use crate::setup;
 use crate::util::{cargo, exec, root, Result};
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 /// The firmware's target triple.
 pub const TARGET: &str = "thumbv7m-none-eabi";
@@ -52,11 +53,6 @@ pub fn target_dir() -> PathBuf {
     }
 }
 
-/// Where the release ELF of the firmware lands.
-pub fn elf_path() -> PathBuf {
-    target_dir().join(TARGET).join("release").join(BIN)
-}
-
 pub fn run(args: &Args) -> Result {
     let out = build(args)?;
     print_usage(&out.usage);
@@ -84,20 +80,61 @@ pub fn check_budget(usage: &Usage) -> Result {
 
 /// Like [`build`] but without the budget verdict (for `size`, which reports first).
 pub fn build_unchecked(args: &Args) -> Result<Output> {
+    let elf = link(&Profile::default())?;
+    finish_unchecked(&elf, args.allow_crp)
+}
+
+/// Overrides of the release profile for one build (`cargo --config` values) and the target
+/// directory they build in: a build with other settings keeps its artifacts apart from the
+/// normal ones (`bench --opt-levels`).
+#[derive(Debug, Clone, Default)]
+pub struct Profile {
+    /// `--config` values, e.g. `profile.release.opt-level="s"`.
+    pub config: Vec<String>,
+    /// The target directory (`None`: [`target_dir`]).
+    pub target_dir: Option<PathBuf>,
+}
+
+impl Profile {
+    /// `cargo` with the overrides applied.
+    pub fn cargo(&self) -> Command {
+        let mut cmd = cargo();
+        if let Some(dir) = &self.target_dir {
+            cmd.env("CARGO_TARGET_DIR", dir);
+        }
+        cmd
+    }
+
+    /// The `--config` arguments.
+    pub fn config_args(&self) -> Vec<String> {
+        self.config
+            .iter()
+            .flat_map(|c| ["--config".to_string(), c.clone()])
+            .collect()
+    }
+
+    /// Where the release artifacts of `TARGET` land.
+    pub fn release_dir(&self) -> PathBuf {
+        self.target_dir
+            .clone()
+            .unwrap_or_else(target_dir)
+            .join(TARGET)
+            .join("release")
+    }
+}
+
+/// Compiles and links the firmware binary with `profile`; returns the ELF (not yet patched).
+pub fn link(profile: &Profile) -> Result<PathBuf> {
     setup::targets()?;
     setup::flip_link()?;
-    exec(cargo().args([
-        "build",
-        "--release",
-        "-p",
-        "firmware",
-        "--bin",
-        BIN,
-        "--target",
-        TARGET,
-    ]))?;
-    let elf = elf_path();
-    finish_unchecked(&elf, args.allow_crp)
+    exec(
+        profile
+            .cargo()
+            .args(["build", "--release", "-p", "firmware", "--bin", BIN])
+            .args(["--target", TARGET])
+            .args(profile.config_args()),
+    )?;
+    Ok(profile.release_dir().join(BIN))
 }
 
 /// The post-link steps on an existing ELF: checksum into the ELF and the BIN, BIN written

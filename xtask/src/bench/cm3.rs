@@ -3,8 +3,8 @@
 //! runs the program on QEMU's lm3s6965evb with `-icount shift=0` and pairs the plugin's
 //! per-region counts with the region names the program prints through semihosting.
 
-use crate::build::{target_dir, TARGET};
-use crate::util::{cargo, display, exec, have, root, Result};
+use crate::build::{target_dir, Profile, TARGET};
+use crate::util::{display, exec, have, root, Result};
 use object::{Object, ObjectSymbol};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -113,25 +113,28 @@ fn bench_target_dir() -> PathBuf {
     target_dir().join("bench")
 }
 
-/// Builds the program (release, thumbv7m-none-eabi). The workspace's target linker is the
-/// firmware's flip-link, which relocates the stack for the LPC1754's memory.x; this program
-/// has its own complete linker script, so it links with rust-lld directly.
-fn build_program() -> Result<PathBuf> {
-    exec(cargo().args([
-        "rustc",
-        "--quiet",
-        "--release",
-        "-p",
-        PACKAGE,
-        "--bin",
-        PACKAGE,
-        "--target",
-        TARGET,
-        "--",
-        "-C",
-        "linker=rust-lld",
-    ]))?;
-    Ok(target_dir().join(TARGET).join("release").join(PACKAGE))
+/// Builds the program (release, thumbv7m-none-eabi, with `profile`). The workspace's
+/// target linker is the firmware's flip-link, which relocates the stack for the LPC1754's
+/// memory.x; this program has its own complete linker script, so it links with rust-lld
+/// directly.
+fn build_program(profile: &Profile) -> Result<PathBuf> {
+    exec(
+        profile
+            .cargo()
+            .args([
+                "rustc",
+                "--quiet",
+                "--release",
+                "-p",
+                PACKAGE,
+                "--bin",
+                PACKAGE,
+            ])
+            .args(["--target", TARGET])
+            .args(profile.config_args())
+            .args(["--", "-C", "linker=rust-lld"]),
+    )?;
+    Ok(profile.release_dir().join(PACKAGE))
 }
 
 /// Builds the plugin with the system C compiler.
@@ -241,15 +244,16 @@ fn run_qemu(elf: &Path, plugin: &Path, markers: (u64, u64), n: usize) -> Result<
     Ok((console, counts))
 }
 
-/// Builds and runs the benchmark `runs` times; every run must count the same.
-pub fn measure(runs: usize) -> Result<CpuReport> {
+/// Builds (with `profile`) and runs the benchmark `runs` times; every run must count the
+/// same.
+pub fn measure(runs: usize, profile: &Profile) -> Result<CpuReport> {
     if !have(QEMU) {
         return Err(format!(
             "{QEMU} is not installed: the CPU figures need it (Debian package qemu-system-arm; \
              `cargo xtask setup` installs it when run as root)"
         ));
     }
-    let elf = build_program()?;
+    let elf = build_program(profile)?;
     let plugin = build_plugin()?;
     let markers = marker_addresses(&elf)?;
     let mut first: Option<(Vec<PathCount>, u64)> = None;

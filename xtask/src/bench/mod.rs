@@ -16,6 +16,7 @@ mod advertised;
 mod cm3;
 mod image_rows;
 mod model;
+mod opt_levels;
 mod plot;
 mod report;
 
@@ -45,6 +46,10 @@ pub struct Args {
     /// least figure the rule allows (no QEMU; with --quick the short sweep).
     #[arg(long)]
     pub min_cycle: bool,
+    /// Instead of the table: the release profile's optimisation levels compared (flash of
+    /// the image, cycle instructions, F1, SDO time per setting; builds seven times).
+    #[arg(long, conflicts_with_all = ["quick", "json", "plot"])]
+    pub opt_levels: bool,
 }
 
 const AFTER_HELP: &str = "\
@@ -93,13 +98,16 @@ pub fn run(args: &Args) -> Result {
     if args.min_cycle {
         return min_cycle_only(args.quick);
     }
+    if args.opt_levels {
+        return opt_levels::run();
+    }
     let plan = Plan::new(args.quick);
     let cycle_ns = u64::from(CYCLE_US) * 1000;
 
     eprintln!("[bench] 1/7 PDI bus cost on the virtual board");
     let bus = bus_cost::measure(sim::firmware_target()?, cycle_ns, plan.pd_cycles)?;
     eprintln!("[bench] 2/7 CPU cost on a Cortex-M3 (QEMU)");
-    let cpu = cm3::measure(plan.qemu_runs)?;
+    let cpu = cm3::measure(plan.qemu_runs, &build::Profile::default())?;
     eprintln!("[bench] 4/7 footprint of the release image");
     let footprint = footprint()?;
     eprintln!("[bench] 5/7 ADC on the virtual board");
