@@ -19,12 +19,10 @@
 //! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`cs_device`] | bus + GPIO chip select as `SpiDevice` (ET1100, AD5663)              |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
-//! | [`aeabi_mem`] | small AEABI memcpy/memclr in place of compiler-builtins' (flash)   |
 
 pub mod adc;
 #[cfg(not(feature = "adc-irq"))]
 pub mod adc_dma;
-pub mod aeabi_mem;
 pub mod board;
 pub mod clocks;
 pub mod crp;
