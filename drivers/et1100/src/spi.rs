@@ -58,13 +58,10 @@ fn address_phase(addr: u16, cmd: Command) -> ([u8; 3], usize) {
     }
 }
 
-/// Events from the MISO bytes of an address phase of `n` bytes (2 or 3).
-fn events_from(miso: &[u8]) -> AlEvents {
-    let mut b = [0u8; 4];
-    for (dst, src) in b.iter_mut().zip(miso.iter().take(3)) {
-        *dst = *src;
-    }
-    AlEvents::from_le_bytes(b)
+/// Events from the MISO bytes of an address phase (0x0220, 0x0221 and, after a third
+/// address byte, 0x0222; what was not clocked out reads as 0).
+fn events_from(miso: [u8; 3]) -> AlEvents {
+    AlEvents::from_le_bytes([miso[0], miso[1], miso[2], 0])
 }
 
 /// The ET1100 SPI PDI on an [`SpiDevice`] (SPI mode 3; the device owns SPI_SEL).
@@ -100,12 +97,12 @@ impl<SPI: SpiDevice> Pdi for SpiPdi<SPI> {
     fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<AlEvents, Error<SPI::Error>> {
         check_range(addr, buf.len())?;
         let (a, n) = address_phase(addr, Command::Read);
-        let mut tx = [0u8; 4];
-        tx[..3].copy_from_slice(&a);
-        tx[n] = WAIT;
+        // The wait byte follows the address: at index 2 after a 2-byte address phase (the
+        // third address byte is not sent then), at index 3 after a 3-byte one.
+        let tx = [a[0], a[1], if n == 2 { WAIT } else { a[2] }, WAIT];
         let mut rx = [0u8; 4];
-        buf.fill(0x00);
-        if let Some(last) = buf.last_mut() {
+        if let Some((last, data)) = buf.split_last_mut() {
+            data.fill(0x00);
             *last = WAIT;
         }
         self.spi
@@ -114,7 +111,11 @@ impl<SPI: SpiDevice> Pdi for SpiPdi<SPI> {
                 Operation::TransferInPlace(buf),
             ])
             .map_err(Error::Bus)?;
-        Ok(events_from(&rx[..n]))
+        Ok(events_from(if n == 2 {
+            [rx[0], rx[1], 0]
+        } else {
+            [rx[0], rx[1], rx[2]]
+        }))
     }
 
     /// One transaction: `Transfer(address)`, then `Write(data)`.
@@ -128,7 +129,7 @@ impl<SPI: SpiDevice> Pdi for SpiPdi<SPI> {
                 Operation::Write(data),
             ])
             .map_err(Error::Bus)?;
-        Ok(events_from(&rx[..n]))
+        Ok(events_from(rx))
     }
 
     /// One transaction: a 3-byte NOP (`00 06 00`), so all of 0x0220..0x0222 are returned.
@@ -138,7 +139,7 @@ impl<SPI: SpiDevice> Pdi for SpiPdi<SPI> {
         self.spi
             .transaction(&mut [Operation::Transfer(&mut rx, &tx)])
             .map_err(Error::Bus)?;
-        Ok(events_from(&rx))
+        Ok(events_from(rx))
     }
 
     /// A 2-byte NOP (address 0, command 000): two bytes on the bus instead of three.
@@ -148,7 +149,7 @@ impl<SPI: SpiDevice> Pdi for SpiPdi<SPI> {
         self.spi
             .transaction(&mut [Operation::Transfer(&mut rx, &tx)])
             .map_err(Error::Bus)?;
-        Ok(events_from(&rx))
+        Ok(events_from([rx[0], rx[1], 0]))
     }
 }
 

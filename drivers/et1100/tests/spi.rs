@@ -100,6 +100,24 @@ fn write_two_byte_addressing() {
 }
 
 #[test]
+fn events_come_from_the_address_bytes_only() {
+    // A 2-byte read clocks the wait byte at the third position: its MISO (0xFF here) is
+    // not 0x0222. A 2-byte write has no third byte: 0x0222 reads as 0. A 3-byte write
+    // returns 0x0222 in its third address byte.
+    let mut e = esc(&[
+        rd(&[0x88, 0x03], &[0x01, 0x02], &[7, 8, 9]),
+        wr(&[0x8C, 0x04], &[0x03, 0x04], &[5, 6]),
+        wr(&[0x10, 0x06, 0x50], &[0x05, 0x06, 0x07], &[1]),
+    ]);
+    let mut three = [0u8; 3];
+    assert_eq!(e.read(0x1100, &mut three).unwrap().bits(), 0x0201);
+    assert_eq!(three, [7, 8, 9]);
+    assert_eq!(e.write(0x1180, &[5, 6]).unwrap().bits(), 0x0403);
+    assert_eq!(e.write(0x4200, &[1]).unwrap().bits(), 0x0007_0605);
+    done(e);
+}
+
+#[test]
 fn nop_returns_all_event_bytes() {
     let mut e = esc(&[vec![
         T::transaction_start(),
