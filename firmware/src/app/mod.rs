@@ -633,9 +633,10 @@ impl SlaveApp {
     /// of the write (`None` if nothing was written).
     fn write_inputs<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<Option<AlEvents>, P> {
         self.data.sampler.publish();
+        let ao = self.data.outputs.values();
         let values = SlotValues {
-            ai: self.data.sampler.values(),
-            ao: self.data.outputs.values(),
+            ai_codes: self.data.sampler.codes(),
+            ao: &ao,
             error_register: self.data.diag.register(),
         };
         let start = self.config.sm[3].start;

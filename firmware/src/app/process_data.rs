@@ -17,6 +17,7 @@
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
 use super::entry_bytes::{channel, put};
+use super::scaling::adc_code_to_ai;
 use crate::product::capacity::{
     AI_CHANNELS, AO_CHANNELS, MAX_FIELDS, MAX_IMAGE, PDO_ENTRIES, RX_PDOS, TX_PDOS,
 };
@@ -96,13 +97,15 @@ impl FastImage {
     }
 }
 
-/// The values a [`Slot`] names, for one cycle.
+/// The values a [`Slot`] names, for one cycle (borrowed: packing copies each value once,
+/// straight into the image).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SlotValues {
-    /// Published analog inputs.
-    pub ai: [i16; AI_CHANNELS],
+pub struct SlotValues<'a> {
+    /// Published analog-input conversion codes (the 0x6401 values are
+    /// [`adc_code_to_ai`] of them).
+    pub ai_codes: &'a [u16; AI_CHANNELS],
     /// Analog outputs.
-    pub ao: [i16; AO_CHANNELS],
+    pub ao: &'a [i16; AO_CHANNELS],
     /// Error register (0x1001).
     pub error_register: u8,
 }
@@ -354,8 +357,8 @@ impl ProcessData {
         let n = self.tx_layout.byte_len().min(MAX_IMAGE);
         let Some(plan) = &self.tx_fast else {
             let mut source = TxSource {
-                ai: values.ai,
-                ao: values.ao,
+                ai: values.ai_codes.map(adc_code_to_ai),
+                ao: *values.ao,
                 error_register: values.error_register,
             };
             return self.pack(&mut source);
@@ -363,8 +366,11 @@ impl ProcessData {
         let image = self.inputs.get_mut(..n).unwrap_or(&mut []);
         for &(offset, slot) in plan.fields() {
             let o = usize::from(offset);
-            let bytes = match slot {
-                Slot::Ai(i) => values.ai.get(usize::from(i)).copied().unwrap_or(0),
+            let value = match slot {
+                Slot::Ai(i) => values
+                    .ai_codes
+                    .get(usize::from(i))
+                    .map_or(0, |c| adc_code_to_ai(*c)),
                 Slot::Ao(i) => values.ao.get(usize::from(i)).copied().unwrap_or(0),
                 Slot::ErrorRegister => {
                     if let Some(b) = image.get_mut(o) {
@@ -372,10 +378,9 @@ impl ProcessData {
                     }
                     continue;
                 }
-            }
-            .to_le_bytes();
+            };
             if let Some(dst) = image.get_mut(o..o + 2) {
-                dst.copy_from_slice(&bytes);
+                dst.copy_from_slice(&value.to_le_bytes());
             }
         }
         Ok(image)
@@ -516,15 +521,15 @@ mod tests {
     }
 
     const VALUES: SlotValues = SlotValues {
-        ai: [0x0102, -2, 0x0304, 4, 5, 6, 7, -0x0708],
-        ao: [0x1122, -0x3344],
+        ai_codes: &[0x0204, 0xFFFC, 0x0608, 8, 10, 12, 14, 0xF0F0],
+        ao: &[0x1122, -0x3344],
         error_register: 0x81,
     };
 
     fn generic_pack(pd: &mut ProcessData) -> Vec<u8> {
         let mut source = TxSource {
-            ai: VALUES.ai,
-            ao: VALUES.ao,
+            ai: VALUES.ai_codes.map(adc_code_to_ai),
+            ao: *VALUES.ao,
             error_register: VALUES.error_register,
         };
         pd.pack(&mut source).unwrap().to_vec()
@@ -550,7 +555,7 @@ mod tests {
             &[(0, Slot::Ai(7)), (2, Slot::ErrorRegister), (4, Slot::Ai(0))]
         );
         let fast = pd.pack_values(&VALUES).unwrap().to_vec();
-        assert_eq!(fast, [0xF8, 0xF8, 0x81, 0, 0x02, 0x01]);
+        assert_eq!(fast, [0x78, 0x78, 0x81, 0, 0x02, 0x01]);
         assert_eq!(fast, generic_pack(&mut pd));
 
         pd.output_image_mut()

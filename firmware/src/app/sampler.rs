@@ -169,21 +169,20 @@ impl<const N: usize> SampleConsumer<'_, N> {
     }
 }
 
-#[derive(Debug, Clone, Copy, Default)]
-struct Channel {
-    latest: u16,
-    sum: u64,
-    count: u32,
-    published: u16,
-}
-
-/// Per-channel accumulation over one cycle and the published values.
+/// Per-channel accumulation over one cycle and the published values. One array per
+/// quantity, so a publish copies and clears whole arrays.
 #[derive(Debug, Clone, Default)]
 pub struct Sampler {
-    channels: [Channel; CHANNELS],
-    /// Whole scans added since the last publish: one count for all channels (each channel's
-    /// own `count` holds only its single samples), which saves a count per code.
+    latest: [u16; CHANNELS],
+    sums: [u64; CHANNELS],
+    /// Single samples per channel since the last publish (whole scans are in `scans`).
+    counts: [u32; CHANNELS],
+    /// Additions of single samples (or short scans) since the last publish: `counts` holds
+    /// only zeros while this is 0.
+    singles: u32,
+    /// Whole scans added since the last publish: one count for all channels.
     scans: u32,
+    published: [u16; CHANNELS],
     mode: PublishMode,
     rejected: u32,
     received: u32,
@@ -193,13 +192,12 @@ impl Sampler {
     /// A sampler with every value at 0 and the given mode.
     pub const fn new(mode: PublishMode) -> Self {
         Self {
-            channels: [Channel {
-                latest: 0,
-                sum: 0,
-                count: 0,
-                published: 0,
-            }; CHANNELS],
+            latest: [0; CHANNELS],
+            sums: [0; CHANNELS],
+            counts: [0; CHANNELS],
+            singles: 0,
             scans: 0,
+            published: [0; CHANNELS],
             mode,
             rejected: 0,
             received: 0,
@@ -219,14 +217,20 @@ impl Sampler {
     /// Adds one sample to its channel's accumulator. A sample for a channel outside 0..=7 is
     /// counted as rejected and otherwise ignored.
     pub fn add(&mut self, sample: Sample) {
-        match self.channels.get_mut(usize::from(sample.channel)) {
-            Some(ch) => {
-                ch.latest = sample.code;
-                ch.sum = ch.sum.saturating_add(u64::from(sample.code));
-                ch.count = ch.count.saturating_add(1);
+        let ch = usize::from(sample.channel);
+        match (
+            self.latest.get_mut(ch),
+            self.sums.get_mut(ch),
+            self.counts.get_mut(ch),
+        ) {
+            (Some(latest), Some(sum), Some(count)) => {
+                *latest = sample.code;
+                *sum = sum.saturating_add(u64::from(sample.code));
+                *count = count.saturating_add(1);
+                self.singles = self.singles.saturating_add(1);
                 self.received = self.received.wrapping_add(1);
             }
-            None => self.rejected = self.rejected.saturating_add(1),
+            _ => self.rejected = self.rejected.saturating_add(1),
         }
     }
 
@@ -238,17 +242,20 @@ impl Sampler {
     #[inline]
     pub fn add_scan(&mut self, codes: impl IntoIterator<Item = u16>) {
         let mut n = 0;
-        for (ch, code) in self.channels.iter_mut().zip(codes) {
-            ch.latest = code;
-            ch.sum = ch.sum.wrapping_add(u64::from(code));
+        for code in codes.into_iter().take(CHANNELS) {
+            if let (Some(latest), Some(sum)) = (self.latest.get_mut(n), self.sums.get_mut(n)) {
+                *latest = code;
+                *sum = sum.wrapping_add(u64::from(code));
+            }
             n += 1;
         }
         if n == CHANNELS {
             self.scans = self.scans.saturating_add(1);
         } else {
-            for ch in self.channels.iter_mut().take(n) {
-                ch.count = ch.count.saturating_add(1);
+            for count in self.counts.iter_mut().take(n) {
+                *count = count.saturating_add(1);
             }
+            self.singles = self.singles.saturating_add(1);
         }
         self.received = self.received.wrapping_add(n as u32);
     }
@@ -263,28 +270,45 @@ impl Sampler {
     /// Ends the cycle: every channel with new samples publishes its latest or averaged code
     /// and starts a new accumulation; channels without new samples keep their value.
     pub fn publish(&mut self) {
-        let mode = self.mode;
         let scans = core::mem::take(&mut self.scans);
-        for ch in &mut self.channels {
-            let n = ch.count.saturating_add(scans);
-            if n == 0 {
-                continue;
-            }
-            ch.published = match mode {
-                PublishMode::Latest => ch.latest,
-                PublishMode::Average => {
-                    let rounded = ch.sum.saturating_add(u64::from(n / 2));
-                    u16::try_from(div_u64_u32(rounded, n)).unwrap_or(u16::MAX)
+        let singles = core::mem::take(&mut self.singles) != 0;
+        match self.mode {
+            // Every channel has a sample when a whole scan came in.
+            PublishMode::Latest if scans != 0 => self.published = self.latest,
+            PublishMode::Latest => {
+                for i in 0..CHANNELS {
+                    if self.counts[i] != 0 {
+                        self.published[i] = self.latest[i];
+                    }
                 }
-            };
-            ch.sum = 0;
-            ch.count = 0;
+            }
+            PublishMode::Average => {
+                for i in 0..CHANNELS {
+                    let n = self.counts[i].saturating_add(scans);
+                    if n != 0 {
+                        let rounded = self.sums[i].saturating_add(u64::from(n / 2));
+                        self.published[i] =
+                            u16::try_from(div_u64_u32(rounded, n)).unwrap_or(u16::MAX);
+                    }
+                }
+            }
+        }
+        // A channel without samples since the last publish has a zero sum and count
+        // already, so clearing all of them is the same as clearing those that published.
+        self.sums = [0; CHANNELS];
+        if singles {
+            self.counts = [0; CHANNELS];
         }
     }
 
     /// The published conversion code of `channel` (0..=7; `None` otherwise).
     pub fn code(&self, channel: usize) -> Option<u16> {
-        self.channels.get(channel).map(|c| c.published)
+        self.published.get(channel).copied()
+    }
+
+    /// The published conversion codes of all channels.
+    pub const fn codes(&self) -> &[u16; CHANNELS] {
+        &self.published
     }
 
     /// The published 0x6401 value of `channel` (0..=7; `None` otherwise).
@@ -294,11 +318,7 @@ impl Sampler {
 
     /// All published 0x6401 values.
     pub fn values(&self) -> [i16; CHANNELS] {
-        let mut out = [0; CHANNELS];
-        for (o, c) in out.iter_mut().zip(self.channels.iter()) {
-            *o = adc_code_to_ai(c.published);
-        }
-        out
+        self.published.map(adc_code_to_ai)
     }
 
     /// Samples accepted so far (wrapping).
@@ -315,6 +335,7 @@ impl Sampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::vec::Vec;
 
     #[test]
     fn latest_mode_publishes_newest_sample() {
@@ -397,6 +418,64 @@ mod tests {
         by_scan.publish();
         assert_eq!(by_scan.code(1), Some(8)); // (6 + 9) / 2 rounded
         assert_eq!(by_scan.code(2), Some(9));
+    }
+
+    /// A per-channel reference: each channel's own samples since the last publish.
+    fn reference_publish(mode: PublishMode, pending: &mut [Vec<u16>; CHANNELS], out: &mut [u16]) {
+        for (p, o) in pending.iter_mut().zip(out.iter_mut()) {
+            if let Some(&last) = p.last() {
+                let n = p.len() as u64;
+                let sum: u64 = p.iter().map(|&c| u64::from(c)).sum();
+                *o = match mode {
+                    PublishMode::Latest => last,
+                    PublishMode::Average => ((sum + n / 2) / n) as u16,
+                };
+            }
+            p.clear();
+        }
+    }
+
+    #[test]
+    fn scans_samples_and_short_scans_in_any_order_match_a_per_channel_reference() {
+        for mode in [PublishMode::Latest, PublishMode::Average] {
+            let mut s = Sampler::new(mode);
+            let mut pending: [Vec<u16>; CHANNELS] = Default::default();
+            let mut expected = [0u16; CHANNELS];
+            let mut x = 0x2545_F491_u32;
+            for _ in 0..2000 {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                let code = (x >> 8) as u16;
+                match x % 5 {
+                    0 => {
+                        let ch = (x >> 4) as u8 % 8;
+                        s.add(Sample::new(ch, code));
+                        pending[usize::from(ch)].push(code);
+                    }
+                    1 | 2 => {
+                        let scan: [u16; CHANNELS] = core::array::from_fn(|i| code ^ i as u16);
+                        s.add_scan(scan);
+                        for (p, c) in pending.iter_mut().zip(scan) {
+                            p.push(c);
+                        }
+                    }
+                    3 => {
+                        let short = [code, code / 2, code / 3];
+                        let n = (x >> 4) as usize % 3;
+                        s.add_scan(short.into_iter().take(n));
+                        for (p, &c) in pending.iter_mut().zip(&short[..n]) {
+                            p.push(c);
+                        }
+                    }
+                    _ => {
+                        s.publish();
+                        reference_publish(mode, &mut pending, &mut expected);
+                        assert_eq!(s.codes(), &expected, "{mode:?}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
