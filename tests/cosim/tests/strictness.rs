@@ -23,6 +23,52 @@ fn reports_after(image: lpc1754_cosim::image::Image, options: Options, ns: u64) 
     facts.reports.into_iter().map(|r| r.message).collect()
 }
 
+/// Thumb-2 `MOVW Rd, #imm16` (encoding T3), as stored (two little-endian halfwords).
+fn movw(rd: u8, imm16: u16) -> [u8; 4] {
+    let (i, imm4) = ((imm16 >> 11) & 1, imm16 >> 12);
+    let (imm3, imm8) = ((imm16 >> 8) & 7, imm16 & 0xFF);
+    let hw1 = 0xF240 | (i << 10) | imm4;
+    let hw2 = (imm3 << 12) | (u16::from(rd) << 8) | imm8;
+    let [a, b] = hw1.to_le_bytes();
+    let [c, d] = hw2.to_le_bytes();
+    [a, b, c, d]
+}
+
+/// Replaces the 32-bit constant `from` by `to` in the image's code, where the compiler put
+/// it: a literal word (opt-level "z") or, when only the low halfword differs, the `MOVW` of
+/// a `MOVW`/`MOVT` pair (opt-level "s" and above).
+fn patch_constant(
+    image: &mut lpc1754_cosim::image::Image,
+    from: u32,
+    to: u32,
+) -> Result<usize, String> {
+    let literal = image.patch_unique(&from.to_le_bytes(), &to.to_le_bytes());
+    if literal.is_ok() || from >> 16 != to >> 16 {
+        return literal;
+    }
+    let (lo_from, lo_to) = (from as u16, to as u16);
+    (0..=12)
+        .find_map(|rd| {
+            image
+                .patch_unique(&movw(rd, lo_from), &movw(rd, lo_to))
+                .ok()
+        })
+        .ok_or_else(|| {
+            format!(
+                "{from:#010x}: {}; nor as MOVW r0..r12",
+                literal.unwrap_err()
+            )
+        })
+}
+
+#[test]
+fn movw_encoding() {
+    // `movw r1, #0x8504` as LLVM emits it.
+    assert_eq!(movw(1, 0x8504), [0x48, 0xF2, 0x04, 0x51]);
+    // `movw r0, #0xffff`: i and imm3 set.
+    assert_eq!(movw(0, 0xFFFF), [0x4F, 0xF6, 0xFF, 0x70]);
+}
+
 #[test]
 fn the_unpatched_image_reports_nothing() {
     let reports = reports_after(load_image().unwrap(), Options::default(), 20_000_000);
@@ -75,9 +121,7 @@ fn ssp1_power_bit_left_off() {
     let mut image = load_image().unwrap();
     // hw::clocks::enable_peripherals' PCONP bits: TIMER1, SPI, SSP1, GPIO, SSP0, TIMER2.
     let bits: u32 = (1 << 2) | (1 << 8) | (1 << 10) | (1 << 15) | (1 << 21) | (1 << 22);
-    image
-        .patch_unique(&bits.to_le_bytes(), &(bits & !(1 << 10)).to_le_bytes())
-        .expect("the PCONP constant in the image");
+    patch_constant(&mut image, bits, bits & !(1 << 10)).expect("the PCONP constant in the image");
     let options = Options {
         pconp_at_reset: Some(PCONP_RESET & !(1 << 10)),
         ..Default::default()
