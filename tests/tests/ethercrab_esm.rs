@@ -212,7 +212,7 @@ static DEVICE: DeviceDescription = DeviceDescription {
     },
     dc: DcDesc {
         op_modes: &[],
-        min_cycle_ns: 110_000,
+        min_cycle_ns: 100_000,
         max_cycle_ns: 100_000_000,
     },
     pdi: firmware::product::device::PDI,
