@@ -276,6 +276,11 @@ impl MailboxProtocols {
         self.0 & Self::COE != 0
     }
 
+    /// True if FoE is supported.
+    pub const fn foe(self) -> bool {
+        self.0 & Self::FOE != 0
+    }
+
     /// True if any protocol is supported (the device needs mailbox SyncManagers).
     pub const fn any(self) -> bool {
         self.0 != 0
@@ -367,7 +372,9 @@ pub struct MailboxDesc {
     pub protocols: MailboxProtocols,
     /// CoE services.
     pub coe: CoeDetails,
-    /// Bootstrap mailbox (out, in), if the device has a BOOT state.
+    /// Bootstrap mailbox (out = master -> slave, in = slave -> master), if the device has
+    /// a BOOT state: the windows SM0/SM1 get in BOOT (SII words 0x14..0x17, ESI
+    /// `Eeprom/BootStrap`); FoE only.
     pub bootstrap: Option<(MemoryWindow, MemoryWindow)>,
 }
 
@@ -734,7 +741,8 @@ impl DeviceDescription {
     /// device name or versions differing from 0x1018/0x1008..0x100A (0x1018 is required);
     /// SyncManager problems (a role twice, control byte not fitting the role, outside the
     /// process RAM, overlapping, mailbox smaller than [`MIN_MAILBOX`], protocols without
-    /// mailbox SMs); PDO problems (mapping objects whose defaults map a missing entry, an
+    /// mailbox SMs); a bad bootstrap mailbox (outside the process RAM, too small,
+    /// overlapping itself, without FoE); PDO problems (mapping objects whose defaults map a missing entry, an
     /// entry not mappable at all or only in the other direction, a wrong bit length, a
     /// count above the entries; an assignment naming a missing PDO or one of the other
     /// direction; a default image larger than its SM or without SM/FMMU); DC cycle limits
@@ -751,6 +759,9 @@ impl DeviceDescription {
             return Err(e);
         }
         if let Err(e) = self.validate_sync_managers() {
+            return Err(e);
+        }
+        if let Err(e) = self.validate_bootstrap() {
             return Err(e);
         }
         if let Err(e) = self.validate_pdos(PdoDirection::Rx) {
@@ -873,6 +884,33 @@ impl DeviceDescription {
         }
         if self.mailbox.protocols.any() && !has_mailbox {
             return Err(DescError::new(DescErrorKind::MailboxIncomplete, 0, 0));
+        }
+        Ok(())
+    }
+
+    /// The bootstrap mailbox: both windows inside the process RAM, each at least
+    /// [`MIN_MAILBOX`] bytes, not overlapping each other, and FoE among the protocols (the
+    /// BOOT state serves FoE only).
+    const fn validate_bootstrap(&self) -> Result<(), DescError> {
+        let Some((out, inp)) = self.mailbox.bootstrap else {
+            return Ok(());
+        };
+        let bad = DescError::new(DescErrorKind::BadBootstrapMailbox, 0, 0);
+        if !self.mailbox.protocols.foe() {
+            return Err(bad);
+        }
+        let ram = &self.process_ram;
+        let windows = [out, inp];
+        let mut i = 0;
+        while i < windows.len() {
+            let w = windows[i];
+            if w.start < ram.start || w.end() > ram.end() || (w.len as usize) < MIN_MAILBOX {
+                return Err(bad);
+            }
+            i += 1;
+        }
+        if (out.start as u32) < inp.end() && (inp.start as u32) < out.end() {
+            return Err(bad);
         }
         Ok(())
     }
@@ -1172,6 +1210,9 @@ pub enum DescErrorKind {
     MailboxTooSmall,
     /// Mailbox protocols without both mailbox SyncManagers, or only one of them.
     MailboxIncomplete,
+    /// A bootstrap mailbox outside the process RAM, smaller than the smallest frame,
+    /// overlapping itself, or without FoE among the protocols.
+    BadBootstrapMailbox,
     /// Sub 0 of a mapping/assignment object counts more entries than it has.
     CountAboveEntries,
     /// A default mapping entry names an object or subindex that does not exist.
@@ -1214,6 +1255,9 @@ impl DescErrorKind {
             Self::SmOverlap => "SyncManagers overlap",
             Self::MailboxTooSmall => "mailbox SyncManager smaller than the smallest CoE frame",
             Self::MailboxIncomplete => "mailbox protocols need both mailbox SyncManagers",
+            Self::BadBootstrapMailbox => {
+                "bootstrap mailbox outside the process RAM, too small, overlapping itself or without FoE"
+            }
             Self::CountAboveEntries => "sub 0 default counts more entries than the object has",
             Self::MappedEntryMissing => "PDO mapping names an entry that does not exist",
             Self::MappedNotMappable => "PDO mapping names an entry that is not PDO-mappable",
@@ -1283,6 +1327,7 @@ impl fmt::Display for DescError {
             }
             DescErrorKind::EmptyName
             | DescErrorKind::MailboxIncomplete
+            | DescErrorKind::BadBootstrapMailbox
             | DescErrorKind::BadCycleLimits
             | DescErrorKind::BadEepromSize => {
                 write!(f, "device description: {}", self.message())

@@ -19,6 +19,7 @@ pub mod al_status;
 pub mod device;
 pub mod esi;
 pub mod esm;
+pub mod foe;
 pub mod mailbox;
 pub mod od;
 pub mod pdo;

@@ -11,7 +11,9 @@
 //!   the slave numbers its own frames 1..7, 7 wrapping to 1;
 //! - a backup of the last frame written to the read mailbox for the repeat request (SM1
 //!   repeat, ESC datasheet section I 8.6): the same bytes, same counter;
-//! - counters reset when the ESM goes INIT -> PREOP;
+//! - counters reset when the ESM goes INIT -> PREOP or INIT -> BOOT;
+//! - dispatch by mailbox type: CoE to the SDO server, other types (FoE) to a
+//!   [`MailboxProtocol`] beside it, on the same counters and backup;
 //! - a fixed-capacity queue of Emergencies (CoE service 1), sent when the read mailbox is free.
 //!
 //! [`crate::sdo_server::SdoServer`] owns one [`MailboxService`] and is the entry point the
@@ -110,6 +112,49 @@ pub(crate) enum Incoming<'a> {
     Error(MailboxErrorCode),
     /// A CoE frame for this service: the data after the CoE header.
     Coe(CoeService, &'a [u8]),
+    /// A frame of another protocol: its type and payload.
+    Other(MailboxType, &'a [u8]),
+}
+
+/// A mailbox protocol served beside CoE on the same mailbox (FoE): the mailbox layer hands
+/// it the payload of the frames of its type and sends its answer with the shared counter and
+/// repeat backup.
+pub trait MailboxProtocol {
+    /// True for the mailbox types it serves.
+    fn serves(&self, mailbox_type: MailboxType) -> bool;
+
+    /// Serves the payload of one frame that came in a write mailbox of `request_len` bytes
+    /// and writes the answer's payload into `out`. `Ok(Some((type, n)))`: send a frame of
+    /// that type with `n` payload bytes; `Ok(None)`: no answer; `Err(code)`: answer with
+    /// that mailbox error.
+    fn serve(
+        &mut self,
+        payload: &[u8],
+        request_len: usize,
+        state: AlState,
+        now_ms: u32,
+        out: &mut [u8],
+    ) -> Result<Option<(MailboxType, usize)>, MailboxErrorCode>;
+}
+
+/// The protocol of a mailbox that serves CoE only: none.
+pub struct NoOtherProtocol;
+
+impl MailboxProtocol for NoOtherProtocol {
+    fn serves(&self, _: MailboxType) -> bool {
+        false
+    }
+
+    fn serve(
+        &mut self,
+        _: &[u8],
+        _: usize,
+        _: AlState,
+        _: u32,
+        _: &mut [u8],
+    ) -> Result<Option<(MailboxType, usize)>, MailboxErrorCode> {
+        Err(MailboxErrorCode::UnsupportedProtocol)
+    }
 }
 
 impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
@@ -134,9 +179,10 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
         self.backup_len = 0;
     }
 
-    /// Applies an ESM transition: INIT -> PREOP resets the counters.
+    /// Applies an ESM transition: INIT -> PREOP and INIT -> BOOT (the mailbox starts)
+    /// reset the counters.
     pub fn on_state_change(&mut self, from: AlState, to: AlState) {
-        if from == AlState::Init && to == AlState::PreOp {
+        if from == AlState::Init && matches!(to, AlState::PreOp | AlState::Bootstrap) {
             self.reset();
         }
     }
@@ -217,7 +263,7 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
             return Incoming::Error(MailboxErrorCode::InvalidSize);
         };
         if header.mailbox_type != MailboxType::Coe {
-            return Incoming::Error(MailboxErrorCode::UnsupportedProtocol);
+            return Incoming::Other(header.mailbox_type, view.payload());
         }
         let coe = Coe::new_unchecked(view.payload());
         let Ok(coe_header) = CoeRepr::parse(&coe) else {
@@ -264,6 +310,29 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
             self.backup_len = 0;
         }
         Reply::Frame(total)
+    }
+
+    /// Serves a frame of another protocol through `protocol` (the mailbox error
+    /// "unsupported protocol" if it does not serve `mailbox_type`).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn serve_other<P: MailboxProtocol + ?Sized>(
+        &mut self,
+        protocol: &mut P,
+        mailbox_type: MailboxType,
+        payload: &[u8],
+        request_len: usize,
+        state: AlState,
+        now_ms: u32,
+        reply: &mut [u8],
+    ) -> Reply {
+        if !protocol.serves(mailbox_type) {
+            return self.send_error(reply, MailboxErrorCode::UnsupportedProtocol);
+        }
+        match protocol.serve(payload, request_len, state, now_ms, payload_area(reply)) {
+            Ok(Some((answer_type, n))) => self.send(reply, answer_type, n),
+            Ok(None) => Reply::None,
+            Err(code) => self.send_error(reply, code),
+        }
     }
 
     /// Sends a mailbox error reply.

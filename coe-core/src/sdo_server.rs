@@ -29,7 +29,10 @@ pub mod info;
 
 use crate::abort::SdoAbortCode;
 use crate::esm::AlState;
-use crate::mailbox::{emit_coe, payload_area, Incoming, MailboxService, MAILBOX_HEADER_LEN};
+use crate::mailbox::{
+    emit_coe, payload_area, Incoming, MailboxProtocol, MailboxService, NoOtherProtocol,
+    MAILBOX_HEADER_LEN,
+};
 pub use crate::mailbox::{Emergency, Reply};
 use crate::od::{EntryDesc, ObjectAccess, ObjectDictionary};
 use crate::wire::{
@@ -220,7 +223,8 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
 
     /// Serves one received mailbox frame (`request`, the whole SM0 content) and writes the
     /// reply frame into `reply`, whose length is the read mailbox size. Never panics; any
-    /// bytes give no reply, a mailbox error reply or a well-formed CoE reply.
+    /// bytes give no reply, a mailbox error reply or a well-formed CoE reply. Frames of
+    /// other protocols get the mailbox error "unsupported protocol".
     pub fn process<A: ObjectAccess + ?Sized>(
         &mut self,
         request: &[u8],
@@ -229,6 +233,23 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
         app: &mut A,
         now_ms: u32,
         reply: &mut [u8],
+    ) -> Reply {
+        self.process_with(request, state, od, app, now_ms, reply, &mut NoOtherProtocol)
+    }
+
+    /// [`SdoServer::process`] with a protocol served beside CoE on the same mailbox
+    /// (`other`, e.g. FoE through [`crate::foe::FoeEndpoint`]): its frames share the
+    /// counters and the repeat backup.
+    #[allow(clippy::too_many_arguments)]
+    pub fn process_with<A: ObjectAccess + ?Sized, P: MailboxProtocol + ?Sized>(
+        &mut self,
+        request: &[u8],
+        state: AlState,
+        od: &ObjectDictionary,
+        app: &mut A,
+        now_ms: u32,
+        reply: &mut [u8],
+        other: &mut P,
     ) -> Reply {
         let limit = reply.len().min(MBX);
         let Some(reply) = reply.get_mut(..limit) else {
@@ -242,6 +263,15 @@ impl<const MBX: usize, const BUF: usize, const EMCY: usize> SdoServer<MBX, BUF, 
                 self.sdo_request(data, state, od, app, now_ms, reply)
             }
             Incoming::Coe(_, data) => self.sdo_info(data, od, reply),
+            Incoming::Other(mailbox_type, payload) => self.mailbox.serve_other(
+                other,
+                mailbox_type,
+                payload,
+                request.len(),
+                state,
+                now_ms,
+                reply,
+            ),
         }
     }
 

@@ -458,7 +458,9 @@ fn write_general(
     } else {
         0
     };
-    // Bytes 6..11: FoE, EoE, SoE channels, DS402 channels, SysmanClass, flags: none.
+    // Byte 6: FoE details (1 = supported); bytes 7..11: EoE, SoE channels, DS402
+    // channels, SysmanClass, flags: none.
+    g[6] = u8::from(desc.mailbox.protocols.foe());
     g[12..14].copy_from_slice(&desc.ebus_current_ma.to_le_bytes());
     let p = desc.ports;
     g[16] = p[0].code() | p[1].code() << 4;

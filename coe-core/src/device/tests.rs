@@ -552,6 +552,67 @@ fn rejects_small_or_missing_mailbox() {
 }
 
 #[test]
+fn bootstrap_mailbox_is_checked() {
+    let with = |out: MemoryWindow, inp: MemoryWindow, protocols: u16| DeviceDescription {
+        mailbox: MailboxDesc {
+            protocols: MailboxProtocols(protocols),
+            bootstrap: Some((out, inp)),
+            ..valid().mailbox
+        },
+        ..valid()
+    };
+    let coe_foe = MailboxProtocols::COE | MailboxProtocols::FOE;
+    let good = with(
+        MemoryWindow::new(0x1000, 0x200),
+        MemoryWindow::new(0x1200, 0x200),
+        coe_foe,
+    );
+    assert_eq!(good.validate(), Ok(()));
+    // The same windows as the standard mailbox are fine too.
+    let same = with(
+        MemoryWindow::new(SMS[0].start, SMS[0].len),
+        MemoryWindow::new(SMS[1].start, SMS[1].len),
+        coe_foe,
+    );
+    assert_eq!(same.validate(), Ok(()));
+    for bad in [
+        // Without FoE, BOOT has nothing to serve.
+        with(
+            MemoryWindow::new(0x1000, 0x200),
+            MemoryWindow::new(0x1200, 0x200),
+            MailboxProtocols::COE,
+        ),
+        // Overlapping each other.
+        with(
+            MemoryWindow::new(0x1000, 0x200),
+            MemoryWindow::new(0x11F8, 0x200),
+            coe_foe,
+        ),
+        // Outside the process RAM, below and above.
+        with(
+            MemoryWindow::new(0x0F00, 0x80),
+            MemoryWindow::new(0x1200, 0x80),
+            coe_foe,
+        ),
+        with(
+            MemoryWindow::new(0x1000, 0x80),
+            MemoryWindow::new(0x2FC0, 0x80),
+            coe_foe,
+        ),
+        // Smaller than the smallest frame.
+        with(
+            MemoryWindow::new(0x1000, 0x0F),
+            MemoryWindow::new(0x1200, 0x80),
+            coe_foe,
+        ),
+    ] {
+        let e = rejected(&bad);
+        assert_eq!(e.kind, DescErrorKind::BadBootstrapMailbox);
+        assert!(format!("{e}").contains("bootstrap mailbox"), "{e}");
+    }
+}
+
+#[test]
 fn rejects_role_twice_and_control_mismatch() {
     static TWICE: [SyncManagerDesc; 4] = [SMS[0], SMS[1], SMS[2], SMS[2]];
     let d = DeviceDescription {

@@ -324,7 +324,7 @@ fn device(objects: Vec<ObjectDesc>) -> DeviceDescription {
             FmmuUsage::MailboxState,
         ],
         mailbox: MailboxDesc {
-            protocols: MailboxProtocols(MailboxProtocols::COE),
+            protocols: MailboxProtocols(MailboxProtocols::COE | MailboxProtocols::FOE),
             coe: CoeDetails(
                 CoeDetails::SDO
                     | CoeDetails::SDO_INFO
@@ -944,10 +944,20 @@ fn check_document(xml: &str, desc: &DeviceDescription) {
         let value = coe.attribute(attr).map(xml_bool);
         assert_eq!(value, Some(details & bit != 0), "CoE {attr}");
     }
+    // FoE is an empty element; nothing else is offered.
+    assert_eq!(
+        opt_child(mailbox, "FoE").is_some(),
+        desc.mailbox.protocols.foe(),
+        "FoE"
+    );
+    if let Some(foe) = opt_child(mailbox, "FoE") {
+        assert_eq!(foe.children().filter(Node::is_element).count(), 0);
+        assert_eq!(foe.attributes().count(), 0);
+    }
     assert_eq!(
         mailbox.children().filter(Node::is_element).count(),
-        1,
-        "CoE only"
+        1 + usize::from(desc.mailbox.protocols.foe()),
+        "CoE and FoE only"
     );
 
     // DC op modes.

@@ -281,6 +281,31 @@ fn every_category_reads_back_to_the_description() {
 }
 
 #[test]
+fn bootstrap_mailbox_words_and_foe_details() {
+    let mut d = valid();
+    d.mailbox.protocols = crate::device::MailboxProtocols(
+        crate::device::MailboxProtocols::COE | crate::device::MailboxProtocols::FOE,
+    );
+    d.mailbox.bootstrap = Some((
+        crate::device::MemoryWindow::new(0x1000, 0x200),
+        crate::device::MemoryWindow::new(0x1200, 0x200),
+    ));
+    let image = image_of(&d);
+    let w: Vec<u16> = image
+        .chunks_exact(2)
+        .take(0x40)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    // Words 0x14..0x17: receive (master -> slave) offset and size, then send.
+    assert_eq!(&w[0x14..0x18], &[0x1000, 0x200, 0x1200, 0x200]);
+    assert_eq!(w[0x1C], 0x000C, "CoE and FoE");
+    let sii = read_sii(&image).unwrap();
+    assert_eq!(sii.general[6], 1, "General: FoE details");
+    // Without FoE the byte stays 0.
+    assert_eq!(read_sii(&image_of(&valid())).unwrap().general[6], 0);
+}
+
+#[test]
 fn no_standard_mailbox_without_protocols() {
     let mut d = valid();
     d.mailbox.protocols = crate::device::MailboxProtocols(0);

@@ -10,6 +10,7 @@
 //! | [`sdo`] | SDO initiate/segment/abort frames | ETG.1000.6 5.6.2 |
 //! | [`sdo_info`] | SDO Information service | ETG.1000.6 5.6.3 |
 //! | [`emergency`] | CoE Emergency | ETG.1000.6 5.6.4 |
+//! | [`foe`] | FoE packets (read/write request, data, ack, error, busy) | ETG.1000.6 5.8 |
 //!
 //! (Section numbers are cited rather than table numbers, which differ between editions.)
 //!
@@ -25,7 +26,8 @@
 //!   bytes and fails with [`Error::Truncated`] otherwise) and `buffer_len`.
 //!
 //! The layers nest the way the frames do: a [`Mailbox`] payload holds a [`Coe`] frame whose
-//! payload is an [`Sdo`], [`SdoInfo`] or [`Emergency`] frame. EtherCAT is little-endian.
+//! payload is an [`Sdo`], [`SdoInfo`] or [`Emergency`] frame, or a [`Foe`] packet. EtherCAT
+//! is little-endian.
 
 use core::fmt;
 use core::ops::Range;
@@ -34,12 +36,14 @@ use crate::abort::SdoAbortCode;
 
 pub mod coe;
 pub mod emergency;
+pub mod foe;
 pub mod mailbox;
 pub mod sdo;
 pub mod sdo_info;
 
 pub use coe::{Coe, CoeRepr, CoeService};
 pub use emergency::{Emergency, EmergencyRepr};
+pub use foe::{Foe, FoeErrorCode, FoeOpCode, FoeRepr};
 pub use mailbox::{
     next_counter, Mailbox, MailboxErrorCode, MailboxErrorReply, MailboxErrorReplyRepr, MailboxRepr,
     MailboxType,
