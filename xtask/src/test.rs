@@ -18,7 +18,7 @@ const ROOT_TESTS: [&str; 2] = [
 ];
 
 /// The `no_std` crates that must build for every embedded target.
-const PORTABLE_CRATES: [&str; 4] = ["coe-core", "et1100", "ad5663", "ad7689"];
+const PORTABLE_CRATES: [&str; 5] = ["coe-core", "et1100", "ad5663", "ad7689", "lpc17xx-iap"];
 
 #[derive(clap::Args)]
 pub struct Args {

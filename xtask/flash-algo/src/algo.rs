@@ -287,8 +287,8 @@ impl<E: IapEntry> FlashAlgo<E> {
 mod tests {
     use super::*;
     use crate::crp::{CRP1, CRP3, NO_ISP};
-    use crate::mock::MockIap;
     use crate::sector::FLASH_SIZE;
+    use lpc17xx_iap::model::FlashModel as MockIap;
     use std::string::ToString;
 
     const BUF: u32 = 0x1000_1000;
@@ -304,7 +304,7 @@ mod tests {
     }
 
     fn flash(a: &FlashAlgo<MockIap>) -> &[u8] {
-        &a.iap().entry().flash
+        a.iap().entry().flash()
     }
 
     fn pattern(len: usize, seed: u8) -> std::vec::Vec<u8> {
@@ -327,7 +327,7 @@ mod tests {
     #[test]
     fn erase_sector_sequence_for_small_and_large_sectors() {
         let mut m = MockIap::new();
-        m.flash.fill(0);
+        m.load(0, &[0u8; 0x2_0000]);
         let mut a = FlashAlgo::new(m, CCLK, false);
         a.erase_sector(0x0000_3000).unwrap();
         a.erase_sector(0x0001_8000).unwrap();
@@ -367,7 +367,7 @@ mod tests {
     #[test]
     fn erase_chip_covers_every_sector() {
         let mut m = MockIap::new();
-        m.flash.fill(0);
+        m.load(0, &[0u8; 0x2_0000]);
         let mut a = FlashAlgo::new(m, CCLK, false);
         a.erase_chip().unwrap();
         assert_eq!(
@@ -391,7 +391,7 @@ mod tests {
         assert_eq!(e.code(), 0x340B);
         // Erase "succeeds" but the ROM's blank check still finds a word.
         let mut m = MockIap::new().failing(52, Status::Success);
-        m.flash[0x5008..0x500C].copy_from_slice(&[1, 2, 3, 4]);
+        m.load(0x5008, &[1, 2, 3, 4]);
         let mut a = FlashAlgo::new(m, CCLK, false);
         assert_eq!(
             a.erase_sector(0x5000),
@@ -507,7 +507,7 @@ mod tests {
                 .program_page(0, &page, BUF, &mut Staging::default(), STAGE)
                 .unwrap();
             assert_eq!(
-                &allowed.iap().entry().flash[0x2FC..0x300],
+                &allowed.iap().entry().flash()[0x2FC..0x300],
                 &lock.to_le_bytes()
             );
         }
@@ -542,7 +542,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(e, Error::CrpLock(CRP3));
         assert_eq!(log(&a).len(), writes, "nothing written the second time");
-        assert_eq!(&a.iap().entry().flash[0x2FC..0x300], &first.to_le_bytes());
+        assert_eq!(&a.iap().entry().flash()[0x2FC..0x300], &first.to_le_bytes());
     }
 
     #[test]

@@ -31,8 +31,8 @@ fn main() {}
 #[cfg(target_os = "none")]
 mod chip {
     use core::panic::PanicInfo;
-    use flash_algo::iap::{IapEntry, IAP_ENTRY};
     use flash_algo::{FlashAlgo, Staging};
+    use lpc17xx_iap::rom::Rom;
 
     /// The CPU clock after `Init`: the internal RC oscillator, no PLL.
     const CCLK_KHZ: u32 = 4_000;
@@ -50,34 +50,6 @@ mod chip {
     const PLL0STAT_PLLC: u32 = 1 << 25;
     const PLL0CON_ENABLE: u32 = 1;
     const MEMMAP_USER_FLASH: u32 = 1;
-
-    /// The ROM, called through its entry point.
-    struct Rom;
-
-    impl IapEntry for Rom {
-        fn call(&mut self, command: &[u32; 5], _source: &[u8]) -> [u32; 5] {
-            let mut result = [0u32; 5];
-            // SAFETY: 0x1FFF_1FF1 is the IAP ROM's Thumb entry point on every LPC17xx
-            // (UM10360 32.8); it reads five command words and writes five result words, both
-            // arrays live on our stack for the whole call. Interrupts are masked (Init).
-            unsafe {
-                let iap: extern "C" fn(*const u32, *mut u32) =
-                    core::mem::transmute(IAP_ENTRY as usize);
-                iap(command.as_ptr(), result.as_mut_ptr());
-            }
-            result
-        }
-
-        fn read_flash_word(&self, addr: u32) -> u32 {
-            // SAFETY: Init maps user flash at 0; every word-aligned address below 128 KB is
-            // readable flash. Any other address reads as erased.
-            if addr % 4 == 0 && addr < 0x2_0000 {
-                unsafe { core::ptr::read_volatile(addr as *const u32) }
-            } else {
-                u32::MAX
-            }
-        }
-    }
 
     fn algo() -> FlashAlgo<Rom> {
         FlashAlgo::new(Rom, CCLK_KHZ, ALLOW_CRP_LOCK)

@@ -85,6 +85,18 @@ impl From<Command> for u32 {
     }
 }
 
+impl Command {
+    /// The RAM bytes the ROM reads for `command` (code and four parameter words): address
+    /// and length of a copy's source (51) or of a compare's second operand (56), `None` for
+    /// the other commands. A simulator reads them from its memory for [`IapEntry::call`].
+    pub fn source(command: &[u32; 5]) -> Option<(u32, u32)> {
+        match Command::from(command[0]) {
+            Command::CopyRamToFlash | Command::Compare => Some((command[2], command[3])),
+            _ => None,
+        }
+    }
+}
+
 impl fmt::Display for Command {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let name = match self {
@@ -201,19 +213,27 @@ impl fmt::Display for Status {
     }
 }
 
-/// A call into the IAP ROM.
+/// A call into the IAP ROM, and reads of the flash it programs.
 ///
 /// `source` holds the RAM bytes a "copy RAM to flash" or "compare" command reads at
-/// `command[2]` (`command[3]` of them), and is empty for the other commands. The ROM reads
-/// RAM by itself, so the chip's implementation ignores it; the host mock programs from it.
+/// `command[2]` (`command[3]` of them, see [`Command::source`]), and is empty for the other
+/// commands. The ROM reads RAM by itself, so the chip's implementation ignores it; a model
+/// programs from it.
 pub trait IapEntry {
     /// Runs `command` (code and four parameter words) and returns the five result words.
     fn call(&mut self, command: &[u32; 5], source: &[u8]) -> [u32; 5];
 
-    /// The word user flash holds at `addr` now (user flash is mapped at 0 while the
-    /// algorithm runs). Programming only clears bits, so the CRP guard checks what a write
-    /// leaves in flash: the written word ANDed with this one.
-    fn read_flash_word(&self, addr: u32) -> u32;
+    /// Fills `buf` with the flash bytes from `addr` (user flash mapped at 0); bytes outside
+    /// the flash read as erased (0xFF).
+    fn read_flash(&self, addr: u32, buf: &mut [u8]);
+
+    /// The word user flash holds at `addr` now. Programming only clears bits, so a CRP
+    /// guard checks what a write leaves in flash: the written word ANDed with this one.
+    fn read_flash_word(&self, addr: u32) -> u32 {
+        let mut word = [0u8; 4];
+        self.read_flash(addr, &mut word);
+        u32::from_le_bytes(word)
+    }
 }
 
 /// A failed IAP command.
@@ -263,9 +283,24 @@ impl<E: IapEntry> Iap<E> {
         self.cclk_khz
     }
 
-    /// The entry point (the mock's state, in tests).
+    /// The entry point (the model's state, in tests).
     pub fn entry(&self) -> &E {
         &self.entry
+    }
+
+    /// The entry point, mutable.
+    pub fn entry_mut(&mut self) -> &mut E {
+        &mut self.entry
+    }
+
+    /// Gives the entry point back.
+    pub fn into_entry(self) -> E {
+        self.entry
+    }
+
+    /// Fills `buf` with the flash bytes from `addr`.
+    pub fn read_flash(&self, addr: u32, buf: &mut [u8]) {
+        self.entry.read_flash(addr, buf)
     }
 
     /// Calls the ROM; the raw result words.
@@ -366,7 +401,7 @@ impl<E: IapEntry> Iap<E> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mock::MockIap;
+    use crate::model::FlashModel;
 
     #[test]
     fn codes_round_trip() {
@@ -381,6 +416,15 @@ mod tests {
         assert_eq!(Command::from(54), Command::ReadPartId);
         assert_eq!(Command::from(49), Command::Unknown(49));
         assert_eq!(Status::from(12), Status::Unknown(12));
+        assert_eq!(
+            Command::source(&[51, 0x3000, 0x1000_0400, 256, 4000]),
+            Some((0x1000_0400, 256))
+        );
+        assert_eq!(
+            Command::source(&[56, 0x3000, 0x2007_C000, 64, 0]),
+            Some((0x2007_C000, 64))
+        );
+        assert_eq!(Command::source(&[52, 3, 5, 4000, 0]), None);
     }
 
     #[test]
@@ -408,7 +452,7 @@ mod tests {
 
     #[test]
     fn parameter_words() {
-        let mut iap = Iap::new(MockIap::new(), 4_000);
+        let mut iap = Iap::new(FlashModel::new(), 4_000);
         iap.prepare(3, 5).unwrap();
         iap.erase(3, 5).unwrap();
         assert_eq!(iap.read_part_id().unwrap(), LPC1754_PART_ID);
@@ -445,7 +489,7 @@ mod tests {
 
     #[test]
     fn failures_carry_command_and_status() {
-        let mut iap = Iap::new(MockIap::new(), 4_000);
+        let mut iap = Iap::new(FlashModel::new(), 4_000);
         // Erase without prepare.
         assert_eq!(
             iap.erase(0, 0),
