@@ -11,6 +11,7 @@
 extern crate std;
 
 pub mod app;
+pub mod boot;
 pub mod chip;
 #[cfg(any(test, feature = "fake-esc"))]
 pub mod fake_esc;

@@ -1,21 +1,36 @@
-//! `cargo xtask build`: the release image for the LPC1754.
+//! `cargo xtask build`: the release images for the LPC1754.
 //!
-//! Builds `firmware` (bin `analog-io`) for thumbv7m-none-eabi (installing flip-link first if
-//! needed), patches the vector checksum into the ELF, writes the BIN next to it
-//! (`target/thumbv7m-none-eabi/release/analog-io.bin`, or under `$CARGO_TARGET_DIR`), reads the
-//! BIN back and verifies it (checksum rule, vectors, CRP word), and fails when the image is
-//! over the flash/RAM budget.
+//! Builds the two programs of `firmware` for thumbv7m-none-eabi (installing flip-link first
+//! if needed): the application (bin `analog-io`, linked at 0x2100 in the application slot)
+//! and the bootloader (bin `bootloader`, the first 8 KB). Then, next to the ELFs
+//! (`target/thumbv7m-none-eabi/release/`, or under `$CARGO_TARGET_DIR`):
+//!
+//! - `bootloader.bin`: the vector checksum patched in (also into the ELF), read back from disk
+//!   and verified (checksum rule, vectors, CRP word);
+//! - `analog-io.bin`: the application image from 0x2100, its vectors checked;
+//! - `analog-io.efw`: the update file, the header block (`firmware::boot::header`: identity,
+//!   hardware revision, version, length, CRC-32) and the application image;
+//! - `flash-image.bin`: what `cargo xtask flash` writes from address 0 (bootloader, update
+//!   file in the slot, the staging area's header erased).
+//!
+//! It prints the paths, the update file's version and CRC, and both programs' flash and RAM
+//! against their budgets, and fails when either is over.
 
-use crate::image::{self, Crp, Usage, BUDGET};
+use crate::image::{self, Budget, Crp, Usage, BOOT_BUDGET, BUDGET};
 use crate::setup;
 use crate::util::{cargo, exec, root, Result};
+use firmware::boot::header::HeaderRepr;
+use firmware::boot::layout::APP_VECTORS;
+use firmware::product::identity::{NAMES, UPDATE_TARGET};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The firmware's target triple.
 pub const TARGET: &str = "thumbv7m-none-eabi";
-/// The binary's name.
+/// The application binary's name.
 pub const BIN: &str = "analog-io";
+/// The bootloader binary's name.
+pub const BOOT_BIN: &str = "bootloader";
 
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct Args {
@@ -25,17 +40,36 @@ pub struct Args {
     pub allow_crp: bool,
 }
 
-/// What a build produced.
+/// One linked program.
 #[derive(Debug, Clone)]
-pub struct Output {
-    /// The ELF (checksum patched).
+pub struct Program {
+    /// The ELF.
     pub elf: PathBuf,
-    /// The flash image.
+    /// Its flash image from its first address.
     pub bin: PathBuf,
     /// Memory use.
     pub usage: Usage,
-    /// The CRP level of the image.
+}
+
+/// What a build produced.
+#[derive(Debug, Clone)]
+pub struct Output {
+    /// The application's ELF.
+    pub elf: PathBuf,
+    /// The application's image (from 0x2100).
+    pub bin: PathBuf,
+    /// The application's memory use.
+    pub usage: Usage,
+    /// The bootloader.
+    pub boot: Program,
+    /// The CRP level of the flash image (the bootloader's word at 0x2FC).
     pub crp: Crp,
+    /// The update file.
+    pub efw: PathBuf,
+    /// Its header.
+    pub header: HeaderRepr,
+    /// The whole flash content for a probe, from address 0.
+    pub image: PathBuf,
 }
 
 /// The cargo target directory (honours `CARGO_TARGET_DIR`, relative to the workspace root).
@@ -53,35 +87,74 @@ pub fn target_dir() -> PathBuf {
     }
 }
 
+/// Where the release ELF of a firmware binary lands.
+pub fn elf_of(bin: &str) -> PathBuf {
+    target_dir().join(TARGET).join("release").join(bin)
+}
+
+/// Where the release ELF of the application lands.
+pub fn elf_path() -> PathBuf {
+    elf_of(BIN)
+}
+
 pub fn run(args: &Args) -> Result {
     let out = build(args)?;
-    print_usage(&out.usage);
-    println!("ELF: {}", out.elf.display());
-    println!("BIN: {}", out.bin.display());
-    println!("CRP: {}", out.crp);
+    print_report(&out);
     Ok(())
 }
 
-/// Builds, converts, verifies; no printing of the usage.
+/// The paths, the update file and both programs against their budgets.
+pub fn print_report(out: &Output) {
+    println!("application:");
+    print_usage(&out.usage, &BUDGET);
+    println!("bootloader:");
+    print_usage(&out.boot.usage, &BOOT_BUDGET);
+    println!("ELF:        {}", out.elf.display());
+    println!("ELF:        {}", out.boot.elf.display());
+    println!(
+        "BIN:        {} (the application alone, from {APP_VECTORS:#x})",
+        out.bin.display()
+    );
+    println!(
+        "BIN:        {} (the bootloader, from 0)",
+        out.boot.bin.display()
+    );
+    println!(
+        "update:     {} (version {}, image {} B, CRC-32 {:#010x}, for vendor {:#x} product {:#x} hardware revision {})",
+        out.efw.display(),
+        out.header.version_str().unwrap_or("?"),
+        out.header.image_len,
+        out.header.image_crc,
+        out.header.vendor_id,
+        out.header.product_code,
+        out.header.hardware_revision
+    );
+    println!(
+        "flash:      {} (bootloader + application, what `cargo xtask flash` writes)",
+        out.image.display()
+    );
+    println!("CRP:        {}", out.crp);
+}
+
+/// Builds, converts, verifies; no printing of the report.
 pub fn build(args: &Args) -> Result<Output> {
     let out = build_unchecked(args)?;
-    check_budget(&out.usage)?;
+    check_budget(&out)?;
     Ok(out)
 }
 
-/// The budget verdict, printing the figures when over budget.
-pub fn check_budget(usage: &Usage) -> Result {
-    if let Err(e) = image::check_budget(usage, &BUDGET) {
-        print_usage(usage);
-        return Err(e.to_string());
+/// The budget verdict of both programs, printing the figures when over budget.
+pub fn check_budget(out: &Output) -> Result {
+    for (name, usage, budget) in [
+        ("application", &out.usage, &BUDGET),
+        ("bootloader", &out.boot.usage, &BOOT_BUDGET),
+    ] {
+        if let Err(e) = image::check_budget(usage, budget) {
+            print_usage(usage, budget);
+            return Err(format!("{name}: {e}"));
+        }
     }
     Ok(())
-}
-
-/// Like [`build`] but without the budget verdict (for `size`, which reports first).
-pub fn build_unchecked(args: &Args) -> Result<Output> {
-    let elf = link(&Profile::default())?;
-    finish_unchecked(&elf, args.allow_crp)
 }
 
 /// Overrides of the release profile for one build (`cargo --config` values) and the target
@@ -137,34 +210,81 @@ pub fn link(profile: &Profile) -> Result<PathBuf> {
     Ok(profile.release_dir().join(BIN))
 }
 
-/// The post-link steps on an existing ELF: checksum into the ELF and the BIN, BIN written
-/// and verified from disk, budget.
-pub fn finish(elf: &Path, allow_crp: bool) -> Result<Output> {
-    let out = finish_unchecked(elf, allow_crp)?;
-    check_budget(&out.usage)?;
+/// Builds the two programs.
+fn cargo_build() -> Result {
+    setup::targets()?;
+    setup::flip_link()?;
+    exec(cargo().args([
+        "build",
+        "--release",
+        "-p",
+        "firmware",
+        "--bin",
+        BIN,
+        "--bin",
+        BOOT_BIN,
+        "--target",
+        TARGET,
+    ]))
+}
+
+/// Like [`build`] but without the budget verdict (for `size`, which reports first).
+pub fn build_unchecked(args: &Args) -> Result<Output> {
+    cargo_build()?;
+    finish_unchecked(&elf_path(), args.allow_crp)
+}
+
+/// The post-link steps with `app_elf` as the application (the cargo runner passes one): the
+/// bootloader is built, everything else as [`build`].
+pub fn finish(app_elf: &Path, allow_crp: bool) -> Result<Output> {
+    cargo_build()?;
+    let out = finish_unchecked(app_elf, allow_crp)?;
+    check_budget(&out)?;
     Ok(out)
 }
 
-/// [`finish`] without the budget verdict.
-fn finish_unchecked(elf: &Path, allow_crp: bool) -> Result<Output> {
-    let mut data = std::fs::read(elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
+fn read(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+}
+
+fn write(path: &Path, data: &[u8]) -> Result {
+    std::fs::write(path, data).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// A program's sections, image from `base` and usage; the checksum patched first when
+/// `checksum` (the bootloader, whose vectors the boot ROM checks).
+fn program(elf: &Path, base: u64, checksum: bool) -> Result<(Program, Vec<u8>)> {
+    let mut data = read(elf)?;
     let sections = image::sections(&data).map_err(|e| e.to_string())?;
-    if image::patch_elf_checksum(&mut data, &sections)
-        .map_err(|e| e.to_string())?
-        .is_some()
+    if checksum
+        && image::patch_elf_checksum(&mut data, &sections)
+            .map_err(|e| e.to_string())?
+            .is_some()
     {
-        std::fs::write(elf, &data).map_err(|e| format!("cannot write {}: {e}", elf.display()))?;
+        write(elf, &data)?;
     }
-    let mut bin = image::elf_to_bin(&data, &sections).map_err(|e| e.to_string())?;
-    let checksum = image::patch_checksum(&mut bin).map_err(|e| e.to_string())?;
+    let mut bin = image::elf_to_bin(&data, &sections, base).map_err(|e| e.to_string())?;
+    if checksum {
+        image::patch_checksum(&mut bin).map_err(|e| e.to_string())?;
+    }
     let bin_path = elf.with_extension("bin");
-    std::fs::write(&bin_path, &bin)
-        .map_err(|e| format!("cannot write {}: {e}", bin_path.display()))?;
+    write(&bin_path, &bin)?;
+    let program = Program {
+        elf: elf.to_path_buf(),
+        bin: bin_path,
+        usage: image::usage(&sections),
+    };
+    Ok((program, bin))
+}
+
+/// [`finish`] without the bootloader build and the budget verdict.
+fn finish_unchecked(app_elf: &Path, allow_crp: bool) -> Result<Output> {
+    let (boot, _) = program(&elf_of(BOOT_BIN), image::FLASH.start, true)?;
+    let (app, app_bin) = program(app_elf, u64::from(APP_VECTORS), false)?;
 
     // Verify what is on disk, not what is in memory.
-    let written =
-        std::fs::read(&bin_path).map_err(|e| format!("cannot read {}: {e}", bin_path.display()))?;
-    let crp = image::verify_bin(&written, allow_crp).map_err(|e| e.to_string())?;
+    let boot_bin = read(&boot.bin)?;
+    let crp = image::verify_bin(&boot_bin, allow_crp).map_err(|e| format!("bootloader: {e}"))?;
     if crp.protects() {
         eprintln!();
         eprintln!("!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!");
@@ -173,16 +293,26 @@ fn finish_unchecked(elf: &Path, allow_crp: bool) -> Result<Output> {
         eprintln!("!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!");
         eprintln!();
     }
+    let (efw, header) = image::update_file(&app_bin, &UPDATE_TARGET, NAMES.software_version)
+        .map_err(|e| format!("application: {e}"))?;
+    let efw_path = app_elf.with_extension("efw");
+    write(&efw_path, &efw)?;
+    let flash = image::flash_image(&boot_bin, &read(&efw_path)?).map_err(|e| e.to_string())?;
+    let image_path = app_elf.with_file_name("flash-image.bin");
+    write(&image_path, &flash)?;
     eprintln!(
-        "image: {} bytes, vector checksum {checksum:#010x} (words 0..7 sum to 0), CRP {crp}",
-        written.len()
+        "bootloader: {} bytes, vector checksum verified (words 0..7 sum to 0), CRP {crp}",
+        boot_bin.len()
     );
-    let usage = image::usage(&sections);
     Ok(Output {
-        elf: elf.to_path_buf(),
-        bin: bin_path,
-        usage,
+        elf: app.elf,
+        bin: app.bin,
+        usage: app.usage,
+        boot,
         crp,
+        efw: efw_path,
+        header,
+        image: image_path,
     })
 }
 
@@ -190,31 +320,29 @@ fn pct(used: u64, of: u64) -> f64 {
     100.0 * used as f64 / of as f64
 }
 
-/// The flash/RAM figures against the budget.
-pub fn print_usage(u: &Usage) {
+/// The flash/RAM figures of a program against its budget.
+pub fn print_usage(u: &Usage, budget: &Budget) {
     println!(
-        "flash:      {:>6} B of {:>6} B budget ({:5.1} %)  [.vector_table + .crp + .text + .rodata + .data]",
+        "  flash:      {:>6} B of {:>6} B budget ({:5.1} %)  [.vector_table + .crp + .text + .rodata + .data]",
         u.flash,
-        BUDGET.flash,
-        pct(u.flash, BUDGET.flash)
+        budget.flash,
+        pct(u.flash, budget.flash)
     );
     println!(
-        "static RAM: {:>6} B of {:>6} B budget ({:5.1} %)  [.data + .bss + .uninit; stack excluded]",
+        "  static RAM: {:>6} B of {:>6} B budget ({:5.1} %)  [.data + .bss + .uninit; stack excluded]",
         u.ram,
-        BUDGET.ram,
-        pct(u.ram, BUDGET.ram)
+        budget.ram,
+        pct(u.ram, budget.ram)
     );
     println!(
-        "stack:      up to {} B (the rest of the local SRAM below the statics, flip-link; top 32 B reserved for IAP)",
-        image::RAM.len - 32 - u.ram
+        "  stack:      up to {} B (the rest of the local SRAM below the statics, flip-link; top 40 B reserved for IAP and the boot request)",
+        image::RAM.len - 40 - u.ram
     );
-    println!(
-        "AHB SRAM:   {:>6} B of {:>6} B (.ahbsram buffers, outside the static RAM budget)",
-        u.ahbsram,
-        image::AHBSRAM.len
-    );
-    println!(
-        "BIN:        {:>6} B (image end, including the 0xFF gap before the CRP word at 0x2FC)",
-        u.image_end
-    );
+    if u.ahbsram > 0 {
+        println!(
+            "  AHB SRAM:   {:>6} B of {:>6} B (.ahbsram buffers, outside the static RAM budget)",
+            u.ahbsram,
+            image::AHBSRAM.len
+        );
+    }
 }

@@ -1,8 +1,11 @@
-//! `cargo xtask flash` and `cargo xtask run`: the release image onto an LPC1754 through a
-//! CMSIS-DAP, J-Link or ST-Link probe.
+//! `cargo xtask flash` and `cargo xtask run`: the bootloader and the application onto an
+//! LPC1754 through a CMSIS-DAP, J-Link or ST-Link probe.
 //!
-//! Steps: build the image (`xtask build`: vector checksum, CRP word refused when it locks the
-//! part unless `--allow-crp-lock`), build our flash algorithm (`xtask/flash-algo`, for
+//! Steps: build the images (`xtask build`: the bootloader with its vector checksum, CRP word
+//! refused when it locks the part unless `--allow-crp-lock`; the application in its slot with
+//! the update header; both in one flash image from address 0, which also erases the header
+//! of the staging area so no older staged update is installed over the new application),
+//! build our flash algorithm (`xtask/flash-algo`, for
 //! thumbv7m-none-eabi, linked by rust-lld at its RAM address) and turn it into the probe-rs
 //! target description `target/probe-rs/LPC1754.yaml` (checked with probe-rs' own structs),
 //! then flash and verify with the `probe-rs` CLI (installed with cargo if missing) or with
@@ -180,7 +183,7 @@ pub fn run(args: &Args) -> Result {
             exec_explained(download)?;
             verify_output(verify)?;
             exec_explained(reset)?;
-            println!("flashed and verified {}", p.image.bin.display());
+            println!("flashed and verified {}", p.image.image.display());
             Ok(())
         }
         Backend::Openocd => {
@@ -194,23 +197,27 @@ pub fn run(args: &Args) -> Result {
                 return Err("OpenOCD is not installed and cannot be installed here (Debian package `openocd`)".into());
             }
             run_openocd(cmd)?;
-            println!("flashed and verified {}", p.image.bin.display());
+            println!("flashed and verified {}", p.image.image.display());
             Ok(())
         }
     }
 }
 
-/// `cargo xtask run`: flash with probe-rs and show the defmt log over RTT.
+/// `cargo xtask run`: flash with probe-rs (the bootloader and the given or built
+/// application), reset, and show the application's defmt log over RTT.
 pub fn run_and_monitor(args: &RunArgs) -> Result {
     let p = prepare(args.elf.as_deref(), args.allow_crp_lock)?;
-    let mut cmd = probe_rs("run", &p.description, args.probe.as_ref());
-    cmd.arg("--verify").arg(&p.image.elf);
+    let [download, _, reset] = probe_rs_flash_commands(&p, args.probe.as_ref(), false);
+    let mut attach = probe_rs("attach", &p.description, args.probe.as_ref());
+    attach.arg(&p.image.elf);
     if args.dry_run {
-        return print_dry_run(&[cmd], args.probe.as_ref());
+        return print_dry_run(&[download, reset, attach], args.probe.as_ref());
     }
     ensure_probe_rs()?;
     check_probe_attached(args.probe.as_ref())?;
-    exec_explained(cmd)
+    exec_explained(download)?;
+    exec_explained(reset)?;
+    exec_explained(attach)
 }
 
 /// Image, algorithm and description, all checked.
@@ -305,7 +312,7 @@ fn probe_rs_flash_commands(
 ) -> [Command; 3] {
     let bin_args = |cmd: &mut Command| {
         cmd.args(["--binary-format", "bin", "--base-address", "0"])
-            .arg(&p.image.bin);
+            .arg(&p.image.image);
     };
     let mut download = probe_rs("download", &p.description, probe);
     if chip_erase {
@@ -332,7 +339,7 @@ fn openocd_command(p: &Prepared, probe: Option<&ProbeSelector>, interface: &str)
         "-c",
         &format!(
             "program {{{}}} {:#010x} verify reset exit",
-            p.image.bin.display(),
+            p.image.image.display(),
             image::FLASH.start
         ),
     ]);
@@ -552,7 +559,19 @@ mod tests {
                 elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io"),
                 bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.bin"),
                 usage: Usage::default(),
+                boot: build::Program {
+                    elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/bootloader"),
+                    bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/bootloader.bin"),
+                    usage: Usage::default(),
+                },
                 crp: Crp::None(u32::MAX),
+                efw: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.efw"),
+                header: firmware::boot::header::HeaderRepr::for_image(
+                    &[],
+                    &firmware::product::identity::UPDATE_TARGET,
+                    "0.1.0",
+                ),
+                image: PathBuf::from("/w/target/thumbv7m-none-eabi/release/flash-image.bin"),
             },
             description: PathBuf::from("/w/target/probe-rs/LPC1754.yaml"),
         }
@@ -605,17 +624,17 @@ mod tests {
         let common = "--chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --probe 0d28:0204:ABC";
         assert_eq!(
             quoted(&d),
-            format!("probe-rs download {common} --chip-erase --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io.bin")
+            format!("probe-rs download {common} --chip-erase --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/flash-image.bin")
         );
         assert_eq!(
             quoted(&v),
-            format!("probe-rs verify {common} --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io.bin")
+            format!("probe-rs verify {common} --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/flash-image.bin")
         );
         assert_eq!(quoted(&r), format!("probe-rs reset {common}"));
         let [d, ..] = probe_rs_flash_commands(&prepared(), None, false);
         assert_eq!(
             quoted(&d),
-            "probe-rs download --chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io.bin"
+            "probe-rs download --chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/flash-image.bin"
         );
     }
 
@@ -625,7 +644,7 @@ mod tests {
         let c = openocd_command(&prepared(), Some(&sel), "interface/jlink.cfg");
         assert_eq!(
             quoted(&c),
-            "openocd -f interface/jlink.cfg -c 'adapter serial ABC' -f target/lpc17xx.cfg -c 'program {/w/target/thumbv7m-none-eabi/release/analog-io.bin} 0x00000000 verify reset exit'"
+            "openocd -f interface/jlink.cfg -c 'adapter serial ABC' -f target/lpc17xx.cfg -c 'program {/w/target/thumbv7m-none-eabi/release/flash-image.bin} 0x00000000 verify reset exit'"
         );
     }
 

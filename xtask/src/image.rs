@@ -1,6 +1,8 @@
-//! The pure logic of the firmware image: ELF -> BIN, the LPC17xx vector checksum, the Code
-//! Read Protection word, and the flash/RAM accounting against the budget. No I/O here; the
-//! `build` and `size` commands feed it bytes.
+//! The pure logic of the firmware images: ELF -> BIN, the LPC17xx vector checksum, the Code
+//! Read Protection word, the flash/RAM accounting against the budgets, and the files made of
+//! the two programs (`firmware::boot::layout`): the update file (`.efw`: the application slot,
+//! header block then the application) and the flash image (bootloader, application slot, the
+//! staging area's header erased). No I/O here; the `build` and `size` commands feed it bytes.
 //!
 //! Facts (UM10360 32.3.1.1 and 32.6; hardware-facts section 7):
 //! * The boot ROM starts the user code only if the 32-bit sum of the first eight vector
@@ -9,6 +11,8 @@
 //! * The word at 0x2FC is the CRP: 0x12345678 CRP1, 0x87654321 CRP2, 0x43218765 CRP3
 //!   (permanent: no SWD, no ISP), 0x4E697370 NO_ISP; any other value = no protection.
 
+use firmware::boot::header::{HeaderRepr, Target};
+use firmware::boot::layout::{self, APP_SLOT, APP_VECTORS, BOOTLOADER, HEADER_BLOCK, STAGING};
 use flash_algo::crp;
 use object::elf;
 use object::read::elf::{FileHeader, ProgramHeader, SectionHeader};
@@ -39,7 +43,14 @@ pub const AHBSRAM: Region = Region {
 /// The budget of the application image (brief section 6: application <= 48 KB of the
 /// 128 KB flash, the bootloader <= 8 KB beside it; static RAM <= 6 KB).
 pub const BUDGET: Budget = Budget {
-    flash: 48 * 1024,
+    flash: layout::APP_BUDGET as u64,
+    ram: 6 * 1024,
+};
+
+/// The budget of the bootloader: its 8 KB region; static RAM as the application's (the two
+/// never run at the same time).
+pub const BOOT_BUDGET: Budget = Budget {
+    flash: layout::BOOTLOADER_BUDGET as u64,
     ram: 6 * 1024,
 };
 
@@ -210,22 +221,30 @@ pub fn check_crp(bin: &[u8], allow: bool) -> Result<Crp, ImageError> {
     Ok(crp)
 }
 
-/// Plausibility of the first two vectors: initial SP inside the local SRAM (8-byte aligned,
-/// at most its end), reset handler a Thumb address in the flash.
-pub fn check_vectors(bin: &[u8]) -> Result<(), ImageError> {
+/// Plausibility of the first two vectors of a program whose vector table starts `bin` and
+/// lies at `base`: initial SP inside the local SRAM the programs may use (8-byte aligned, at
+/// most the boot request word), reset handler a Thumb address inside the image.
+pub fn check_vectors_at(bin: &[u8], base: u64) -> Result<(), ImageError> {
     let sp = u64::from(word(bin, 0)?);
     let reset = u64::from(word(bin, 4)?);
-    if !(sp > RAM.start && sp <= RAM.start + RAM.len) || sp % 8 != 0 {
+    let ram_end = u64::from(layout::RAM_END);
+    if !(sp > RAM.start && sp <= ram_end) || sp % 8 != 0 {
         return Err(ImageError::BadVectors(format!(
-            "initial SP {sp:#x} is not an 8-byte aligned address in the local SRAM"
+            "initial SP {sp:#x} is not an 8-byte aligned address in the local SRAM below {ram_end:#x}"
         )));
     }
-    if reset & 1 == 0 || !FLASH.contains(reset & !1) || (reset & !1) >= bin.len() as u64 {
+    let handler = reset & !1;
+    if reset & 1 == 0 || handler < base || handler >= base + bin.len() as u64 {
         return Err(ImageError::BadVectors(format!(
             "reset vector {reset:#x} is not a Thumb address inside the image"
         )));
     }
     Ok(())
+}
+
+/// [`check_vectors_at`] for the program at address 0 (the bootloader).
+pub fn check_vectors(bin: &[u8]) -> Result<(), ImageError> {
+    check_vectors_at(bin, FLASH.start)
 }
 
 /// Every check a written BIN must pass before it goes near a chip.
@@ -385,21 +404,22 @@ pub fn sections(data: &[u8]) -> Result<Vec<SectionInfo>, ImageError> {
     Ok(out)
 }
 
-/// The flash image (what `objcopy -O binary` gives): every section with a load address,
-/// at its load address, gaps filled with 0xFF (the erased flash value).
-pub fn elf_to_bin(data: &[u8], sections: &[SectionInfo]) -> Result<Vec<u8>, ImageError> {
+/// The flash image from `base` (what `objcopy -O binary` gives for a program linked there):
+/// every section with a load address, at its load address, gaps filled with 0xFF (the erased
+/// flash value).
+pub fn elf_to_bin(data: &[u8], sections: &[SectionInfo], base: u64) -> Result<Vec<u8>, ImageError> {
     let mut bin: Vec<u8> = Vec::new();
     for s in sections {
         let (Some(lma), Some(off)) = (s.load_addr, s.file_offset) else {
             continue;
         };
-        if !FLASH.contains(lma) || lma + s.size > FLASH.start + FLASH.len {
+        if !FLASH.contains(lma) || lma < base || lma + s.size > FLASH.start + FLASH.len {
             return Err(ImageError::OutsideFlash {
                 section: s.name.clone(),
                 addr: lma,
             });
         }
-        let start = (lma - FLASH.start) as usize;
+        let start = (lma - base) as usize;
         let end = start + s.size as usize;
         if bin.len() < end {
             bin.resize(end, 0xFF);
@@ -410,6 +430,53 @@ pub fn elf_to_bin(data: &[u8], sections: &[SectionInfo]) -> Result<Vec<u8>, Imag
         bin[start..end].copy_from_slice(src);
     }
     Ok(bin)
+}
+
+/// The update file of an application image (`app`, linked at the slot's vector table
+/// address): the header block for `target` and `version`, then the image. Checks the
+/// application's vectors and that it fits the slot.
+pub fn update_file(
+    app: &[u8],
+    target: &Target,
+    version: &str,
+) -> Result<(Vec<u8>, HeaderRepr), ImageError> {
+    check_vectors_at(app, u64::from(APP_VECTORS))?;
+    if app.len() as u64 > u64::from(layout::MAX_IMAGE) {
+        return Err(ImageError::OverBudget(format!(
+            "application {} B does not fit the {} B slot",
+            app.len(),
+            layout::MAX_IMAGE
+        )));
+    }
+    let header = HeaderRepr::for_image(app, target, version);
+    let mut file = header.to_bytes().to_vec();
+    file.extend_from_slice(app);
+    Ok((file, header))
+}
+
+/// The whole flash content a debug probe writes: the bootloader (padded to its region), the
+/// update file in the application slot, and 0xFF over the staging area's header block, so
+/// the probe erases that sector and no staged update from before survives the flashing.
+pub fn flash_image(boot: &[u8], update: &[u8]) -> Result<Vec<u8>, ImageError> {
+    if boot.len() as u64 > u64::from(BOOTLOADER.len) {
+        return Err(ImageError::OverBudget(format!(
+            "bootloader {} B does not fit its {} B",
+            boot.len(),
+            BOOTLOADER.len
+        )));
+    }
+    if update.len() as u64 > u64::from(APP_SLOT.len) {
+        return Err(ImageError::OverBudget(format!(
+            "update file {} B does not fit the {} B slot",
+            update.len(),
+            APP_SLOT.len
+        )));
+    }
+    let mut image = vec![0xFF; (STAGING.start + HEADER_BLOCK) as usize];
+    image[..boot.len()].copy_from_slice(boot);
+    let slot = APP_SLOT.start as usize;
+    image[slot..slot + update.len()].copy_from_slice(update);
+    Ok(image)
 }
 
 /// Patches the vector checksum into the ELF's section that loads at address 0; returns the
@@ -439,7 +506,7 @@ mod tests {
     fn image(crp: u32) -> Vec<u8> {
         let mut bin = vec![0xFF; 0x400];
         let words = [
-            0x1000_3FE0u32,
+            0x1000_3FD8u32,
             0x0000_0301,
             0x0000_0305,
             0x0000_0307,
@@ -530,6 +597,42 @@ mod tests {
             verify_bin(&bin, false),
             Err(ImageError::BadVectors(_))
         ));
+    }
+
+    #[test]
+    fn update_file_and_flash_image() {
+        // An application image at 0x2100: SP at the top of the usable RAM, reset at +0x101.
+        let mut app = vec![0x5A; 0x300];
+        app[0..4].copy_from_slice(&0x1000_3FD8u32.to_le_bytes());
+        app[4..8].copy_from_slice(&0x0000_2201u32.to_le_bytes());
+        let target = firmware::product::identity::UPDATE_TARGET;
+        let (efw, header) = update_file(&app, &target, "1.2.3").unwrap();
+        assert_eq!(efw.len(), 256 + app.len());
+        assert_eq!(&efw[256..], &app[..]);
+        assert_eq!(&efw[..4], b"AEFW");
+        assert_eq!(header.version_str(), Some("1.2.3"));
+        assert_eq!(header.image_len, 0x300);
+        assert_eq!(header.image_crc, firmware::boot::crc32::crc32(&app));
+        assert_eq!(header.check(&target), Ok(()));
+        // Vectors of an image linked elsewhere are refused.
+        let mut elsewhere = app.clone();
+        elsewhere[4..8].copy_from_slice(&0x0000_0301u32.to_le_bytes());
+        assert!(matches!(
+            update_file(&elsewhere, &target, "1"),
+            Err(ImageError::BadVectors(_))
+        ));
+        // The flash image: bootloader at 0, the file at 0x2000, 0xFF up to the staging
+        // area's header block inclusive.
+        let mut boot = image(0xFFFF_FFFF);
+        patch_checksum(&mut boot).unwrap();
+        let flash = flash_image(&boot, &efw).unwrap();
+        assert_eq!(flash.len(), 0x1_0100);
+        assert_eq!(&flash[..boot.len()], &boot[..]);
+        assert!(flash[boot.len()..0x2000].iter().all(|b| *b == 0xFF));
+        assert_eq!(&flash[0x2000..0x2000 + efw.len()], &efw[..]);
+        assert!(flash[0x2000 + efw.len()..].iter().all(|b| *b == 0xFF));
+        assert!(flash_image(&[0; 0x2001], &efw).is_err());
+        assert!(flash_image(&boot, &vec![0; 0xE001]).is_err());
     }
 
     fn sec(name: &str, addr: u64, lma: Option<u64>, size: u64, place: Place) -> SectionInfo {

@@ -153,7 +153,10 @@ pub fn run(args: &Args) -> Result {
             .unwrap_or_default();
         println!("  {:<16} {:#010x} {:>7} B{lma}", s.name, s.addr, s.size);
     }
-    print_usage(&out.usage);
+    println!("application:");
+    print_usage(&out.usage, &image::BUDGET);
+    println!("bootloader:");
+    print_usage(&out.boot.usage, &image::BOOT_BUDGET);
 
     let syms = symbols(&data, &sections)?;
     let named_flash: u64 = syms
@@ -187,7 +190,7 @@ pub fn run(args: &Args) -> Result {
         println!("  {:>7} {place:<5} {name}", s.size);
     }
     // The verdict last, so the breakdown above is printed even when over budget.
-    build::check_budget(&out.usage)
+    build::check_budget(&out)
 }
 
 #[cfg(test)]

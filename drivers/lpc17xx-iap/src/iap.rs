@@ -7,6 +7,7 @@
 //! top 32 bytes of the local SRAM ([`IAP_RAM_START`]..) and the flash cannot be read, so the
 //! caller runs from RAM with interrupts off.
 
+use crate::sector::sectors_spanning;
 use core::fmt;
 
 /// The ROM entry point (Thumb bit set).
@@ -227,6 +228,9 @@ pub trait IapEntry {
     /// the flash read as erased (0xFF).
     fn read_flash(&self, addr: u32, buf: &mut [u8]);
 
+    /// The address at which the ROM finds `buf` (the RAM operand of a copy or compare).
+    fn ram_address(&self, buf: &[u8]) -> u32;
+
     /// The word user flash holds at `addr` now. Programming only clears bits, so a CRP
     /// guard checks what a write leaves in flash: the written word ANDed with this one.
     fn read_flash_word(&self, addr: u32) -> u32 {
@@ -354,6 +358,32 @@ impl<E: IapEntry> Iap<E> {
         let len = u32::try_from(source.len()).unwrap_or(u32::MAX);
         self.run(Command::CopyRamToFlash, [dst, src_addr, len, cclk], source)
             .map(drop)
+    }
+
+    /// 50 + 51: prepares the sectors `buf` covers at `dst` and copies `buf` (in RAM, word
+    /// aligned, 256/512/1024/4096 bytes) there.
+    pub fn program(&mut self, dst: u32, buf: &[u8]) -> Result<(), IapError> {
+        let len = u32::try_from(buf.len()).unwrap_or(u32::MAX);
+        let (first, last) = sectors_spanning(dst, len).ok_or(IapError {
+            command: Command::CopyRamToFlash,
+            status: Status::DstAddrNotMapped,
+        })?;
+        self.prepare(first, last)?;
+        let src = self.entry.ram_address(buf);
+        self.copy_ram_to_flash(dst, src, buf)
+    }
+
+    /// 50 + 52: prepares and erases sectors `first..=last`.
+    pub fn erase_sectors(&mut self, first: u32, last: u32) -> Result<(), IapError> {
+        self.prepare(first, last)?;
+        self.erase(first, last)
+    }
+
+    /// 56: whether the flash at `dst` holds `buf` (in RAM); `Ok(Some(offset))` of the first
+    /// word that differs.
+    pub fn verify(&mut self, dst: u32, buf: &[u8]) -> Result<Option<u32>, IapError> {
+        let src = self.entry.ram_address(buf);
+        self.compare(dst, src, buf)
     }
 
     /// 53: blank check sectors `start..=end`.

@@ -27,6 +27,10 @@ use std::vec::Vec;
 /// RAM the ROM accepts as a copy source: the local SRAM and the AHB SRAM of the LPC1754.
 pub const RAM: [(u32, u32); 2] = [(0x1000_0000, 0x1000_4000), (0x2007_C000, 0x2008_4000)];
 
+/// Where the model says a host buffer lies for the ROM ([`IapEntry::ram_address`]): in the
+/// local SRAM, clear of the ROM's 32 bytes for any copy size.
+pub const RAM_OPERAND: u32 = 0x1000_1000;
+
 /// What an erase or program step did when the power failed during it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum CutEffect {
@@ -347,6 +351,10 @@ impl IapEntry for FlashModel {
         }
     }
 
+    fn ram_address(&self, _buf: &[u8]) -> u32 {
+        RAM_OPERAND
+    }
+
     fn read_flash(&self, addr: u32, buf: &mut [u8]) {
         for (i, b) in buf.iter_mut().enumerate() {
             *b = (addr as usize)
@@ -416,6 +424,32 @@ mod tests {
             Status::SectorNotPrepared
         );
         assert!(iap.entry().violations().is_empty());
+    }
+
+    #[test]
+    fn program_erase_and_verify_name_their_sectors() {
+        let mut iap = Iap::new(FlashModel::new(), 4_000);
+        let page = [0x11u8; 1024];
+        // 0x2F00..0x3300 spans sectors 2 and 3: both are prepared.
+        iap.program(0x2F00, &page).unwrap();
+        assert_eq!(iap.verify(0x2F00, &page).unwrap(), None);
+        assert_eq!(iap.verify(0x2F00, &[0x12; 1024]).unwrap(), Some(0));
+        iap.erase_sectors(2, 3).unwrap();
+        assert_eq!(
+            iap.entry().log(),
+            &[
+                [50, 2, 3, 0, 0],
+                [51, 0x2F00, RAM_OPERAND, 1024, 4_000],
+                [56, 0x2F00, RAM_OPERAND, 1024, 0],
+                [56, 0x2F00, RAM_OPERAND, 1024, 0],
+                [50, 2, 3, 0, 0],
+                [52, 2, 3, 4_000, 0],
+            ]
+        );
+        assert_eq!(
+            iap.program(0x1_FF00, &page).unwrap_err().status,
+            Status::DstAddrNotMapped
+        );
     }
 
     #[test]

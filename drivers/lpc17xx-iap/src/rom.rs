@@ -57,6 +57,11 @@ impl IapEntry for Rom {
         result
     }
 
+    fn ram_address(&self, buf: &[u8]) -> u32 {
+        // The chip's addresses are 32 bits wide.
+        buf.as_ptr() as usize as u32
+    }
+
     fn read_flash(&self, addr: u32, buf: &mut [u8]) {
         for (i, b) in buf.iter_mut().enumerate() {
             let a = addr.wrapping_add(i as u32);

@@ -16,7 +16,6 @@
 //! | [`wdt`]      | the MCU watchdog                                                      |
 //! | [`esc`]      | the ET1100: the `et1100` driver on the legacy-SPI device              |
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
-//! | [`crp`]      | the Code Read Protection word at 0x2FC                                |
 //! | [`cs_device`] | bus + GPIO chip select as `SpiDevice` (ET1100, AD5663)              |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
 
@@ -25,7 +24,6 @@ pub mod adc;
 pub mod adc_dma;
 pub mod board;
 pub mod clocks;
-pub mod crp;
 pub mod cs_device;
 pub mod dac;
 pub mod delay;

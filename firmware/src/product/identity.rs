@@ -1,6 +1,7 @@
 //! Who the module is: identity (0x1018, SII words 8..15) and names (0x1008..0x100A, SII
 //! strings, ESI).
 
+use crate::boot::header::Target;
 use coe_core::device::{Identity, Names};
 
 /// Vendor ID.
@@ -16,6 +17,17 @@ pub const IDENTITY: Identity = Identity {
     product_code: 0x0000_1754,
     revision: 0x0001_0000,
     serial_number: 0,
+};
+
+/// The board revision an image is built for (the update file header,
+/// [`crate::boot::header`]): revision A, as 0x1009 names it.
+pub const HARDWARE_REVISION: u32 = 1;
+
+/// What an update file must be built for to be accepted and started on this module.
+pub const UPDATE_TARGET: Target = Target {
+    vendor_id: IDENTITY.vendor_id,
+    product_code: IDENTITY.product_code,
+    hardware_revision: HARDWARE_REVISION,
 };
 
 /// Names and versions (0x1008..0x100A, SII strings, ESI).

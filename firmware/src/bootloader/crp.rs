@@ -4,7 +4,8 @@
 //! (CRP2), 0x43218765 (CRP3: SWD and ISP disabled for ever) and 0x4E697370 (NO_ISP: P2.10 not
 //! sampled) restrict access; any other value means no protection. This firmware ships
 //! **0xFFFF_FFFF = no CRP**: the module stays debuggable over SWD and recoverable through UART
-//! ISP. `memory.x` places the `.crp` section at exactly 0x2FC and starts `.text` at 0x300;
+//! ISP. The bootloader owns the first sector, so the word is its: `memory-boot.x` places the
+//! `.crp` section at exactly 0x2FC and starts `.text` at 0x300;
 //! `cargo xtask build` refuses an image with one of the four protection values unless
 //! `--allow-crp` is given.
 
