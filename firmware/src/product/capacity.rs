@@ -8,6 +8,10 @@ pub const AO_CHANNELS: usize = 2;
 
 /// Mailbox size (SM0 and SM1 length).
 pub const MAILBOX_SIZE: usize = 128;
+
+/// Size of the bootstrap mailbox (BOOT state, each direction): four times the standard
+/// mailbox, so an update file moves in packets of 500 bytes.
+pub const BOOTSTRAP_MAILBOX_SIZE: usize = 512;
 /// Largest object transferred in several frames (segmented SDO, complete access).
 pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait for the mailbox.

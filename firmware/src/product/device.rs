@@ -6,7 +6,7 @@
 //! Change a value here (or in the modules it is made of) and all of them follow.
 
 use super::identity::{IDENTITY, NAMES};
-use super::layout::SYNC_MANAGERS;
+use super::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use super::od::OD;
 use super::sync::{MIN_CYCLE_TIME_NS, SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
 use coe_core::device::{
@@ -89,7 +89,9 @@ pub static DEVICE: DeviceDescription = DeviceDescription {
         FmmuUsage::MailboxState,
     ],
     mailbox: MailboxDesc {
-        protocols: MailboxProtocols(MailboxProtocols::COE),
+        // FoE: firmware updates in BOOT (the bootloader; the application answers FoE with
+        // "bootstrap only").
+        protocols: MailboxProtocols(MailboxProtocols::COE | MailboxProtocols::FOE),
         coe: CoeDetails(
             CoeDetails::SDO
                 | CoeDetails::SDO_INFO
@@ -97,7 +99,7 @@ pub static DEVICE: DeviceDescription = DeviceDescription {
                 | CoeDetails::PDO_CONFIG
                 | CoeDetails::COMPLETE_ACCESS,
         ),
-        bootstrap: None,
+        bootstrap: Some(BOOTSTRAP_MAILBOX),
     },
     dc: DcDesc {
         op_modes: OP_MODES,
