@@ -23,8 +23,8 @@ pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "
 pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
 
 /// Python packages the system tests use: pysoem (SOEM's Python binding, a wheel with SOEM
-/// inside), the second EtherCAT master of the system tests on a veth pair. Pinned, so the test
-/// drives the SOEM it was written against.
+/// inside), the second EtherCAT master of the system tests on a veth pair and of the
+/// firmware update test. Pinned, so the tests drive the SOEM they were written against.
 pub const PYTHON_PACKAGES: [(&str, &str); 1] = [("pysoem", "1.1.13")];
 
 /// Everything: targets, cargo tools, Debian and Python packages.

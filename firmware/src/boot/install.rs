@@ -15,8 +15,7 @@
 
 use super::crc32::Crc32;
 use super::header::{Header, HeaderError, HeaderRepr, Mismatch, Target};
-use super::layout::{Region, APP_SLOT, CHUNK, HEADER_BLOCK, STAGING};
-use super::staging::Chunk;
+use super::layout::{Chunk, Region, APP_SLOT, CHUNK, HEADER_BLOCK, STAGING};
 use lpc17xx_iap::{Command, Iap, IapEntry, IapError, Status};
 
 /// Why a region holds no image this module can run.

@@ -72,6 +72,18 @@ pub const MAX_IMAGE: u32 = APP_SLOT.len - HEADER_BLOCK;
 /// and files are moved in whole chunks, padded with 0xFF).
 pub const CHUNK: usize = 1024;
 
+/// A RAM buffer of one chunk, word-aligned as the IAP ROM needs its source.
+#[derive(Debug, Clone)]
+#[repr(C, align(4))]
+pub struct Chunk(pub [u8; CHUNK]);
+
+impl Chunk {
+    /// All bytes erased (0xFF).
+    pub const fn erased() -> Self {
+        Self([0xFF; CHUNK])
+    }
+}
+
 /// Flash budget of the bootloader (brief 6): its whole region.
 pub const BOOTLOADER_BUDGET: u32 = BOOTLOADER.len;
 

@@ -21,7 +21,7 @@
 use super::crc32::Crc32;
 use super::header::{Header, HeaderRepr, Mismatch, Target};
 use super::install::{check_image, Invalid};
-use super::layout::{CHUNK, HEADER_BLOCK, STAGING};
+use super::layout::{Chunk, CHUNK, HEADER_BLOCK, STAGING};
 use coe_core::foe::{FileStore, FoeError, WriteRefusal};
 use coe_core::wire::FoeErrorCode;
 use coe_core::AlState;
@@ -32,18 +32,6 @@ pub const PASSWORD: u32 = 0;
 
 /// The file name ending of a firmware file (ASCII, any case).
 pub const SUFFIX: &[u8] = b".efw";
-
-/// A RAM buffer of one chunk, word-aligned as the IAP ROM needs its source.
-#[derive(Debug, Clone)]
-#[repr(C, align(4))]
-pub struct Chunk(pub [u8; CHUNK]);
-
-impl Chunk {
-    /// All bytes erased (0xFF).
-    pub const fn erased() -> Self {
-        Self([0xFF; CHUNK])
-    }
-}
 
 fn error(code: FoeErrorCode, text: &'static str) -> FoeError {
     FoeError::with_text(code, text)
