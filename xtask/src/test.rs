@@ -48,10 +48,11 @@ pub fn run(args: &Args) -> Result {
             "warnings",
         ]))?;
     }
-    // The LPC1754 image first: release build, checksum, CRP word and budget verified on
-    // the BIN; the co-simulator's system tests (tests/cosim) run this very ELF.
+    // The LPC1754 images first: release builds, checksum, CRP word and budgets verified on
+    // the BINs; the co-simulator's system tests (tests/cosim) run these very programs (the
+    // bootloader and the update file are found next to the application's ELF).
     let image = build::build(&build::Args::default())?;
-    build::print_usage(&image.usage);
+    build::print_report(&image);
     exec(
         cargo()
             .args(["test", "--workspace"])

@@ -41,6 +41,18 @@ fn restore_interrupts(primask: u32) {
     }
 }
 
+/// The flash byte at address 0 (a Rust pointer cannot be null, the Cortex-M's address 0 is
+/// flash).
+fn byte_at_zero() -> u8 {
+    let value: u32;
+    // SAFETY: a byte load from address 0, the first byte of the user flash mapped there.
+    unsafe {
+        core::arch::asm!("ldrb {v}, [{a}]", v = out(reg) value, a = in(reg) 0u32,
+            options(readonly, nostack, preserves_flags));
+    }
+    value as u8
+}
+
 impl IapEntry for Rom {
     fn call(&mut self, command: &[u32; 5], _source: &[u8]) -> [u32; 5] {
         let mut result = [0u32; 5];
@@ -63,16 +75,23 @@ impl IapEntry for Rom {
     }
 
     fn read_flash(&self, addr: u32, buf: &mut [u8]) {
-        for (i, b) in buf.iter_mut().enumerate() {
-            let a = addr.wrapping_add(i as u32);
-            *b = if a < FLASH_SIZE && a >= addr {
-                // SAFETY: user flash is mapped at 0 and every address below FLASH_SIZE is
-                // readable memory; nothing programs the flash while this runs (the ROM is
-                // only entered through `call`).
-                unsafe { core::ptr::read_volatile(a as *const u8) }
-            } else {
-                0xFF
-            };
+        let end = addr.saturating_add(buf.len() as u32).min(FLASH_SIZE);
+        let inside = end.saturating_sub(addr) as usize;
+        let (flash, outside) = buf.split_at_mut(inside.min(buf.len()));
+        let (flash, from) = match flash.split_first_mut() {
+            Some((first, rest)) if addr == 0 => {
+                *first = byte_at_zero();
+                (rest, 1)
+            }
+            _ => (flash, addr),
+        };
+        if !flash.is_empty() {
+            // SAFETY: user flash is mapped at 0 and every address in 1..FLASH_SIZE is
+            // readable memory; nothing programs the flash while this copy runs (the ROM is
+            // only entered through `call`, which does not return before the flash is idle).
+            let src = unsafe { core::slice::from_raw_parts(from as *const u8, flash.len()) };
+            flash.copy_from_slice(src);
         }
+        outside.fill(0xFF);
     }
 }

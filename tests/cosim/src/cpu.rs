@@ -12,6 +12,7 @@
 //! instructions late, never inside an IT block).
 
 use crate::ahb_sram;
+use crate::iap;
 use crate::image::Image;
 use crate::machine::{Machine, ResetCause, Stop, ENTRY_CYCLES, RETURN_CYCLES, TAIL_CHAIN_CYCLES};
 use crate::rtt::Memory;
@@ -141,6 +142,7 @@ impl Core {
             .map_err(err("flash"))?;
         uc.mem_write(0, &image.flash)
             .map_err(err("flash contents"))?;
+        machine.borrow_mut().flash.load(0, &image.flash);
         uc.mem_map(u64::from(SRAM.0), u64::from(SRAM.1), Prot::ALL)
             .map_err(err("SRAM"))?;
         // The AHB SRAM belongs to the machine (the GPDMA's memory, watched for samples).
@@ -186,8 +188,19 @@ impl Core {
             )
             .map_err(err("peripheral map"))?;
         }
+        iap::map(&mut uc)?;
         uc.add_block_hook(1, 0, block_hook)
             .map_err(err("block hook"))?;
+        if image.app_vectors != 0 {
+            // The stack is measured from the application's start: the bootloader before it
+            // runs on the same RAM.
+            let entry = u64::from(image.app_entry());
+            let top = image.initial_sp();
+            uc.add_code_hook(entry, entry, move |uc: &mut Unicorn<'_, Shared>, _, _| {
+                paint(uc, top);
+            })
+            .map_err(err("application entry hook"))?;
+        }
         uc.add_mem_hook(
             HookType::MEM_UNMAPPED | HookType::MEM_PROT,
             1,
@@ -229,18 +242,7 @@ impl Core {
     }
 
     fn paint_stack(&mut self) {
-        let top = self.image.initial_sp();
-        if top > SRAM.0 && top <= SRAM.0 + SRAM.1 {
-            let n = (top - SRAM.0) as usize;
-            let bytes: Vec<u8> = STACK_PAINT
-                .to_le_bytes()
-                .iter()
-                .copied()
-                .cycle()
-                .take(n)
-                .collect();
-            let _ = self.uc.mem_write(u64::from(SRAM.0), &bytes);
-        }
+        paint(&mut self.uc, self.image.initial_sp());
     }
 
     /// The image.
@@ -273,8 +275,8 @@ impl Core {
     }
 
     fn reset_core(&mut self) -> Result<(), String> {
-        let sp = self.image.initial_sp();
-        let pc = self.image.word(4);
+        let sp = self.image.reset_sp();
+        let pc = self.image.reset_vector();
         let uc = &mut self.uc;
         set(uc, RegisterARM::CONTROL, 0);
         set(uc, RegisterARM::PRIMASK, 0);
@@ -548,7 +550,25 @@ impl Core {
     }
 }
 
+/// Paints the local SRAM below `top` (a stack top) with [`STACK_PAINT`].
+fn paint(uc: &mut Unicorn<'_, Shared>, top: u32) {
+    if top > SRAM.0 && top <= SRAM.0 + SRAM.1 {
+        let n = (top - SRAM.0) as usize;
+        let bytes: Vec<u8> = STACK_PAINT
+            .to_le_bytes()
+            .iter()
+            .copied()
+            .cycle()
+            .take(n)
+            .collect();
+        let _ = uc.mem_write(u64::from(SRAM.0), &bytes);
+    }
+}
+
 fn block_hook(uc: &mut Unicorn<'_, Shared>, addr: u64, size: u32) {
+    if addr == u64::from(iap::ENTRY) {
+        iap::call(uc);
+    }
     let m = uc.get_data().clone();
     let mut m = m.borrow_mut();
     if m.stop.is_some() {

@@ -1,9 +1,16 @@
-//! The firmware image as the LPC1754's flash holds it: the ELF's loadable segments at their
-//! load addresses (`.data`'s initial values included), the symbols the co-simulator needs,
-//! and the boot ROM's checks (UM10360 32.3 and 32.6): the vector checksum (words 0..7 sum to
-//! 0, else the ROM stays in ISP and never starts the image) and the Code Read Protection
-//! word at 0x2FC.
+//! The firmware as the LPC1754's flash holds it: the ELFs' loadable segments at their load
+//! addresses (`.data`'s initial values included), the symbols the co-simulator needs, and
+//! the boot ROM's checks (UM10360 32.3 and 32.6): the vector checksum (words 0..7 sum to 0,
+//! else the ROM stays in ISP and never starts the image) and the Code Read Protection word
+//! at 0x2FC.
+//!
+//! The release flash holds two programs (`firmware::boot::layout`): the bootloader from 0,
+//! and the update file (`.efw`: header block, then the application linked at 0x3100) in the
+//! application slot ([`Image::from_programs`]). A single ELF from 0 also loads
+//! ([`Image::from_elf`], for tests of the boot ROM's checks).
 
+use firmware::boot::header::{Header, HeaderRepr, Target};
+use firmware::boot::layout::{APP_SLOT, APP_VECTORS, HEADER_BLOCK};
 use object::elf::PT_LOAD;
 use object::read::elf::{ElfFile32, ProgramHeader, SectionHeader};
 use object::{Endianness, Object, ObjectSection, ObjectSymbol};
@@ -102,6 +109,49 @@ pub struct Image {
     /// Bytes the flash holds: the allocated sections with contents (vector table, CRP
     /// word, code, read-only data, .data's initial values), gaps between them excluded.
     pub flash_bytes: u32,
+    /// Where the vector table of the program that does the work lies (the application's
+    /// after the bootloader, else 0): its stack is the one measured.
+    pub app_vectors: u32,
+}
+
+/// The loadable segments of an ELF into `flash`; the highest end.
+fn load_segments(data: &[u8], flash: &mut [u8]) -> Result<usize, ImageError> {
+    let elf = ElfFile32::<Endianness>::parse(data).map_err(|e| ImageError::Elf(e.to_string()))?;
+    let e = elf.endian();
+    let mut used = 0;
+    for ph in elf.elf_program_headers() {
+        if ph.p_type(e) != PT_LOAD || ph.p_filesz(e) == 0 {
+            continue;
+        }
+        let bytes = ph
+            .data(e, data)
+            .map_err(|_| ImageError::Elf("bad program header".into()))?;
+        let at = ph.p_paddr(e) as usize;
+        let end = at + bytes.len();
+        if end > FLASH_SIZE {
+            return Err(ImageError::OutsideFlash(at as u32, bytes.len()));
+        }
+        flash[at..end].copy_from_slice(bytes);
+        used = used.max(end);
+    }
+    Ok(used)
+}
+
+/// The function symbols of an ELF (address without the Thumb bit, size, demangled name).
+fn functions_of(data: &[u8]) -> Result<Vec<(u32, u32, String)>, ImageError> {
+    let elf = ElfFile32::<Endianness>::parse(data).map_err(|e| ImageError::Elf(e.to_string()))?;
+    Ok(elf
+        .symbols()
+        .filter(|s| s.kind() == object::SymbolKind::Text && s.size() > 0)
+        .filter_map(|s| {
+            let name = s.name().ok()?;
+            Some((
+                s.address() as u32 & !1,
+                s.size() as u32,
+                rustc_demangle::demangle(name).to_string(),
+            ))
+        })
+        .collect())
 }
 
 impl Image {
@@ -112,50 +162,24 @@ impl Image {
         Self::from_elf(data)
     }
 
-    /// Loads an ELF image from bytes.
+    /// Loads an ELF image from bytes (a program linked at 0).
     pub fn from_elf(data: Vec<u8>) -> Result<Self, ImageError> {
         let elf = ElfFile32::<Endianness>::parse(data.as_slice())
             .map_err(|e| ImageError::Elf(e.to_string()))?;
-        let e = elf.endian();
         let mut flash = vec![0xFF; FLASH_SIZE];
-        let mut used = 0;
-        for ph in elf.elf_program_headers() {
-            if ph.p_type(e) != PT_LOAD || ph.p_filesz(e) == 0 {
-                continue;
-            }
-            let bytes = ph
-                .data(e, data.as_slice())
-                .map_err(|_| ImageError::Elf("bad program header".into()))?;
-            let at = ph.p_paddr(e) as usize;
-            let end = at + bytes.len();
-            if end > FLASH_SIZE {
-                return Err(ImageError::OutsideFlash(at as u32, bytes.len()));
-            }
-            flash[at..end].copy_from_slice(bytes);
-            used = used.max(end);
-        }
+        let used = load_segments(&data, &mut flash)?;
         let rtt = elf
             .symbols()
             .find(|s| s.name() == Ok("_SEGGER_RTT"))
             .map(|s| s.address() as u32);
-        let mut functions: Vec<(u32, u32, String)> = elf
-            .symbols()
-            .filter(|s| s.kind() == object::SymbolKind::Text && s.size() > 0)
-            .filter_map(|s| {
-                let name = s.name().ok()?;
-                Some((
-                    s.address() as u32 & !1,
-                    s.size() as u32,
-                    rustc_demangle::demangle(name).to_string(),
-                ))
-            })
-            .collect();
+        let mut functions = functions_of(&data)?;
         functions.sort();
         let static_ram = elf
             .sections()
             .filter(|s| matches!(s.name(), Ok(".data" | ".bss" | ".uninit")))
             .map(|s| s.size() as u32)
             .sum();
+        let e = elf.endian();
         let flash_bytes = elf
             .elf_section_table()
             .iter()
@@ -173,7 +197,43 @@ impl Image {
             elf: data,
             functions,
             static_ram,
+            app_vectors: 0,
         })
+    }
+
+    /// The release flash: the bootloader's ELF from 0, the update file (header block and
+    /// image) in the application slot. `app_elf` is the application the file carries: its
+    /// symbols, RTT block and defmt tables are the image's (the bootloader's functions are
+    /// added for reports); its loadable bytes must be the file's image.
+    pub fn from_programs(
+        bootloader_elf: &[u8],
+        app_elf: Vec<u8>,
+        update_file: &[u8],
+    ) -> Result<Self, ImageError> {
+        let mut image = Self::from_elf(app_elf)?;
+        let mut flash = vec![0xFF; FLASH_SIZE];
+        load_segments(bootloader_elf, &mut flash)?;
+        let slot = APP_SLOT.start as usize;
+        if update_file.len() > APP_SLOT.len as usize {
+            return Err(ImageError::OutsideFlash(APP_SLOT.start, update_file.len()));
+        }
+        let carried = update_file.get(HEADER_BLOCK as usize..).unwrap_or_default();
+        let linked = image
+            .flash
+            .get(APP_VECTORS as usize..image.flash_used)
+            .unwrap_or_default();
+        if carried != linked {
+            return Err(ImageError::Elf(
+                "the update file does not carry the application ELF's image".into(),
+            ));
+        }
+        flash[slot..slot + update_file.len()].copy_from_slice(update_file);
+        image.flash = flash;
+        image.flash_used = slot + update_file.len();
+        image.functions.extend(functions_of(bootloader_elf)?);
+        image.functions.sort();
+        image.app_vectors = APP_VECTORS;
+        Ok(image)
     }
 
     /// Word `i` of the flash.
@@ -195,9 +255,25 @@ impl Image {
         Ok(Crp::of(self.word(CRP_ADDRESS)))
     }
 
-    /// Initial stack pointer (vector 0).
-    pub fn initial_sp(&self) -> u32 {
+    /// The stack pointer of the reset vector table (vector 0 at address 0).
+    pub fn reset_sp(&self) -> u32 {
         self.word(0)
+    }
+
+    /// The reset handler of the reset vector table (vector 1 at address 0).
+    pub fn reset_vector(&self) -> u32 {
+        self.word(4)
+    }
+
+    /// Initial stack pointer of the working program (the application after the
+    /// bootloader): the top of the stack the run measures.
+    pub fn initial_sp(&self) -> u32 {
+        self.word(self.app_vectors as usize)
+    }
+
+    /// The working program's reset handler (the application after the bootloader).
+    pub fn app_entry(&self) -> u32 {
+        self.word(self.app_vectors as usize + 4) & !1
     }
 
     /// The function containing `addr` (name, offset), for reports.
@@ -208,20 +284,25 @@ impl Image {
         (a < start + size).then(|| (name.as_str(), a - start))
     }
 
-    /// Replaces `from` by `to` at the only place `from` occurs in the flash (for tests that
-    /// patch an image); errors when it occurs not exactly once.
+    /// Replaces `from` by `to` at the only place `from` occurs in the working program (the
+    /// application after the bootloader, whose update header is then signed again, so the
+    /// bootloader still starts it; else the whole flash), for tests that patch an image;
+    /// errors when it occurs not exactly once.
     pub fn patch_unique(&mut self, from: &[u8], to: &[u8]) -> Result<usize, String> {
         assert_eq!(from.len(), to.len());
-        let hits: Vec<usize> = self
-            .flash
+        let base = self.app_vectors as usize;
+        let hits: Vec<usize> = self.flash[base..self.flash_used]
             .windows(from.len())
             .enumerate()
             .filter(|(_, w)| *w == from)
-            .map(|(i, _)| i)
+            .map(|(i, _)| base + i)
             .collect();
         match hits.as_slice() {
             [at] => {
                 self.flash[*at..*at + to.len()].copy_from_slice(to);
+                if base != 0 {
+                    self.sign_application()?;
+                }
                 Ok(*at)
             }
             _ => Err(format!(
@@ -229,6 +310,25 @@ impl Image {
                 hits.len()
             )),
         }
+    }
+
+    /// Writes the application slot's header again for the image it holds now (length and
+    /// CRC-32; identity, revision and version kept).
+    fn sign_application(&mut self) -> Result<(), String> {
+        let slot = APP_SLOT.start as usize;
+        let block = &self.flash[slot..slot + HEADER_BLOCK as usize];
+        let old = HeaderRepr::parse(&Header::new_unchecked(block))
+            .map_err(|e| format!("the application slot's header: {e}"))?;
+        let image = &self.flash[APP_VECTORS as usize..self.flash_used];
+        let target = Target {
+            vendor_id: old.vendor_id,
+            product_code: old.product_code,
+            hardware_revision: old.hardware_revision,
+        };
+        let mut new = HeaderRepr::for_image(image, &target, "");
+        new.version = old.version;
+        self.flash[slot..slot + HEADER_BLOCK as usize].copy_from_slice(&new.to_bytes());
+        Ok(())
     }
 }
 
@@ -246,6 +346,7 @@ mod tests {
             functions: Vec::new(),
             static_ram: 0,
             flash_bytes: 0,
+            app_vectors: 0,
         };
         for i in 0..7 {
             img.flash[4 * i..4 * i + 4].copy_from_slice(&(0x1000_0000u32 + i as u32).to_le_bytes());

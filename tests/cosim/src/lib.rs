@@ -8,7 +8,8 @@
 //!
 //! | module       | what                                                                  |
 //! |--------------|-----------------------------------------------------------------------|
-//! | [`image`]    | the ELF as the flash holds it; the boot ROM's checksum and CRP checks |
+//! | [`image`]    | the programs as the flash holds them; the boot ROM's checksum and CRP checks |
+//! | [`iap`]      | the IAP ROM at 0x1FFF_1FF1 on lpc17xx-iap's flash model               |
 //! | [`cpu`]      | the Cortex-M3 on unicorn with the ARMv7-M exception model             |
 //! | [`nvic`]     | NVIC, SCB, SysTick: pending, active, priorities, masks                |
 //! | [`periph`]   | SYSCON, PINSEL, GPIO, SPI, SSP, timers, GPDMA, WDT from UM10360        |
@@ -26,6 +27,7 @@ pub mod bench;
 pub mod code;
 pub mod cosim;
 pub mod cpu;
+pub mod iap;
 pub mod image;
 pub mod machine;
 pub mod nvic;

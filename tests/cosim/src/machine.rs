@@ -26,6 +26,7 @@ use crate::periph::{Peripheral, Tick};
 use crate::profile::Profile;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::spi::{Operation, SpiDevice};
+use lpc17xx_iap::model::FlashModel;
 use std::rc::Rc;
 use virtual_board::models::spi::SpiSession;
 use virtual_board::rig::board::BoardIo;
@@ -241,6 +242,10 @@ pub struct Machine {
     pub profile: Profile,
     /// The AHB SRAM (the GPDMA's memory) with its watch over samples.
     pub ahb_sram: AhbSram,
+    /// The flash and the IAP ROM's state ([`crate::iap`]); the engine's flash mirrors it.
+    pub flash: FlashModel,
+    /// IAP commands carried out.
+    pub iap_calls: u64,
 }
 
 impl Machine {
@@ -280,6 +285,8 @@ impl Machine {
             pconp_at_reset: PCONP_RESET,
             profile: Profile::new(image.initial_sp()),
             ahb_sram: AhbSram::new(),
+            flash: FlashModel::new(),
+            iap_calls: 0,
         };
         m.now_ps = m.io.now_ns() * 1000;
         m.update_cycle_time();

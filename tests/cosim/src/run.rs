@@ -10,13 +10,14 @@ use virtual_board::models::esc::SyncEdge;
 use virtual_board::rig::board::{BoardIo, PdiCpu};
 use virtual_board::tools::sim::{firmware_device, Target};
 
-/// The environment variable that names the release ELF (`cargo xtask test` sets it after
-/// building the image).
+/// The environment variable that names the release ELF of the application (`cargo xtask
+/// test` sets it after building the images); the bootloader's ELF (`bootloader`) and the
+/// update file (`analog-io.efw`) are beside it, as `cargo xtask build` writes them.
 pub const IMAGE_ENV: &str = "LPC1754_IMAGE";
 
-/// The release ELF: `$LPC1754_IMAGE`, else `cargo xtask build`'s output in the workspace's
-/// target directory. The image is never built here (a cargo build inside a running cargo
-/// would wait on its lock): run `cargo xtask build` first.
+/// The release ELF of the application: `$LPC1754_IMAGE`, else `cargo xtask build`'s output
+/// in the workspace's target directory. The image is never built here (a cargo build inside
+/// a running cargo would wait on its lock): run `cargo xtask build` first.
 pub fn image_path() -> PathBuf {
     if let Some(p) = std::env::var_os(IMAGE_ENV) {
         return PathBuf::from(p);
@@ -29,16 +30,27 @@ pub fn image_path() -> PathBuf {
     target.join("thumbv7m-none-eabi/release/analog-io")
 }
 
-/// Loads the release image, with a clear message when it is missing.
-pub fn load_image() -> Result<Image, String> {
-    let path = image_path();
-    if !path.exists() {
-        return Err(format!(
-            "the release image {} does not exist: run `cargo xtask build` first (or set {IMAGE_ENV})",
+fn read(path: &std::path::Path) -> Result<Vec<u8>, String> {
+    std::fs::read(path).map_err(|e| {
+        format!(
+            "{}: {e}: run `cargo xtask build` first (or set {IMAGE_ENV})",
             path.display()
-        ));
-    }
-    Image::from_file(&path).map_err(|e| e.to_string())
+        )
+    })
+}
+
+/// Loads the release flash: the bootloader, and the update file with the application ELF
+/// it carries, with a clear message when one is missing.
+pub fn load_image() -> Result<Image, String> {
+    let app = image_path();
+    load_programs(&app, &app.with_extension("efw"))
+}
+
+/// Loads the bootloader beside `app_elf` and the update file `efw` (which must carry
+/// `app_elf`'s image).
+pub fn load_programs(app_elf: &std::path::Path, efw: &std::path::Path) -> Result<Image, String> {
+    let boot = read(&app_elf.with_file_name("bootloader"))?;
+    Image::from_programs(&boot, read(app_elf)?, &read(efw)?).map_err(|e| e.to_string())
 }
 
 /// The co-simulator shared between the board (as its CPU) and the caller (for facts).
