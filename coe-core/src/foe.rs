@@ -104,6 +104,12 @@ pub trait FileStore {
     /// last ACK; an error is sent instead of it.
     fn finish_write(&mut self, len: u32) -> Result<(), FoeError>;
 
+    /// False for a store that only takes files: the server answers every read request
+    /// "not found" itself and never reads (code that uses such a store has no read path).
+    fn reads(&self) -> bool {
+        true
+    }
+
     /// A master asks to read `name` with `password` in `state`. The default: no file.
     fn open_read(&mut self, name: &[u8], password: u32, state: AlState) -> Result<(), FoeError> {
         let _ = (name, password, state);
@@ -265,9 +271,13 @@ impl FoeServer {
                 file_name,
             } => {
                 self.end(files);
-                match files.open_read(file_name, password, state) {
-                    Ok(()) => return Ok(self.read_packet(1, 0, files, now_ms, out)),
-                    Err(e) => e.into_repr(),
+                if !files.reads() {
+                    FoeError::new(FoeErrorCode::NotFound).into_repr()
+                } else {
+                    match files.open_read(file_name, password, state) {
+                        Ok(()) => return Ok(self.read_packet(1, 0, files, now_ms, out)),
+                        Err(e) => e.into_repr(),
+                    }
                 }
             }
             FoeRepr::Data {
@@ -286,7 +296,7 @@ impl FoeServer {
             FoeRepr::Ack { packet_number } => match self.transfer {
                 Transfer::Read {
                     sent, offset, last, ..
-                } if packet_number == sent => {
+                } if files.reads() && packet_number == sent => {
                     if last {
                         self.transfer = Transfer::Idle;
                         files.abort();
@@ -294,7 +304,7 @@ impl FoeServer {
                     }
                     return Ok(self.read_packet(sent.wrapping_add(1), offset, files, now_ms, out));
                 }
-                Transfer::Read { .. } => {
+                Transfer::Read { .. } if files.reads() => {
                     self.end(files);
                     FoeError::new(FoeErrorCode::PacketNumberWrong).into_repr()
                 }

@@ -14,10 +14,15 @@ struct Memory {
     readable: Vec<u8>,
     busy_once_at: Option<u32>,
     refuse_finish: Option<FoeError>,
+    write_only: bool,
     log: Vec<&'static str>,
 }
 
 impl FileStore for Memory {
+    fn reads(&self) -> bool {
+        !self.write_only
+    }
+
     fn open_write(&mut self, name: &[u8], password: u32, state: AlState) -> Result<(), FoeError> {
         self.log.push("open_write");
         if state != AlState::Bootstrap {
@@ -468,6 +473,29 @@ fn read_errors() {
         .unwrap(),
         Some(Answer::Error(FoeErrorCode::Illegal, _))
     ));
+}
+
+#[test]
+fn a_write_only_store_is_never_asked_to_read() {
+    let mut rig = Rig::new();
+    rig.files.write_only = true;
+    rig.files.readable = file(3 * ROOM);
+    assert_eq!(
+        rig.send(FoeRepr::ReadRequest {
+            password: 0,
+            file_name: b"info.txt",
+        })
+        .unwrap(),
+        Some(Answer::Error(FoeErrorCode::NotFound, "Not found".into()))
+    );
+    assert!(!rig.files.log.contains(&"open_read"));
+    assert!(matches!(
+        rig.send(FoeRepr::Ack { packet_number: 1 }).unwrap(),
+        Some(Answer::Error(FoeErrorCode::Illegal, _))
+    ));
+    let content = file(2 * ROOM + 5);
+    assert_eq!(write_file(&mut rig, &content).last(), Some(&Answer::Ack(3)));
+    assert_eq!(rig.files.committed, Some(content));
 }
 
 #[test]
