@@ -26,6 +26,8 @@
 //!   pends it without the request after serving events, and the DAC task preloads freshly
 //!   staged outputs into the input registers (`DacLatch::preload`), so SYNC0 only pulses
 //!   LDAC.
+//! - A master's INIT -> BOOT (with the bootstrap mailbox configured): the PDI task sets the
+//!   boot request in RAM and resets the CPU (`hw::boot_request`); the bootloader stays.
 //! - Every millisecond `tick` requests the background work too: free-run inputs,
 //!   mailbox timeouts, the sample ring drained well before it fills (~4 ms), the start of
 //!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served.
@@ -246,6 +248,10 @@ mod rtic_app {
         }
         if done.pend_again {
             rtic::pend(Interrupt::EINT3);
+        }
+        if done.enter_bootloader {
+            // From INIT: the outputs already hold their safe values.
+            hw::boot_request::enter_bootloader();
         }
     }
 

@@ -1,5 +1,8 @@
-//! The mailbox link: SM0 (master -> slave) -> coe-core's SDO server -> SM1 (slave ->
-//! master), with the ESC's mailbox handshakes (ESC datasheet section I 8.5/8.6).
+//! The mailbox link: SM0 (master -> slave) -> a mailbox server -> SM1 (slave -> master),
+//! with the ESC's mailbox handshakes (ESC datasheet section I 8.5/8.6). The server is the
+//! application's ([`AppServer`]: coe-core's SDO server, with FoE beside it answering
+//! "bootstrap only") or the bootloader's (coe-core's FoE mailbox on the bootstrap mailbox,
+//! `crate::boot::slave`): one link, one set of handshakes, for both ([`MailboxServer`]).
 //!
 //! - A request is read when SM0 is full (AL event bit 8, or SM0 status b3 when polled) and
 //!   no reply is waiting. The ESC opens a mailbox buffer on the access to its first byte and
@@ -32,10 +35,14 @@
 //!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
 //!   catches anything the events missed.
 
+use super::objects::AppData;
+use crate::boot::staging::is_firmware_name;
 use crate::product::capacity::{EMERGENCY_QUEUE, MAILBOX_SIZE, TRANSFER_BUFFER};
+use coe_core::device::sm_control;
+use coe_core::foe::{FileStore, FoeEndpoint, FoeError, FoeServer, WriteRefusal};
 use coe_core::mailbox::MAILBOX_HEADER_LEN;
-use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
+use coe_core::wire::FoeErrorCode;
 use coe_core::AlState;
 use et1100::{AlEvents, Et1100, Pdi, PdiResult, SyncManager};
 
@@ -56,6 +63,136 @@ pub const EVENT_SAMPLE_MS: u32 = 1;
 /// The SDO server of the module.
 pub type Server = SdoServer<MAILBOX_SIZE, TRANSFER_BUFFER, EMERGENCY_QUEUE>;
 
+/// What a [`MailboxLink`] serves: every request it reads, and the frames that wait for a
+/// free SM1.
+pub trait MailboxServer {
+    /// What the server works on besides the frames (the application's objects, the
+    /// bootloader's file store).
+    type Context: ?Sized;
+
+    /// Serves one request (the whole SM0 content) into `reply` (the read mailbox size).
+    fn process(
+        &mut self,
+        ctx: &mut Self::Context,
+        request: &[u8],
+        state: AlState,
+        now_ms: u32,
+        reply: &mut [u8],
+    ) -> Reply;
+
+    /// A frame that waits for SM1 (fragments, Emergencies), if any.
+    fn poll(&mut self, ctx: &mut Self::Context, reply: &mut [u8]) -> Reply;
+
+    /// The last frame again (the repeat request).
+    fn repeat(&self, reply: &mut [u8]) -> Reply;
+
+    /// True if [`MailboxServer::poll`] has a frame.
+    fn has_outgoing(&self) -> bool;
+
+    /// An ESM transition.
+    fn on_state_change(&mut self, ctx: &mut Self::Context, from: AlState, to: AlState);
+}
+
+/// The application's FoE files: none. A firmware file (`*.efw`) is written in BOOT, where
+/// the bootloader serves it; here a write of one is answered "bootstrap only" (0x8008), any
+/// other name "not found".
+pub struct BootOnlyFiles;
+
+impl FileStore for BootOnlyFiles {
+    fn open_write(&mut self, name: &[u8], _: u32, _: AlState) -> Result<(), FoeError> {
+        Err(if is_firmware_name(name) {
+            FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only")
+        } else {
+            FoeError::new(FoeErrorCode::NotFound)
+        })
+    }
+
+    fn write(&mut self, _: u32, _: &[u8]) -> Result<(), WriteRefusal> {
+        Err(FoeError::new(FoeErrorCode::Illegal).into())
+    }
+
+    fn finish_write(&mut self, _: u32) -> Result<(), FoeError> {
+        Err(FoeError::new(FoeErrorCode::Illegal))
+    }
+
+    fn abort(&mut self) {}
+}
+
+/// The application's server: the SDO server, FoE on the same mailbox beside it.
+pub struct AppServer {
+    sdo: Server,
+    foe: FoeServer,
+}
+
+impl AppServer {
+    /// Nothing in progress.
+    pub const fn new() -> Self {
+        Self {
+            sdo: SdoServer::new(),
+            foe: FoeServer::new(),
+        }
+    }
+
+    /// The SDO server.
+    pub fn sdo(&self) -> &Server {
+        &self.sdo
+    }
+}
+
+impl Default for AppServer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl MailboxServer for AppServer {
+    type Context = AppData;
+
+    fn process(
+        &mut self,
+        data: &mut AppData,
+        request: &[u8],
+        state: AlState,
+        now_ms: u32,
+        reply: &mut [u8],
+    ) -> Reply {
+        let od = data.od();
+        let mut foe = FoeEndpoint {
+            server: &mut self.foe,
+            files: &mut BootOnlyFiles,
+        };
+        self.sdo
+            .process_with(request, state, od, data, now_ms, reply, &mut foe)
+    }
+
+    fn poll(&mut self, data: &mut AppData, reply: &mut [u8]) -> Reply {
+        self.sdo.poll(data.od(), reply)
+    }
+
+    fn repeat(&self, reply: &mut [u8]) -> Reply {
+        self.sdo.repeat(reply)
+    }
+
+    fn has_outgoing(&self) -> bool {
+        self.sdo.has_outgoing()
+    }
+
+    fn on_state_change(&mut self, _: &mut AppData, from: AlState, to: AlState) {
+        self.sdo.on_state_change(from, to);
+        self.foe.on_state_change(from, to, &mut BootOnlyFiles);
+    }
+}
+
+/// A mailbox SyncManager as a master configured it, against the window and control byte
+/// the device description gives it: enabled, same start and length, same control byte apart
+/// from the ECAT IRQ bit (b4), which masters set as they like.
+pub fn mailbox_sm_ok(sm: &SyncManager, start: u16, len: u16, control: u8) -> bool {
+    sm.enabled()
+        && sm.start == start
+        && sm.length == len
+        && (sm.control & !sm_control::ECAT_IRQ) == (control & !sm_control::ECAT_IRQ)
+}
+
 /// How [`MailboxLink::service`] learns the mailbox state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Service {
@@ -70,10 +207,11 @@ pub enum Service {
     Events(AlEvents),
 }
 
-/// Mailbox service state.
-pub struct MailboxLink {
-    server: Server,
-    buf: [u8; MAILBOX_SIZE],
+/// Mailbox service state: the link of a mailbox of `MBX` bytes (each direction) to the
+/// server `S`.
+pub struct MailboxLink<S, const MBX: usize> {
+    server: S,
+    buf: [u8; MBX],
     pending: usize,
     blocked: bool,
     sm1_busy: bool,
@@ -82,18 +220,28 @@ pub struct MailboxLink {
     repeats: u32,
 }
 
-impl Default for MailboxLink {
+/// The application's link.
+pub type AppLink = MailboxLink<AppServer, MAILBOX_SIZE>;
+
+impl Default for AppLink {
     fn default() -> Self {
-        Self::new()
+        Self::new(AppServer::new())
     }
 }
 
-impl MailboxLink {
+impl AppLink {
+    /// Queues an Emergency (sent when SM1 is free).
+    pub fn queue_emergency(&mut self, emergency: Emergency) {
+        self.server.sdo.queue_emergency(emergency);
+    }
+}
+
+impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
     /// Nothing pending.
-    pub const fn new() -> Self {
+    pub const fn new(server: S) -> Self {
         Self {
-            server: SdoServer::new(),
-            buf: [0; MAILBOX_SIZE],
+            server,
+            buf: [0; MBX],
             pending: 0,
             blocked: false,
             sm1_busy: false,
@@ -103,8 +251,8 @@ impl MailboxLink {
         }
     }
 
-    /// The SDO server.
-    pub fn server(&self) -> &Server {
+    /// The server.
+    pub fn server(&self) -> &S {
         &self.server
     }
 
@@ -121,11 +269,6 @@ impl MailboxLink {
     /// Repeat requests served.
     pub const fn repeats(&self) -> u32 {
         self.repeats
-    }
-
-    /// Queues an Emergency (sent when SM1 is free).
-    pub fn queue_emergency(&mut self, emergency: Emergency) {
-        self.server.queue_emergency(emergency);
     }
 
     /// The mailbox AL event bits to enable: SM0 while no reply waits, SM1 while one does
@@ -168,8 +311,8 @@ impl MailboxLink {
     }
 
     /// ESM transition.
-    pub fn on_state_change(&mut self, from: AlState, to: AlState) {
-        self.server.on_state_change(from, to);
+    pub fn on_state_change(&mut self, ctx: &mut S::Context, from: AlState, to: AlState) {
+        self.server.on_state_change(ctx, from, to);
         if to == AlState::Init {
             self.pending = 0;
             self.blocked = false;
@@ -215,13 +358,11 @@ impl MailboxLink {
 
     /// Serves the mailbox: repeat request (if asked), waiting reply, a new request if SM0 is
     /// full, then the server's pending work. At most one request per call.
-    #[allow(clippy::too_many_arguments)]
-    pub fn service<P: Pdi, A: ObjectAccess + ?Sized>(
+    pub fn service<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
         state: AlState,
-        od: &ObjectDictionary,
-        app: &mut A,
+        ctx: &mut S::Context,
         now_ms: u32,
         how: Service,
     ) -> PdiResult<(), P> {
@@ -256,20 +397,20 @@ impl MailboxLink {
         }
         if !sm1_full {
             if sm0_full && sm0.enabled() {
-                let len = usize::from(sm0.length).min(MAILBOX_SIZE);
-                let mut request = [0u8; MAILBOX_SIZE];
+                let len = usize::from(sm0.length).min(MBX);
+                let mut request = [0u8; MBX];
                 let req = request.get_mut(..len).unwrap_or(&mut []);
                 read_request(esc, sm0.start, req)?;
-                let reply_len = usize::from(sm1.length).min(MAILBOX_SIZE);
-                self.buf = [0; MAILBOX_SIZE];
+                let reply_len = usize::from(sm1.length).min(MBX);
+                self.buf = [0; MBX];
                 let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
-                if let Reply::Frame(n) = self.server.process(req, state, od, app, now_ms, out) {
+                if let Reply::Frame(n) = self.server.process(ctx, req, state, now_ms, out) {
                     self.pending = n.max(1);
                     self.flush(esc, &sm1)?;
                     return Ok(());
                 }
             }
-            self.send_background(esc, od, &sm1)?;
+            self.send_background(esc, ctx, &sm1)?;
         } else if self.pending == 0 {
             // A request may wait in SM0 until the master has read SM1.
             self.blocked = sm0_full;
@@ -280,13 +421,13 @@ impl MailboxLink {
     fn send_background<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        od: &ObjectDictionary,
+        ctx: &mut S::Context,
         sm1: &SyncManager,
     ) -> PdiResult<(), P> {
-        let reply_len = usize::from(sm1.length).min(MAILBOX_SIZE);
-        self.buf = [0; MAILBOX_SIZE];
+        let reply_len = usize::from(sm1.length).min(MBX);
+        self.buf = [0; MBX];
         let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
-        if let Reply::Frame(n) = self.server.poll(od, out) {
+        if let Reply::Frame(n) = self.server.poll(ctx, out) {
             self.pending = n.max(1);
             self.flush(esc, sm1)?;
         }
@@ -295,7 +436,7 @@ impl MailboxLink {
 
     /// Writes the waiting reply as the whole SM1 buffer.
     fn flush<P: Pdi>(&mut self, esc: &mut Et1100<P>, sm1: &SyncManager) -> PdiResult<(), P> {
-        let len = usize::from(sm1.length).min(MAILBOX_SIZE);
+        let len = usize::from(sm1.length).min(MBX);
         let frame = self.buf.get(..len).unwrap_or(&[]);
         write_frame(esc, sm1.start, frame, self.pending)?;
         self.pending = 0;
@@ -313,8 +454,8 @@ impl MailboxLink {
             esc.sm_pdi_control(1, ack | SyncManager::PDI_DEACTIVATE)?;
             esc.sm_pdi_control(1, ack)?;
         }
-        let len = usize::from(sm1.length).min(MAILBOX_SIZE);
-        let mut frame = [0u8; MAILBOX_SIZE];
+        let len = usize::from(sm1.length).min(MBX);
+        let mut frame = [0u8; MBX];
         let out = frame.get_mut(..len).unwrap_or(&mut []);
         if let Some(n) = self.server.repeat(out).frame_len() {
             write_frame(esc, sm1.start, out, n)?;
@@ -456,7 +597,7 @@ mod tests {
         assert!(sm0.mailbox_full() && sm1.mailbox_full());
         assert_eq!((sm1.repeat_request(), sm1.repeat_ack()), (false, true));
 
-        let mut link = MailboxLink::new();
+        let mut link = AppLink::default();
         link.start(&mut esc.driver(), sm0, sm1).unwrap();
         let (sm0, sm1) = (esc.sm(0), esc.sm(1));
         assert!(

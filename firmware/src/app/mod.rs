@@ -59,9 +59,9 @@ pub mod timebase;
 mod tests;
 
 use crate::product::capacity::MAX_IMAGE;
-use crate::product::layout::SYNC_MANAGERS;
+use crate::product::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use crate::product::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
-use coe_core::device::{sm_control, SyncManagerDesc};
+use coe_core::device::{MemoryWindow, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
 use coe_core::od::ObjectDictionary;
 use coe_core::{AlState, AlStatusCode};
@@ -73,7 +73,7 @@ use diagnostics::{
 use et1100::{
     AlEvents, AlStatus, Et1100, Pdi, PdiResult, Register, SmMode, SyncManager, WatchdogStatus,
 };
-use mailbox::{MailboxLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
+use mailbox::{mailbox_sm_ok, AppLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
 use objects::AppData;
 use outputs::OutputStage;
 pub use outputs::{DacAction, DacLatch, DacPair};
@@ -90,15 +90,20 @@ pub struct AppConfig {
     pub sm: [SyncManagerDesc; 4],
     /// Explicit device ID for the ID request (`None`: not supported).
     pub device_id: Option<u16>,
+    /// The bootstrap mailbox (master -> slave, slave -> master) the master must configure
+    /// for INIT -> BOOT, which resets the module into its bootloader; `None`: no BOOT state
+    /// (refused with 0x0013).
+    pub bootstrap: Option<(MemoryWindow, MemoryWindow)>,
 }
 
 impl AppConfig {
-    /// The configuration of the product ([`crate::product`]): its SyncManager layout, no
-    /// explicit device ID.
+    /// The configuration of the product ([`crate::product`]): its SyncManager layout and
+    /// bootstrap mailbox, no explicit device ID.
     pub const fn product() -> Self {
         Self {
             sm: SYNC_MANAGERS,
             device_id: None,
+            bootstrap: Some(BOOTSTRAP_MAILBOX),
         }
     }
 }
@@ -112,6 +117,9 @@ pub struct PdiOutcome {
     pub apply_outputs: bool,
     /// An SM2 event (the master's outputs of a cycle) was served.
     pub sm2_event: bool,
+    /// A master asked for BOOT on a well configured bootstrap mailbox: set the boot request
+    /// ([`crate::boot::request`]) and reset the CPU; the bootloader takes it from there.
+    pub enter_bootloader: bool,
 }
 
 /// AL event bits always enabled.
@@ -122,7 +130,7 @@ const BASE_EVENTS: AlEvents = AlEvents::AL_CONTROL
 /// The slave application (PDI side).
 pub struct SlaveApp {
     esm: Esm,
-    mailbox: MailboxLink,
+    mailbox: AppLink,
     data: AppData,
     config: AppConfig,
     mask: Option<AlEvents>,
@@ -147,8 +155,10 @@ impl SlaveApp {
     /// `pd`.
     pub fn new(od: &'static ObjectDictionary, config: AppConfig, pd: ProcessData) -> Self {
         Self {
-            esm: Esm::new().with_device_id(config.device_id),
-            mailbox: MailboxLink::new(),
+            esm: Esm::new()
+                .with_device_id(config.device_id)
+                .with_bootstrap(config.bootstrap.is_some()),
+            mailbox: AppLink::default(),
             data: AppData::new(od, pd),
             config,
             mask: None,
@@ -179,7 +189,7 @@ impl SlaveApp {
     }
 
     /// The mailbox link.
-    pub fn mailbox(&self) -> &MailboxLink {
+    pub fn mailbox(&self) -> &AppLink {
         &self.mailbox
     }
 
@@ -369,14 +379,42 @@ impl SlaveApp {
                 self.mailbox.queue_emergency(e);
             }
         }
-        if let Transition::Allowed { from, to } = decision {
-            match self.transition(esc, stage, from, to, out)? {
-                Ok(()) => self.esm.complete(to),
-                Err((state, code)) => self.esm.fail(state, code),
+        match decision {
+            Transition::Allowed {
+                from: AlState::Init,
+                to: AlState::Bootstrap,
+            } => {
+                // The state stays INIT: the bootloader reports BOOT once it serves the
+                // bootstrap mailbox, so no FoE request reaches an MCU that is resetting.
+                if self.bootstrap_mailbox_ok(esc)? {
+                    out.enter_bootloader = true;
+                } else {
+                    self.esm
+                        .fail(AlState::Init, AlStatusCode::InvalidMailboxConfigurationBoot);
+                }
             }
-            self.mailbox.on_state_change(from, self.esm.state());
+            Transition::Allowed { from, to } => {
+                match self.transition(esc, stage, from, to, out)? {
+                    Ok(()) => self.esm.complete(to),
+                    Err((state, code)) => self.esm.fail(state, code),
+                }
+                self.mailbox
+                    .on_state_change(&mut self.data, from, self.esm.state());
+            }
+            _ => {}
         }
         self.write_status(esc)
+    }
+
+    /// SM0/SM1 as the master configured them for BOOT, against the bootstrap mailbox.
+    fn bootstrap_mailbox_ok<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<bool, P> {
+        let Some((out, inp)) = self.config.bootstrap else {
+            return Ok(false);
+        };
+        let [sm0, sm1, ..] = self.config.sm;
+        let ok0 = mailbox_sm_ok(&esc.read_sm(0)?, out.start, out.len, sm0.control);
+        let ok1 = mailbox_sm_ok(&esc.read_sm(1)?, inp.start, inp.len, sm1.control);
+        Ok(ok0 && ok1)
     }
 
     /// Checks and actions of `from -> to`; `Err((state, code))` refuses it.
@@ -400,7 +438,7 @@ impl SlaveApp {
                 for (n, slot) in (0..2u8).zip(regs.iter_mut()) {
                     let sm = esc.read_sm(n)?;
                     let expect = self.config.sm.get(usize::from(n)).copied();
-                    if !expect.is_some_and(|e| mailbox_sm_ok(&sm, &e)) {
+                    if !expect.is_some_and(|e| mailbox_sm_ok(&sm, e.start, e.len, e.control)) {
                         return Ok(Err((
                             AlState::Init,
                             AlStatusCode::InvalidMailboxConfiguration,
@@ -520,7 +558,8 @@ impl SlaveApp {
         self.data.sync.disarm();
         out.apply_outputs = true;
         self.esm.local_error(AlState::SafeOp, code);
-        self.mailbox.on_state_change(from, self.esm.state());
+        self.mailbox
+            .on_state_change(&mut self.data, from, self.esm.state());
         self.write_status(esc)
     }
 
@@ -702,14 +741,13 @@ impl SlaveApp {
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
         let state = self.esm.state();
-        let od = self.data.od();
         if matches!(how, Service::Registers { .. }) {
             self.arm_mailbox_check(now_ns);
         }
         // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
         let now_ms = div::div_u64_u32(now_ns >> 6, 15_625) as u32;
         self.mailbox
-            .service(esc, state, od, &mut self.data, now_ms, how)?;
+            .service(esc, state, &mut self.data, now_ms, how)?;
         if let Some(values) = self.data.take_ao_written() {
             let set = self
                 .data
@@ -719,13 +757,4 @@ impl SlaveApp {
         }
         Ok(())
     }
-}
-
-/// A mailbox SyncManager against the device description: enabled, same start and length,
-/// same control byte apart from the ECAT IRQ bit (b4), which masters set as they like.
-fn mailbox_sm_ok(sm: &SyncManager, expect: &SyncManagerDesc) -> bool {
-    sm.enabled()
-        && sm.start == expect.start
-        && sm.length == expect.len
-        && (sm.control & !sm_control::ECAT_IRQ) == (expect.control & !sm_control::ECAT_IRQ)
 }

@@ -50,6 +50,17 @@ pub struct Done {
     /// Pend the PDI task again: the line is still asserted, or background work was put off
     /// behind the DAC task.
     pub pend_again: bool,
+    /// Set the boot request and reset the CPU into the bootloader (a master's INIT -> BOOT,
+    /// [`super::PdiOutcome::enter_bootloader`]).
+    pub enter_bootloader: bool,
+}
+
+impl Done {
+    /// Takes what one call of the application asks for.
+    fn take(&mut self, o: super::PdiOutcome) {
+        self.apply_outputs |= o.apply_outputs;
+        self.enter_bootloader |= o.enter_bootloader;
+    }
 }
 
 /// Bounds the self-pends of a level IRQ seen through an edge interrupt.
@@ -178,7 +189,7 @@ impl PdiTask {
         if wake.edge || wake.line_asserted {
             let r = self.app.on_pdi_irq(esc, stage, now_ns);
             let sm2_event = r.as_ref().is_ok_and(|o| o.sm2_event);
-            done.apply_outputs |= self.outcome(r, stage);
+            done.take(self.outcome(r, stage));
             done.preload_outputs = stage.dc_mode() && !done.apply_outputs;
             let service = sm2_event && self.app.safety_service_due(now_ns);
             if !deferred && (poll || service) && (done.apply_outputs || done.preload_outputs) {
@@ -195,25 +206,32 @@ impl PdiTask {
         }
         if after_outputs {
             let r = self.app.safety_service(esc, stage, now_ns);
-            done.apply_outputs |= self.outcome(r, stage);
+            done.take(self.outcome(r, stage));
         }
         if poll {
             let r = self.app.poll(esc, stage, now_ns);
-            done.apply_outputs |= self.outcome(r, stage);
+            done.take(self.outcome(r, stage));
         }
         done.pend_again = self.line.after_serve(wake.edge, still_asserted()) || self.poll_deferred;
         done
     }
 
-    /// Whether to pend the DAC task after a call. A failed ESC access may have cut off an
-    /// outcome that a fault already staged: then the DAC task is asked anyway (outside DC
-    /// mode, or when a fault pair waits). It applies only a pair it has not applied yet.
-    fn outcome<E>(&mut self, r: Result<super::PdiOutcome, E>, stage: &OutputStage) -> bool {
+    /// What to do after a call. A failed ESC access may have cut off an outcome that a
+    /// fault already staged: then the DAC task is asked anyway (outside DC mode, or when a
+    /// fault pair waits). It applies only a pair it has not applied yet.
+    fn outcome<E>(
+        &mut self,
+        r: Result<super::PdiOutcome, E>,
+        stage: &OutputStage,
+    ) -> super::PdiOutcome {
         match r {
-            Ok(o) => o.apply_outputs,
+            Ok(o) => o,
             Err(_) => {
                 self.bus_errors = self.bus_errors.wrapping_add(1);
-                !stage.dc_mode() || stage.staged().0 == StageKind::Fault
+                super::PdiOutcome {
+                    apply_outputs: !stage.dc_mode() || stage.staged().0 == StageKind::Fault,
+                    ..Default::default()
+                }
             }
         }
     }

@@ -5,7 +5,7 @@ use super::pdi_task::{PdiTask, Wake};
 use super::process_data::{Mapping, ProcessData};
 use super::*;
 use crate::fake_esc::FakeEsc;
-use coe_core::device::{SmRole, SyncManagerDesc};
+use coe_core::device::{MemoryWindow, SmRole, SyncManagerDesc};
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, Value};
 use coe_core::pdo::PdoEntry;
 use et1100::AlEvents;
@@ -140,6 +140,22 @@ fn config() -> AppConfig {
             SyncManagerDesc::new(SmRole::ProcessDataIn, PD_IN, 0, 0x20),
         ],
         device_id: Some(0x0042),
+        bootstrap: None,
+    }
+}
+
+const BOOT_OUT: u16 = 0x1000;
+const BOOT_IN: u16 = 0x1200;
+const BOOT_LEN: u16 = 0x200;
+
+/// With a bootstrap mailbox: INIT -> BOOT resets into the bootloader.
+fn boot_config() -> AppConfig {
+    AppConfig {
+        bootstrap: Some((
+            MemoryWindow::new(BOOT_OUT, BOOT_LEN),
+            MemoryWindow::new(BOOT_IN, BOOT_LEN),
+        )),
+        ..config()
     }
 }
 
@@ -176,8 +192,12 @@ struct Rig {
 
 impl Rig {
     fn new() -> Self {
+        Self::with(config())
+    }
+
+    fn with(config: AppConfig) -> Self {
         let mut esc = FakeEsc::new();
-        let mut app = SlaveApp::new(&OD, config(), process_data());
+        let mut app = SlaveApp::new(&OD, config, process_data());
         app.start(&mut esc.driver()).unwrap();
         Self {
             esc,
@@ -379,6 +399,68 @@ fn refused_transitions_and_unknown_states() {
                                                  // ID request.
     assert_eq!(r.request(0x32), (0x22, 0x0042));
     assert_eq!(r.request(0x02), (0x02, 0));
+}
+
+/// INIT -> BOOT on the bootstrap mailbox: the application keeps INIT and asks for the
+/// bootloader; with the standard mailbox configured instead it refuses with 0x0015; from
+/// PREOP it is a forbidden transition (0x0011).
+#[test]
+fn init_to_boot_enters_the_bootloader_on_the_bootstrap_mailbox_only() {
+    let mut r = Rig::with(boot_config());
+    r.mailbox_sms();
+    r.esc.master_al_control(0x03);
+    let out = r
+        .app
+        .on_pdi_irq(&mut r.esc.driver(), &r.stage, 1_000)
+        .unwrap();
+    assert!(
+        !out.enter_bootloader,
+        "the standard mailbox is not the bootstrap one"
+    );
+    assert_eq!(r.esc.al_status(), (0x11, 0x0015));
+
+    r.esc.master_sm(0, BOOT_OUT, BOOT_LEN, 0x26, true);
+    r.esc.master_sm(1, BOOT_IN, BOOT_LEN, 0x22, true);
+    r.esc.master_al_control(0x13);
+    let out = r
+        .app
+        .on_pdi_irq(&mut r.esc.driver(), &r.stage, 2_000)
+        .unwrap();
+    assert!(out.enter_bootloader);
+    assert_eq!(
+        r.esc.al_status(),
+        (0x01, 0),
+        "INIT until the bootloader reports BOOT"
+    );
+    assert_eq!(r.app.state(), AlState::Init);
+
+    let mut r = Rig::with(boot_config());
+    r.goto_preop();
+    assert_eq!(r.request(0x03), (0x12, 0x0011));
+}
+
+/// FoE in PREOP: a firmware file is "bootstrap only" (0x8008), any other name "not found";
+/// the answers share the mailbox counter with CoE.
+#[test]
+fn foe_outside_boot_is_answered() {
+    let mut r = Rig::with(boot_config());
+    r.goto_preop();
+    let foe = |r: &mut Rig, name: &[u8]| {
+        r.counter = r.counter % 7 + 1;
+        let mut f = vec![6 + name.len() as u8, 0, 0, 0, 0x00, 0x04 | r.counter << 4];
+        f.extend_from_slice(&[0x02, 0x00, 0, 0, 0, 0]);
+        f.extend_from_slice(name);
+        assert!(r.esc.master_write_mailbox(&f));
+        r.irq();
+        r.esc.master_read_mailbox().expect("reply")
+    };
+    let reply = foe(&mut r, b"analog-io.efw");
+    assert_eq!(reply[5] & 0x0F, 0x04, "an FoE answer");
+    assert_eq!(reply[5] >> 4, r.counter);
+    assert_eq!(&reply[6..12], &[0x05, 0x00, 0x08, 0x80, 0x00, 0x00]);
+    assert_eq!(&reply[12..6 + usize::from(reply[0])], b"in BOOT only");
+    let reply = foe(&mut r, b"notes.txt");
+    assert_eq!(&reply[6..12], &[0x05, 0x00, 0x01, 0x80, 0x00, 0x00]);
 }
 
 #[test]

@@ -5,6 +5,7 @@
 //! | module       | what                                                                  |
 //! |--------------|-----------------------------------------------------------------------|
 //! | [`board`]    | THE pin map (hardware-facts 10.A) with its LQFP80 check, PINSEL setup |
+//! | [`boot_request`] | the RAM word that carries a BOOT request into the bootloader       |
 //! | [`clocks`]   | 12 MHz crystal -> PLL0 -> 100 MHz CCLK, flash wait states, PCLKs      |
 //! | [`gpio`]     | GPIO output/input pins (chip selects, LDAC)                           |
 //! | [`spi`]      | legacy SPI (ET1100 PDI) as `SpiBus`, the ESC's `SpiDevice`            |
@@ -23,6 +24,7 @@ pub mod adc;
 #[cfg(not(feature = "adc-irq"))]
 pub mod adc_dma;
 pub mod board;
+pub mod boot_request;
 pub mod clocks;
 pub mod cs_device;
 pub mod dac;
