@@ -2,7 +2,7 @@
 //!
 //! Each binary gets its own memory map (`firmware::boot::layout`): the application
 //! (`analog-io`) `memory-app.x` (the application slot after the update header), the
-//! bootloader `memory-boot.x` (the first 8 KB, vectors with the checksum and the CRP word).
+//! bootloader `memory-boot.x` (the first 12 KB, vectors with the checksum and the CRP word).
 //! cortex-m-rt's `link.x` includes `memory.x`, which the linker finds in the workspace root
 //! (the directory it runs in, searched before any search path); that file includes
 //! `memory-map.x`, which no directory but the binary's own has: each map is copied under that

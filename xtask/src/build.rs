@@ -1,13 +1,13 @@
 //! `cargo xtask build`: the release images for the LPC1754.
 //!
 //! Builds the two programs of `firmware` for thumbv7m-none-eabi (installing flip-link first
-//! if needed): the application (bin `analog-io`, linked at 0x2100 in the application slot)
-//! and the bootloader (bin `bootloader`, the first 8 KB). Then, next to the ELFs
+//! if needed): the application (bin `analog-io`, linked at 0x3100 in the application slot)
+//! and the bootloader (bin `bootloader`, the first 12 KB). Then, next to the ELFs
 //! (`target/thumbv7m-none-eabi/release/`, or under `$CARGO_TARGET_DIR`):
 //!
 //! - `bootloader.bin`: the vector checksum patched in (also into the ELF), read back from disk
 //!   and verified (checksum rule, vectors, CRP word);
-//! - `analog-io.bin`: the application image from 0x2100, its vectors checked;
+//! - `analog-io.bin`: the application image from 0x3100, its vectors checked;
 //! - `analog-io.efw`: the update file, the header block (`firmware::boot::header`: identity,
 //!   hardware revision, version, length, CRC-32) and the application image;
 //! - `flash-image.bin`: what `cargo xtask flash` writes from address 0 (bootloader, update
@@ -56,7 +56,7 @@ pub struct Program {
 pub struct Output {
     /// The application's ELF.
     pub elf: PathBuf,
-    /// The application's image (from 0x2100).
+    /// The application's image (from 0x3100).
     pub bin: PathBuf,
     /// The application's memory use.
     pub usage: Usage,

@@ -41,13 +41,13 @@ pub const AHBSRAM: Region = Region {
 };
 
 /// The budget of the application image (brief section 6: application <= 48 KB of the
-/// 128 KB flash, the bootloader <= 8 KB beside it; static RAM <= 6 KB).
+/// 128 KB flash; static RAM <= 6 KB).
 pub const BUDGET: Budget = Budget {
     flash: layout::APP_BUDGET as u64,
     ram: 6 * 1024,
 };
 
-/// The budget of the bootloader: its 8 KB region; static RAM as the application's (the two
+/// The budget of the bootloader: its region (`firmware::boot::layout::BOOTLOADER`); static RAM as the application's (the two
 /// never run at the same time).
 pub const BOOT_BUDGET: Budget = Budget {
     flash: layout::BOOTLOADER_BUDGET as u64,
@@ -601,10 +601,10 @@ mod tests {
 
     #[test]
     fn update_file_and_flash_image() {
-        // An application image at 0x2100: SP at the top of the usable RAM, reset at +0x101.
+        // An application image at 0x3100: SP at the top of the usable RAM, reset at +0x101.
         let mut app = vec![0x5A; 0x300];
         app[0..4].copy_from_slice(&0x1000_3FD8u32.to_le_bytes());
-        app[4..8].copy_from_slice(&0x0000_2201u32.to_le_bytes());
+        app[4..8].copy_from_slice(&0x0000_3201u32.to_le_bytes());
         let target = firmware::product::identity::UPDATE_TARGET;
         let (efw, header) = update_file(&app, &target, "1.2.3").unwrap();
         assert_eq!(efw.len(), 256 + app.len());
@@ -621,18 +621,18 @@ mod tests {
             update_file(&elsewhere, &target, "1"),
             Err(ImageError::BadVectors(_))
         ));
-        // The flash image: bootloader at 0, the file at 0x2000, 0xFF up to the staging
+        // The flash image: bootloader at 0, the file at 0x3000, 0xFF up to the staging
         // area's header block inclusive.
         let mut boot = image(0xFFFF_FFFF);
         patch_checksum(&mut boot).unwrap();
         let flash = flash_image(&boot, &efw).unwrap();
         assert_eq!(flash.len(), 0x1_0100);
         assert_eq!(&flash[..boot.len()], &boot[..]);
-        assert!(flash[boot.len()..0x2000].iter().all(|b| *b == 0xFF));
-        assert_eq!(&flash[0x2000..0x2000 + efw.len()], &efw[..]);
-        assert!(flash[0x2000 + efw.len()..].iter().all(|b| *b == 0xFF));
-        assert!(flash_image(&[0; 0x2001], &efw).is_err());
-        assert!(flash_image(&boot, &vec![0; 0xE001]).is_err());
+        assert!(flash[boot.len()..0x3000].iter().all(|b| *b == 0xFF));
+        assert_eq!(&flash[0x3000..0x3000 + efw.len()], &efw[..]);
+        assert!(flash[0x3000 + efw.len()..].iter().all(|b| *b == 0xFF));
+        assert!(flash_image(&[0; 0x3001], &efw).is_err());
+        assert!(flash_image(&boot, &vec![0; 0xD001]).is_err());
     }
 
     fn sec(name: &str, addr: u64, lma: Option<u64>, size: u64, place: Place) -> SectionInfo {

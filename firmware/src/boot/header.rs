@@ -69,11 +69,11 @@ impl HeaderError {
     /// For a person.
     pub const fn message(&self) -> &'static str {
         match self {
-            Self::Truncated => "shorter than the 256-byte header",
-            Self::BadMagic => "no update file header (magic AEFW missing)",
-            Self::UnknownFormat(_) => "unknown update file format version",
-            Self::BadHeaderLength(_) => "header length is not 256",
-            Self::BadHeaderCrc => "header checksum wrong (damaged header)",
+            Self::Truncated => "shorter than the header",
+            Self::BadMagic => "not an .efw file",
+            Self::UnknownFormat(_) => "unknown .efw format",
+            Self::BadHeaderLength(_) => "bad header length",
+            Self::BadHeaderCrc => "header CRC wrong",
         }
     }
 }
@@ -104,11 +104,11 @@ impl Mismatch {
     /// For a person (and the FoE error text).
     pub const fn message(&self) -> &'static str {
         match self {
-            Self::Vendor => "image built for another vendor ID",
-            Self::Product => "image built for another product code",
-            Self::HardwareRevision => "image built for another hardware revision",
-            Self::LoadAddress => "image linked for another address",
-            Self::TooLarge => "image larger than the application slot",
+            Self::Vendor => "other vendor ID",
+            Self::Product => "other product code",
+            Self::HardwareRevision => "other hardware revision",
+            Self::LoadAddress => "other load address",
+            Self::TooLarge => "image too large",
         }
     }
 }
@@ -389,7 +389,7 @@ mod tests {
         b'A', b'E', b'F', b'W', 0x01, 0x00, 0x00, 0x01, // magic, format 1, length 256
         0x34, 0x12, 0x00, 0x00, 0xD4, 0xC3, 0xB2, 0xA1, // image length, CRC
         0x00, 0x00, 0x00, 0x00, 0x54, 0x17, 0x00, 0x00, // vendor, product
-        0x01, 0x00, 0x00, 0x00, 0x00, 0x21, 0x00, 0x00, // hardware revision, load address
+        0x01, 0x00, 0x00, 0x00, 0x00, 0x31, 0x00, 0x00, // hardware revision, load address
         b'0', b'.', b'1', b'.', b'0', 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, // version
         0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
     ];
@@ -401,7 +401,7 @@ mod tests {
             vendor_id: 0,
             product_code: 0x1754,
             hardware_revision: 1,
-            load_address: 0x2100,
+            load_address: 0x3100,
             version: HeaderRepr::version_field("0.1.0"),
         }
     }
@@ -425,7 +425,7 @@ mod tests {
         assert_eq!(h.image_crc(), 0xA1B2_C3D4);
         assert_eq!(h.product_code(), 0x1754);
         assert_eq!(h.hardware_revision(), 1);
-        assert_eq!(h.load_address(), 0x2100);
+        assert_eq!(h.load_address(), 0x3100);
         assert_eq!(h.header_crc(), h.computed_header_crc());
     }
 

@@ -221,49 +221,49 @@ fn bad_files_are_refused_and_the_old_application_stays() {
             "another product",
             file(&img, &other_product, "9.9.9"),
             FoeErrorCode::InvalidFirmware,
-            "image built for another product code",
+            "other product code",
         ),
         (
             "another hardware revision",
             file(&img, &other_revision, "9.9.9"),
             FoeErrorCode::InvalidFirmware,
-            "image built for another hardware revision",
+            "other hardware revision",
         ),
         (
             "another vendor",
             file(&img, &other_vendor, "9.9.9"),
             FoeErrorCode::InvalidFirmware,
-            "image built for another vendor ID",
+            "other vendor ID",
         ),
         (
             "bad CRC",
             bad_crc,
             FoeErrorCode::InvalidChecksum,
-            "image CRC-32 does not match the header",
+            "image CRC wrong",
         ),
         (
             "truncated",
             good[..good.len() - 700].to_vec(),
             FoeErrorCode::InvalidChecksum,
-            "file shorter than its header says (truncated)",
+            "truncated",
         ),
         (
             "truncated in the header",
             good[..200].to_vec(),
             FoeErrorCode::NoFileHeader,
-            "file shorter than the 256-byte header",
+            "shorter than the header",
         ),
         (
             "no header",
             img.clone(),
             FoeErrorCode::NoFileHeader,
-            "no update file header (magic AEFW missing)",
+            "not an .efw file",
         ),
         (
             "too large",
             too_large,
             FoeErrorCode::DiskFull,
-            "image larger than the application slot",
+            "image too large",
         ),
     ];
     for (what, content, code, text) in cases {
@@ -290,7 +290,7 @@ fn bad_files_are_refused_and_the_old_application_stays() {
     longer.extend_from_slice(&[0; 300]);
     let e = update(&mut writer(module(&old_file)), &longer).unwrap_err();
     assert_eq!(e.code, FoeErrorCode::DiskFull);
-    assert_eq!(e.text, "file longer than its header says");
+    assert_eq!(e.text, "longer than the header says");
 }
 
 #[test]

@@ -37,8 +37,7 @@ fn error(code: FoeErrorCode, text: &'static str) -> FoeError {
     FoeError::with_text(code, text)
 }
 
-const FLASH_ERROR: FoeError =
-    FoeError::with_text(FoeErrorCode::FlashError, "writing the staging area failed");
+const FLASH_ERROR: FoeError = FoeError::with_text(FoeErrorCode::FlashError, "flash write failed");
 
 /// Whether `name` ends in `.efw`, ignoring case.
 pub fn is_firmware_name(name: &[u8]) -> bool {
@@ -126,10 +125,7 @@ impl<E: IapEntry> StagingWriter<E> {
             let within = at % CHUNK;
             if let Some(header) = self.header {
                 if self.received >= HEADER_BLOCK + header.image_len {
-                    return Err(error(
-                        FoeErrorCode::DiskFull,
-                        "file longer than its header says",
-                    ));
+                    return Err(error(FoeErrorCode::DiskFull, "longer than the header says"));
                 }
             }
             let buffer = if index == 0 {
@@ -156,21 +152,14 @@ impl<E: IapEntry> StagingWriter<E> {
     }
 
     fn finish(&mut self, len: u32) -> Result<HeaderRepr, FoeError> {
-        let header = self.header.ok_or(error(
-            FoeErrorCode::NoFileHeader,
-            "file shorter than the 256-byte header",
-        ))?;
+        let header = self
+            .header
+            .ok_or(error(FoeErrorCode::NoFileHeader, "shorter than the header"))?;
         if len != HEADER_BLOCK + header.image_len {
-            return Err(error(
-                FoeErrorCode::InvalidChecksum,
-                "file shorter than its header says (truncated)",
-            ));
+            return Err(error(FoeErrorCode::InvalidChecksum, "truncated"));
         }
         if self.crc.finish() != header.image_crc {
-            return Err(error(
-                FoeErrorCode::InvalidChecksum,
-                "image CRC-32 does not match the header",
-            ));
+            return Err(error(FoeErrorCode::InvalidChecksum, "image CRC wrong"));
         }
         let index = len as usize / CHUNK;
         if index > 0 && len as usize % CHUNK != 0 {
@@ -199,18 +188,16 @@ impl<E: IapEntry> StagingWriter<E> {
 }
 
 impl<E: IapEntry> FileStore for StagingWriter<E> {
+    fn reads(&self) -> bool {
+        false
+    }
+
     fn open_write(&mut self, name: &[u8], password: u32, state: AlState) -> Result<(), FoeError> {
         if state != AlState::Bootstrap {
-            return Err(error(
-                FoeErrorCode::BootstrapOnly,
-                "firmware files are written in BOOT only",
-            ));
+            return Err(error(FoeErrorCode::BootstrapOnly, "in BOOT only"));
         }
         if !is_firmware_name(name) {
-            return Err(error(
-                FoeErrorCode::NotFound,
-                "only a firmware file *.efw can be written",
-            ));
+            return Err(error(FoeErrorCode::NotFound, "only *.efw files"));
         }
         if password != PASSWORD {
             return Err(error(FoeErrorCode::NoRights, "wrong password"));

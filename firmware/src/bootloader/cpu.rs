@@ -1,20 +1,7 @@
 //! What the bootloader does to the Cortex-M3 and the LPC1754 itself: the only `unsafe` code
 //! of the bootloader besides the shared hardware layer and the IAP ROM call.
 
-use firmware::boot::layout::BOOT_REQUEST_ADDR;
-use firmware::boot::request::{is_request, CLEARED};
 use lpc17xx_pac as pac;
-
-/// Reads the boot request word and clears it (a request counts for one reset).
-pub fn take_boot_request() -> bool {
-    let at = BOOT_REQUEST_ADDR as *mut [u32; 2];
-    // SAFETY: two words of the local SRAM that both linker scripts keep outside their RAM
-    // region (firmware::boot::layout); nothing else refers to them.
-    let words = unsafe { core::ptr::read_volatile(at) };
-    // SAFETY: as above.
-    unsafe { core::ptr::write_volatile(at, CLEARED) };
-    is_request(words)
-}
 
 /// Starts the image whose vector table is at `vectors`: VTOR, main stack pointer and reset
 /// handler from the table. The caller has checked the image (header, CRC, vectors).
@@ -58,5 +45,32 @@ pub fn feed_watchdog(wdt: &pac::WDT) {
             wdt.feed.write(|w| unsafe { w.bits(0xAA) });
             wdt.feed.write(|w| unsafe { w.bits(0x55) });
         });
+    }
+}
+
+/// TIMER0 TCR: counter enable.
+const TCR_ENABLE: u32 = 1;
+
+/// The bootloader's time: TIMER0 (unused by the application, powered at reset) counting
+/// milliseconds; it wraps after 49 days, and every use of it compares by wrapping
+/// differences.
+pub struct Clock {
+    timer: pac::TIMER0,
+}
+
+impl Clock {
+    /// Starts TIMER0 at 1 kHz from its peripheral clock `pclk_hz` (PCLKSEL0 leaves it at
+    /// CCLK / 4).
+    pub fn start(timer: pac::TIMER0, pclk_hz: u32) -> Self {
+        let prescale = (pclk_hz / 1_000).saturating_sub(1);
+        // SAFETY: documented register values (UM10360 21.6): prescaler, then run.
+        timer.pr.write(|w| unsafe { w.bits(prescale) });
+        timer.tcr.write(|w| unsafe { w.bits(TCR_ENABLE) });
+        Self { timer }
+    }
+
+    /// Milliseconds since [`Clock::start`] (wrapping).
+    pub fn now_ms(&self) -> u32 {
+        self.timer.tc.read().bits()
     }
 }

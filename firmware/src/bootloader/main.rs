@@ -1,11 +1,11 @@
 //! The bootloader of the LPC1754 (a stub on the host; built by `cargo xtask build`): the
-//! first 8 KB of the flash. It owns the vector table the boot ROM checks (checksum at 0x1C)
+//! first 12 KB of the flash. It owns the vector table the boot ROM checks (checksum at 0x1C)
 //! and the CRP word at 0x2FC; nothing ever writes its sectors but a debug probe.
 //!
 //! At reset ([`firmware::boot::install::startup`], host-tested with power cuts at every
 //! step): take the application's boot request from RAM, run the CPU at 100 MHz, install a
 //! staged update if one is pending, then start the application (VTOR, stack pointer, reset
-//! handler of the image at 0x2100) if it is valid and no boot request came. Otherwise it
+//! handler of the image at 0x3100) if it is valid and no boot request came. Otherwise it
 //! stays: the EtherCAT slave of the bootloader serves INIT and BOOT, and in BOOT writes an
 //! update file received over FoE into the staging area; BOOT -> INIT after a good file resets
 //! into the new application.
@@ -32,29 +32,56 @@ mod chip {
     use cortex_m_rt::entry;
     use firmware::boot::install::startup;
     use firmware::boot::layout::APP_VECTORS;
+    use firmware::boot::slave::{BootSlave, Bootstrap};
     use firmware::product::identity::UPDATE_TARGET;
+    use firmware::product::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
     use lpc17xx_iap::rom::Rom;
     use lpc17xx_iap::Iap;
     use lpc17xx_pac as pac;
 
     #[entry]
     fn main() -> ! {
-        let requested = cpu::take_boot_request();
+        let requested = hw::boot_request::take();
         let Some(dp) = pac::Peripherals::take() else {
             cpu::reset()
         };
         cpu::slow_watchdog(&dp.WDT);
         // 100 MHz for the image checks; the ROM is told the clock actually reached.
         let _ = hw::clocks::init(&dp.SYSCON);
-        let cclk_khz = hw::clocks::current(&dp.SYSCON).cclk_hz / 1000;
-        let mut iap = Iap::new(Rom, cclk_khz);
+        let cclk_hz = hw::clocks::current(&dp.SYSCON).cclk_hz;
+        let mut iap = Iap::new(Rom, cclk_hz / 1000);
         let reset = startup(&mut iap, &UPDATE_TARGET, requested);
         if reset.stay.is_none() {
             cpu::start_application(APP_VECTORS);
         }
+
+        // The bootloader stays: the EtherCAT slave of INIT and BOOT, polled.
+        let clock = cpu::Clock::start(dp.TIMER0, cclk_hz / 4);
+        let mut board = hw::board::init_bootloader(&dp.PINCONNECT, dp.SPI);
+        let bootstrap = Bootstrap {
+            out: BOOTSTRAP_MAILBOX.0,
+            inp: BOOTSTRAP_MAILBOX.1,
+            out_control: SYNC_MANAGERS[0].control,
+            in_control: SYNC_MANAGERS[1].control,
+        };
+        let mut slave = BootSlave::new(iap, UPDATE_TARGET, bootstrap, reset.application.is_ok());
+        let mut started = false;
         loop {
             cpu::feed_watchdog(&dp.WDT);
-            cortex_m::asm::wfi();
+            // The ESC's PDI works once it has loaded its EEPROM; a failed access is retried
+            // in the next round.
+            let outcome = if started {
+                slave.poll(&mut board.esc, clock.now_ms())
+            } else if board.esc_eeprom_loaded.is_high() {
+                let outcome = slave.start(&mut board.esc);
+                started = outcome.is_ok();
+                outcome
+            } else {
+                continue;
+            };
+            if outcome.is_ok_and(|o| o.reset) {
+                cpu::reset();
+            }
         }
     }
 

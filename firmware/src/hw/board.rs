@@ -96,6 +96,9 @@ pub const ADC_CNV: Pin = Pin::new(0, 6);
 /// The ISP entry pin: sampled by the boot ROM at reset; never used by the firmware.
 pub const ISP: Pin = Pin::new(2, 10);
 
+/// The rows of [`PIN_MAP`] that belong to the ET1100 (its SPI, IRQ, SYNC0, EEPROM_LOADED).
+pub const ESC_PINS: usize = 7;
+
 /// The pins the firmware configures, with their PINSEL function and pad resistor.
 pub const PIN_MAP: [PinFunction; 18] = [
     // ET1100 on the legacy SPI (the only pins it has).
@@ -180,6 +183,11 @@ const _: () = {
     assert!(func_of(ESC_SYNC0) == 3, "SYNC0 must be CAP1.0 (P1.18 fn 3)");
     assert!(func_of(DAC_SYNC) == 0 && func_of(DAC_LDAC) == 0 && func_of(DAC_CLR) == 0);
     assert!(func_of(ADC_CNV) == 3, "CNV must be MAT2.0 (P0.6 fn 3)");
+    // The bootloader configures the first ESC_PINS rows: the ET1100's, ending with
+    // EEPROM_LOADED.
+    let last = PIN_MAP[ESC_PINS - 1].pin;
+    assert!(last.port == ESC_EEPROM_LOADED.port && last.pin == ESC_EEPROM_LOADED.pin);
+    assert!(PIN_MAP[1].pin.port == ESC_CS.port && PIN_MAP[1].pin.pin == ESC_CS.pin);
     assert!(present(ISP));
     // The absent pins the design avoids on purpose.
     assert!(
@@ -279,6 +287,31 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
         wdt,
     };
     (board, clock_result.map_err(BoardError::Clock))
+}
+
+/// What the bootloader uses of the board: the ESC and its EEPROM_LOADED line. (Only the
+/// bootloader, which includes this hardware layer too, builds one.)
+#[allow(dead_code)]
+pub struct BootBoard {
+    /// The ET1100.
+    pub esc: Esc,
+    /// EEPROM_LOADED (the ESC's PDI is operational).
+    pub esc_eeprom_loaded: InPin,
+}
+
+/// Brings up what the bootloader needs after [`clocks::init`]: the ESC's pins of the pin map
+/// (its first [`ESC_PINS`] rows) and the legacy SPI (powered at reset, PCONP bit 8). Nothing
+/// else is touched: the DAC keeps driving what it drove, the ADC and timers stay in reset.
+#[allow(dead_code)]
+pub fn init_bootloader(pincon: &pac::PINCONNECT, spi: pac::SPI) -> BootBoard {
+    for pf in PIN_MAP.iter().take(ESC_PINS) {
+        apply(pincon, *pf);
+    }
+    let esc_cs = OutPin::new(ESC_CS, true);
+    BootBoard {
+        esc: esc::new(CsDevice::new(LegacySpi::new(spi), esc_cs)),
+        esc_eeprom_loaded: InPin::new(ESC_EEPROM_LOADED),
+    }
 }
 
 /// How long [`wait_esc_eeprom_loaded`] waits: [`EEPROM_WAIT_MS`], the bound the virtual
