@@ -23,6 +23,10 @@
 //!   - [`rig::scripted::ScriptedMaster`]: a synchronous master that walks the ESM, runs the
 //!     mailbox and the process data one datagram at a time, and breaks the network on
 //!     purpose (cable pulled, frames lost or repeated) for the fault tests.
+//!   - [`rig::foe_client`]: the walk to BOOT on the bootstrap mailbox and an FoE client
+//!     (ethercrab 0.7.1 has neither).
+//!   - [`rig::module_cpu`]: the module as shipped, bootloader and application on one CPU
+//!     and one flash model, with the reset sequence between them.
 //!   - [`rig::sii_builder`]: a tiny SII image builder for the ESC model tests (the
 //!     firmware's image is generated from its description, [`tools::sim::firmware_device`]).
 //! - [`tools`]: what `cargo xtask` runs on the board: the simulation ([`tools::sim`], also
@@ -47,7 +51,9 @@ pub mod rig {
     pub mod board;
     pub mod clock;
     pub mod firmware_cpu;
+    pub mod foe_client;
     pub mod master;
+    pub mod module_cpu;
     pub mod scripted;
     pub mod sdo_client;
     pub mod sii_builder;

@@ -10,11 +10,12 @@ const CI_FUZZ_SECONDS: u32 = 30;
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
-/// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, each
-/// on a veth pair.
-const ROOT_TESTS: [&str; 2] = [
+/// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, SOEM
+/// updating the module's firmware, each on a veth pair.
+const ROOT_TESTS: [&str; 3] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
+    "pysoem_updates_the_module_over_a_veth_pair",
 ];
 
 /// The `no_std` crates that must build for every embedded target.

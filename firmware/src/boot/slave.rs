@@ -154,6 +154,11 @@ impl<E: IapEntry> BootSlave<E> {
         &mut self.files
     }
 
+    /// Gives the IAP access back (a reset ends the bootloader).
+    pub fn into_iap(self) -> Iap<E> {
+        self.files.into_iap()
+    }
+
     /// The mailbox link.
     pub fn mailbox(&self) -> &MailboxLink<BootServer<E>, BOOTSTRAP_MAILBOX_SIZE> {
         &self.link

@@ -117,6 +117,7 @@ pub struct FirmwareCpu {
     next_tick_ns: u64,
     /// While `init` waits for EEPROM_LOADED: its next look at the pin, and when it gives up.
     init_wait: Option<(u64, u64)>,
+    bootloader_requested: bool,
     /// Counters.
     pub stats: FirmwareStats,
 }
@@ -142,6 +143,7 @@ impl FirmwareCpu {
             next_cnv_ns: 0,
             next_tick_ns: 0,
             init_wait: Some((io.now_ns(), io.now_ns() + INIT_EEPROM_WAIT_NS)),
+            bootloader_requested: false,
             stats: FirmwareStats::default(),
         };
         let ok = cpu.dac.init().is_ok();
@@ -181,6 +183,13 @@ impl FirmwareCpu {
     /// The output stage shared by the PDI and DAC tasks.
     pub fn stage(&self) -> &OutputStage {
         &self.stage
+    }
+
+    /// True once the PDI task asked for the reset into the bootloader (a master's INIT ->
+    /// BOOT): the board's firmware sets the boot request word and resets the CPU there
+    /// ([`crate::rig::module_cpu::ModuleCpu`] does it).
+    pub fn bootloader_requested(&self) -> bool {
+        self.bootloader_requested
     }
 
     /// ESC accesses that failed in the PDI task.
@@ -231,6 +240,7 @@ impl FirmwareCpu {
         // The board calls `on_irq` again while the line stays asserted (bounded), which
         // is what `pend_again` asks for.
         self.dac_task(done);
+        self.bootloader_requested |= done.enter_bootloader;
     }
 }
 

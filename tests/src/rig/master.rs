@@ -13,7 +13,7 @@
 //! ```
 
 use crate::rig::board::VirtualBoard;
-use ethercrab::{PduRx, PduTx, Timeouts};
+use ethercrab::{MainDevice, MainDeviceConfig, PduRx, PduStorage, PduTx, Timeouts};
 use std::cell::RefCell;
 use std::future::Future;
 use std::rc::Rc;
@@ -40,6 +40,28 @@ pub fn in_process_timeouts() -> Timeouts {
         mailbox_echo: Duration::from_secs(2),
         mailbox_response: Duration::from_secs(5),
     }
+}
+
+/// The PDU storage of the in-process master: 16 frames of up to 1100 bytes.
+pub type Storage = PduStorage<16, { PduStorage::element_size(1100) }>;
+
+/// A master on `storage` with [`in_process_timeouts`] and `dc_static_sync_iterations`
+/// (0: no DC static drift compensation), and the two halves of its PDU loop for
+/// [`tx_rx_task`].
+pub fn main_device(
+    storage: &Storage,
+    dc_static_sync_iterations: u32,
+) -> (MainDevice<'_>, PduTx<'_>, PduRx<'_>) {
+    let (tx, rx, pdu_loop) = storage.try_split().expect("split once");
+    let md = MainDevice::new(
+        pdu_loop,
+        in_process_timeouts(),
+        MainDeviceConfig {
+            dc_static_sync_iterations,
+            ..Default::default()
+        },
+    );
+    (md, tx, rx)
 }
 
 /// Moves every sendable frame through the board and hands the reply back to ethercrab.

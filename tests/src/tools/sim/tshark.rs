@@ -32,6 +32,28 @@ fn count(path: &Path, filter: &str) -> Result<usize, String> {
     Ok(String::from_utf8_lossy(&out.stdout).lines().count())
 }
 
+/// The values of `fields` (tshark field names) in each frame of `path` that matches
+/// `filter`, one row per frame (a field absent from a frame gives an empty string).
+pub fn fields(path: &Path, filter: &str, fields: &[&str]) -> Result<Vec<Vec<String>>, String> {
+    let mut cmd = Command::new("tshark");
+    cmd.arg("-r").arg(path).args(["-Y", filter, "-T", "fields"]);
+    for f in fields {
+        cmd.args(["-e", f]);
+    }
+    let out = cmd.output().map_err(|e| format!("tshark: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "tshark -r {} -Y {filter}: {}",
+            path.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| l.split('\t').map(str::to_owned).collect())
+        .collect())
+}
+
 /// Whether tshark is installed.
 pub fn available() -> bool {
     Command::new("tshark")

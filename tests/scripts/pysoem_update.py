@@ -1,0 +1,102 @@
+"""A firmware update of the first slave through SOEM (pysoem), as SOEM's firm_update does it:
+INIT, SM0/SM1 on the bootstrap mailbox read from the SII (words 0x14..0x17), BOOT, FoE writes,
+INIT; then the slave is brought to PRE-OP again and its identity read over SDO.
+
+Used by tests/tests/system_update_pysoem.rs (the virtual board on the other end of a veth pair)
+and usable by hand against a real module:
+
+    python3 tests/scripts/pysoem_update.py IFACE FILE.efw [BAD.efw ...]
+
+Every BAD file is written first and must be refused; FILE.efw last must be accepted. One line of
+JSON per step goes to stdout; the exit code is 0 when every step went as expected.
+"""
+
+import json
+import os
+import struct
+import sys
+import time
+
+import pysoem
+
+# SII word addresses of the bootstrap mailbox (ETG.2010): receive (master -> slave), send.
+SII_BOOT_RX_MBX = 0x0014
+SII_BOOT_TX_MBX = 0x0016
+TIMEOUT_US = 5_000_000
+
+
+def report(**fields):
+    print(json.dumps(fields), flush=True)
+
+
+def reach(slave, state):
+    slave.state = state
+    slave.write_state()
+    got = slave.state_check(state, TIMEOUT_US)
+    if got != state:
+        raise RuntimeError(
+            f"state {state:#x} not reached: {got:#x}, AL status code {slave.al_status:#06x}"
+        )
+
+
+def main(iface, good, bad):
+    master = pysoem.Master()
+    master.open(iface)
+    try:
+        found = master.config_init()
+        if found < 1:
+            raise RuntimeError("no slave found")
+        slave = master.slaves[0]
+        report(step="found", name=slave.name, vendor=slave.man, product=slave.id,
+               revision=slave.rev)
+        version = slave.sdo_read(0x100A, 0).decode(errors="replace")
+        report(step="version before", version=version)
+
+        reach(slave, pysoem.INIT_STATE)
+        rx_addr, rx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_RX_MBX))
+        tx_addr, tx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_TX_MBX))
+        report(step="bootstrap mailbox", out=[rx_addr, rx_len], **{"in": [tx_addr, tx_len]})
+        slave.amend_mbx(mailbox="out", start_address=rx_addr, size=rx_len)
+        slave.amend_mbx(mailbox="in", start_address=tx_addr, size=tx_len)
+        reach(slave, pysoem.BOOT_STATE)
+        report(step="boot")
+
+        ok = True
+        for path in bad + [good]:
+            with open(path, "rb") as f:
+                data = f.read()
+            # SOEM returns > 0 for a file the slave took; an FoE error from the slave comes
+            # back as a negative result or (pysoem) as an exception.
+            try:
+                result = slave.foe_write(os.path.basename(path), 0, data, TIMEOUT_US)
+                error = None
+            except Exception as e:  # pysoem's error types differ between versions
+                result, error = None, f"{type(e).__name__}: {e}"
+            accepted = result is not None and result > 0
+            report(step="foe write", file=os.path.basename(path), bytes=len(data),
+                   result=result, error=error, accepted=accepted)
+            ok = ok and accepted == (path == good)
+
+        # BOOT -> INIT: the bootloader installs the file and starts the new application.
+        slave.state = pysoem.INIT_STATE
+        slave.write_state()
+        time.sleep(0.5)
+        found = master.config_init()
+        slave = master.slaves[0]
+        report(step="back", found=found, state=slave.state)
+        version = slave.sdo_read(0x100A, 0).decode(errors="replace")
+        report(step="version after", version=version)
+        return 0 if ok else 1
+    finally:
+        master.close()
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 3:
+        print(__doc__, file=sys.stderr)
+        sys.exit(2)
+    try:
+        sys.exit(main(sys.argv[1], sys.argv[2], sys.argv[3:]))
+    except Exception as e:  # the test shows the message
+        report(step="error", message=str(e))
+        sys.exit(1)
