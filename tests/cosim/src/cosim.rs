@@ -321,6 +321,11 @@ impl Cosim {
         self.core.fault.as_ref()
     }
 
+    /// The flash as it is now (the IAP ROM's writes included).
+    pub fn flash(&self) -> Vec<u8> {
+        self.core.machine.borrow().flash.flash().to_vec()
+    }
+
     /// Problems the models reported.
     pub fn reports(&self) -> Vec<Report> {
         self.core.machine.borrow().reports.clone()

@@ -1,0 +1,189 @@
+//! SYSTEM TEST ON THE IMAGE: the firmware update of the release programs (issue 13) on the
+//! LPC1754 co-simulator: the real application resets into the real bootloader on a
+//! master's INIT -> BOOT, the bootloader takes an update file over FoE into the staging
+//! area through the IAP ROM (the `lpc17xx-iap` flash model), and its reset sequence
+//! installs it and starts the new application.
+//!
+//! The new application is the release application with another software version: the
+//! version string (0x100A) patched in its image and the update header made for the patched
+//! image, so the update is seen in what the running firmware answers. The image is the one
+//! `cargo xtask build` made (`cargo xtask test` passes it in `LPC1754_IMAGE`); a missing
+//! image fails the test, it never skips it.
+
+use coe_core::device::MemoryWindow;
+use coe_core::wire::FoeErrorCode;
+use ethercrab::std::ethercat_now;
+use firmware::boot::header::{Header, HeaderRepr};
+use firmware::boot::layout::{APP_SLOT, HEADER_BLOCK};
+use firmware::product::device::DEVICE;
+use firmware::product::identity::{NAMES, UPDATE_TARGET};
+use firmware::product::layout::BOOTSTRAP_MAILBOX;
+use futures_lite::future::{block_on, or};
+use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::machine::ResetCause;
+use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
+use std::cell::RefCell;
+use std::rc::Rc;
+use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::foe_client::{
+    configure_mailbox, enter_boot, request_state, FoeClient, FoeFailure,
+};
+use virtual_board::rig::master::{main_device, tx_rx_task, Storage};
+use virtual_board::rig::sdo_client::SdoUploader;
+
+type Board = Rc<RefCell<VirtualBoard>>;
+
+/// The software version of the patched application (as long as the release version, so
+/// the string is replaced in place).
+const NEW_VERSION: &str = "9.8.7";
+
+fn image_board() -> (Board, CosimHandle) {
+    let image = load_image().expect("the release image");
+    let (target, handle) = image_target(image, Options::default()).expect("boot ROM checks");
+    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
+        target.sii,
+    ))));
+    let cpu = (target.make_cpu)(board.borrow().io());
+    board.borrow_mut().set_cpu(cpu);
+    (board, handle)
+}
+
+/// The release update file with the software version string replaced by `version`
+/// wherever its image holds it, and a header made for the new image.
+fn new_update_file(version: &str) -> Vec<u8> {
+    let path = image_path().with_extension("efw");
+    let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let old = NAMES.software_version.as_bytes();
+    assert_eq!(old.len(), version.len());
+    let mut image = efw[HEADER_BLOCK as usize..].to_vec();
+    let at: Vec<usize> = image
+        .windows(old.len())
+        .enumerate()
+        .filter(|(_, w)| *w == old)
+        .map(|(i, _)| i)
+        .collect();
+    // 0x100A, and the module description (0x2001) that names it.
+    assert_eq!(at.len(), 2, "where the image holds its version");
+    for a in at {
+        image[a..a + old.len()].copy_from_slice(version.as_bytes());
+    }
+    let mut file = HeaderRepr::for_image(&image, &UPDATE_TARGET, version)
+        .to_bytes()
+        .to_vec();
+    file.extend_from_slice(&image);
+    file
+}
+
+/// The header of the application slot in the co-simulator's flash.
+fn slot_header(handle: &CosimHandle) -> Option<HeaderRepr> {
+    let flash = handle.with(|c| c.flash()).expect("co-simulator built");
+    let start = APP_SLOT.start as usize;
+    HeaderRepr::parse(&Header::new_unchecked(
+        &flash[start..start + HEADER_BLOCK as usize],
+    ))
+    .ok()
+}
+
+/// The software version (0x100A) as the running application answers it on the standard
+/// mailbox.
+async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>, counter: u8) -> String {
+    let (out, inp) = (DEVICE.sync_managers[0], DEVICE.sync_managers[1]);
+    let mut client = SdoUploader::<128>::new(out.start, inp.start, counter);
+    let up = client.upload(sd, 0x100A, 0).await.unwrap();
+    String::from_utf8(up.data).unwrap()
+}
+
+#[test]
+fn foe_update_of_the_release_programs() {
+    let new = new_update_file(NEW_VERSION);
+    let mut bad_crc = new.clone();
+    let last = bad_crc.len() - 1;
+    bad_crc[last] ^= 0x01;
+    let (board, handle) = image_board();
+    let storage = Box::new(Storage::new());
+    let (md, tx, rx) = main_device(&storage, 0);
+    block_on(or(
+        async {
+            let group = md
+                .init_single_group::<2, 64>(ethercat_now)
+                .await
+                .expect("init");
+            let sd = group.subdevice(&md, 0).unwrap();
+            assert_eq!(software_version(&sd, 1).await, NAMES.software_version);
+
+            // INIT -> BOOT: the application resets into the bootloader, which takes BOOT.
+            enter_boot(&sd, BOOTSTRAP_MAILBOX.0, BOOTSTRAP_MAILBOX.1)
+                .await
+                .unwrap();
+            let resets = handle.with(|c| c.facts().resets).unwrap();
+            assert_eq!(
+                resets.iter().map(|r| r.0).collect::<Vec<_>>(),
+                [ResetCause::SysResetReq]
+            );
+            let mut foe = FoeClient::<{ BOOTSTRAP_MAILBOX.0.len as usize }>::new(
+                BOOTSTRAP_MAILBOX.0.start,
+                BOOTSTRAP_MAILBOX.1.start,
+            );
+            match foe.write(&sd, "analog-io.efw", 0, &bad_crc).await {
+                Err(FoeFailure::Refused { code, text, .. }) => {
+                    assert_eq!(
+                        (code, text.as_str()),
+                        (FoeErrorCode::InvalidChecksum, "image CRC wrong")
+                    )
+                }
+                other => panic!("a bad CRC: {other:?}"),
+            }
+            let t0 = board.borrow().now_ns();
+            foe.write(&sd, "analog-io.efw", 0, &new).await.unwrap();
+            let t1 = board.borrow().now_ns();
+            eprintln!(
+                "FoE write of {} B: {:.1} ms of virtual time",
+                new.len(),
+                (t1 - t0) as f64 / 1e6
+            );
+            let old = slot_header(&handle).expect("the release application");
+            assert_eq!(old.version_str(), Some(NAMES.software_version));
+
+            // BOOT -> INIT: the bootloader resets; its reset sequence installs the file and
+            // starts the new application, which comes up in INIT and takes PRE-OP.
+            request_state(&sd, 0x01).await.unwrap();
+            let standard = |n: usize| {
+                let sm = DEVICE.sync_managers[n];
+                MemoryWindow::new(sm.start, sm.len)
+            };
+            configure_mailbox(&sd, standard(0), standard(1))
+                .await
+                .unwrap();
+            let mut preop = request_state(&sd, 0x02).await;
+            for _ in 0..20 {
+                if preop.is_ok() {
+                    break;
+                }
+                // The installation takes the bootloader a while (IAP erase and copy).
+                preop = request_state(&sd, 0x02).await;
+            }
+            preop.unwrap();
+            eprintln!(
+                "BOOT -> INIT to PRE-OP of the new application (installation included): \
+                 {:.1} ms of virtual time",
+                (board.borrow().now_ns() - t1) as f64 / 1e6
+            );
+            assert_eq!(software_version(&sd, 1).await, NEW_VERSION);
+        },
+        tx_rx_task(board.clone(), tx, rx),
+    ));
+    let installed = slot_header(&handle).expect("an application");
+    assert_eq!(installed.version_str(), Some(NEW_VERSION));
+    let facts = handle.with(|c| c.facts()).unwrap();
+    eprintln!("{}", facts.summary());
+    assert_eq!(
+        facts.resets.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [ResetCause::SysResetReq, ResetCause::SysResetReq],
+        "{}",
+        facts.summary()
+    );
+    assert!(facts.fault.is_none(), "{}", facts.summary());
+    assert!(facts.reports.is_empty(), "{}", facts.summary());
+    let spi = board.borrow().esc().borrow().spi_stats.clone();
+    assert_eq!(spi.errors, 0, "ET1100 SPI protocol errors");
+}
