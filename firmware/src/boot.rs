@@ -3,7 +3,7 @@
 //!
 //! | Module | What |
 //! |---|---|
-//! | [`layout`] | THE flash map (bootloader, application slot, staging area) and the RAM word of the boot request; `memory.x` and `memory-boot.x` are checked against it |
+//! | [`layout`] | THE flash map (bootloader, application slot, staging area) and the RAM word of the boot request; `memory-app.x` and `memory-boot.x` are checked against it |
 //! | [`crc32`] | CRC-32 of the update file and its header |
 //! | [`header`] | the update file's header (`.efw`): identity, hardware revision, version, length, CRC |
 //! | [`request`] | the application's "start the bootloader" word in RAM |
@@ -11,7 +11,7 @@
 //! | [`install`] | what the bootloader does at reset: check, install from staging, start or stay |
 //! | [`slave`] | the bootloader's EtherCAT slave: INIT and BOOT, FoE on the bootstrap mailbox |
 //!
-//! Never bricked: the bootloader (sectors 0 and 1) is never written by itself. A file goes to
+//! Never bricked: the bootloader (sectors 0..=2) is never written by itself. A file goes to
 //! the staging area first and is checked there (identity, length, CRC) before the
 //! application is touched; its first kilobyte, which holds the header, is written last, so
 //! a staging area or application slot whose writing was cut short has no valid header. At

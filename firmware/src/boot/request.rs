@@ -8,8 +8,10 @@
 //!
 //! UNCONFIRMED (no board here): that the LPC1754's boot ROM leaves these 8 bytes below its
 //! IAP area (0x1000_3FD8..0x1000_3FE0) untouched between a SYSRESETREQ and the bootloader.
-//! Should it not, the master's AL control still asks for BOOT, which the bootloader reads
-//! too ([`crate::boot::install::boot_requested`]).
+//! Should it not, INIT -> BOOT would restart the application instead (the master's BOOT
+//! request times out, nothing is lost); the remedy would be for the bootloader to read the
+//! ESC's AL control before it starts the application. (Once it stays, it does read it:
+//! [`crate::boot::slave::BootSlave::start`].)
 
 /// The magic of a request ("BOOT" in ASCII, little-endian).
 pub const MAGIC: u32 = u32::from_le_bytes(*b"BOOT");
