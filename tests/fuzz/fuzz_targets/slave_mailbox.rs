@@ -96,9 +96,10 @@ fuzz_target!(|data: &[u8]| {
                         let header = MailboxRepr::parse(&Mailbox::new_unchecked(got))
                             .unwrap_or_else(|e| panic!("reply {got:02X?}: {e:?}"));
                         assert!(header.buffer_len() <= len);
+                        // FoE: the application refuses firmware files outside BOOT.
                         assert!(matches!(
                             header.mailbox_type,
-                            MailboxType::Coe | MailboxType::Error
+                            MailboxType::Coe | MailboxType::Foe | MailboxType::Error
                         ));
                     }
                 }
