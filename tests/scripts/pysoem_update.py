@@ -40,6 +40,13 @@ def reach(slave, state):
 
 
 def main(iface, good, bad):
+    # SOEM waits 2 ms for a datagram by default; the virtual board answers from a user-space
+    # thread, which a loaded host can keep waiting longer. A real module answers in
+    # microseconds, so the longer waits cost nothing there.
+    timeouts = pysoem.settings.timeouts
+    timeouts.ret = max(timeouts.ret, 50_000)
+    timeouts.safe = max(timeouts.safe, 200_000)
+    timeouts.eeprom = max(timeouts.eeprom, 200_000)
     master = pysoem.Master()
     master.open(iface)
     try:

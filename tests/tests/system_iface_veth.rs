@@ -70,9 +70,11 @@ fn run_in_namespace() -> Result<Outcome, String> {
         Timeouts {
             wait_loop_delay: Duration::from_millis(1),
             state_transition: Duration::from_secs(5),
-            // ethercrab's EEPROM timeout is wall-clock (10 ms per read by default); a
-            // loaded host can need longer for the few frames of a read.
+            // ethercrab's timeouts are wall-clock (10 ms per EEPROM read, 30 ms per PDU by
+            // default); a loaded host can take longer to answer over the veth pair (a
+            // `timeout: PDU` at init was seen at a load average of 8 on 2 cores).
             eeprom: Duration::from_millis(500),
+            pdu: Duration::from_millis(500),
             ..Default::default()
         },
         MainDeviceConfig {
