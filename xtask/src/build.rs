@@ -272,7 +272,7 @@ fn program(elf: &Path, base: u64, checksum: bool) -> Result<(Program, Vec<u8>)> 
     let program = Program {
         elf: elf.to_path_buf(),
         bin: bin_path,
-        usage: image::usage(&sections),
+        usage: image::usage(&sections, base),
     };
     Ok((program, bin))
 }
@@ -323,7 +323,7 @@ fn pct(used: u64, of: u64) -> f64 {
 /// The flash/RAM figures of a program against its budget.
 pub fn print_usage(u: &Usage, budget: &Budget) {
     println!(
-        "  flash:      {:>6} B of {:>6} B budget ({:5.1} %)  [.vector_table + .crp + .text + .rodata + .data]",
+        "  flash:      {:>6} B of {:>6} B budget ({:5.1} %)  [.vector_table to the end of .data, gaps included]",
         u.flash,
         budget.flash,
         pct(u.flash, budget.flash)

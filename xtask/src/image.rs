@@ -295,7 +295,9 @@ pub struct SectionInfo {
 /// The image's use of memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Usage {
-    /// Flash: every loadable section (.vector_table, .crp, .text, .rodata, .data load image).
+    /// Flash: what the program occupies of its region, from its first address to the end of
+    /// the last loadable section (.vector_table, .crp, .text, .rodata, .data load image),
+    /// the 0xFF gap before the CRP word included.
     pub flash: u64,
     /// Static RAM in the local SRAM: .data + .bss + .uninit (stack excluded).
     pub ram: u64,
@@ -305,24 +307,20 @@ pub struct Usage {
     pub image_end: u64,
 }
 
-/// Sums the sections.
-pub fn usage(sections: &[SectionInfo]) -> Usage {
+/// The memory use of a program linked from `base`.
+pub fn usage(sections: &[SectionInfo], base: u64) -> Usage {
     let mut u = Usage::default();
     for s in sections {
         match s.place {
-            Place::Flash => u.flash += s.size,
-            Place::FlashAndRam => {
-                u.flash += s.size;
-                u.ram += s.size;
-            }
-            Place::Ram => u.ram += s.size,
+            Place::FlashAndRam | Place::Ram => u.ram += s.size,
             Place::AhbSram => u.ahbsram += s.size,
-            Place::None => {}
+            Place::Flash | Place::None => {}
         }
         if let Some(lma) = s.load_addr {
             u.image_end = u.image_end.max(lma + s.size);
         }
     }
+    u.flash = u.image_end.saturating_sub(base);
     u
 }
 
@@ -659,8 +657,9 @@ mod tests {
             sec(".ahbsram", 0x2007_C000, None, 4_096, Place::AhbSram),
             sec(".defmt", 0, None, 12, Place::None),
         ];
-        let u = usage(&s);
-        assert_eq!(u.flash, 0xCC + 4 + 10_000 + 1_000 + 56);
+        let u = usage(&s, 0);
+        // The gap between the vector table and the CRP word is taken, too.
+        assert_eq!(u.flash, 0x2DF8 + 56);
         assert_eq!(u.ram, 56 + 100 + 1_200);
         assert_eq!(u.ahbsram, 4_096);
         assert_eq!(u.image_end, 0x2DF8 + 56);

@@ -12,6 +12,7 @@ use super::{cm3, model, Derived};
 use crate::build::{self, target_dir, Profile};
 use crate::image;
 use crate::util::Result;
+use firmware::boot::layout::APP_VECTORS;
 use virtual_board::tools::bus_cost;
 use virtual_board::tools::sim;
 
@@ -94,7 +95,7 @@ fn measure(setting: &Setting, bus: &bus_cost::BusReport) -> Result<Measured> {
     let elf = build::link(&setting.profile("firmware"))?;
     let data = std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
     let sections = image::sections(&data).map_err(|e| e.to_string())?;
-    let flash = image::usage(&sections).flash;
+    let flash = image::usage(&sections, u64::from(APP_VECTORS)).flash;
     let cpu = cm3::measure(1, &setting.profile("bench-cm3"))?;
     Ok(Measured {
         flash,
