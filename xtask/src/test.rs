@@ -74,10 +74,12 @@ pub fn run(args: &Args) -> Result {
         cmd.env("RUSTFLAGS", "-D warnings");
         exec(&mut cmd)?;
     }
-    // The fallback ADC path (one interrupt per sample instead of the GPDMA), so it cannot rot.
+    // The fallback ADC path (one interrupt per sample instead of the GPDMA), so it cannot rot,
+    // and the bootloader's own hardware code, which only this target compiles.
     exec(
         cargo()
             .args(["clippy", "--release", "-p", "firmware", "--bin", build::BIN])
+            .args(["--bin", build::BOOT_BIN])
             .args(["--target", build::TARGET, "--features", "adc-irq"])
             .args(["--", "-D", "warnings"]),
     )?;

@@ -1,5 +1,6 @@
-//! What the bootloader does to the Cortex-M3 and the LPC1754 itself: the only `unsafe` code
-//! of the bootloader besides the shared hardware layer and the IAP ROM call.
+//! What the bootloader does to the Cortex-M3 and the LPC1754 itself: with its `memcpy` and
+//! `memclr` (`aeabi_mem`), the only `unsafe` code of the bootloader besides the shared
+//! hardware layer and the IAP ROM call.
 
 use lpc17xx_pac as pac;
 
