@@ -566,29 +566,34 @@ fn paint(uc: &mut Unicorn<'_, Shared>, top: u32) {
 }
 
 fn block_hook(uc: &mut Unicorn<'_, Shared>, addr: u64, size: u32) {
-    if addr == u64::from(iap::ENTRY) {
-        iap::call(uc);
-    }
-    let m = uc.get_data().clone();
-    let mut m = m.borrow_mut();
-    if m.stop.is_some() {
-        let _ = uc.emu_stop();
-        return;
-    }
-    if m.now_ns() >= m.deadline_ns {
-        m.stop = Some(Stop::Deadline);
-        let _ = uc.emu_stop();
-        return;
-    }
-    if m.check_preempt {
-        let (primask, basepri, faultmask) = masks(uc);
-        if m.scs.preempting(primask, basepri, faultmask).is_some() {
-            m.stop = Some(Stop::Preempt);
+    let machine = uc.get_data().clone();
+    {
+        let mut m = machine.borrow_mut();
+        if m.stop.is_some() {
             let _ = uc.emu_stop();
             return;
         }
+        if m.now_ns() >= m.deadline_ns {
+            m.stop = Some(Stop::Deadline);
+            let _ = uc.emu_stop();
+            return;
+        }
+        if m.check_preempt {
+            let (primask, basepri, faultmask) = masks(uc);
+            if m.scs.preempting(primask, basepri, faultmask).is_some() {
+                m.stop = Some(Stop::Preempt);
+                let _ = uc.emu_stop();
+                return;
+            }
+        }
+    }
+    // Only a block that runs carries out the IAP command: a block stopped above starts
+    // again later, and the command must happen once.
+    if addr == u64::from(iap::ENTRY) {
+        iap::call(uc);
     }
     let sp = reg(uc, RegisterARM::SP);
+    let mut m = machine.borrow_mut();
     m.run_block(addr as u32, size, sp, || {
         uc.mem_read_as_vec(addr, size as usize).unwrap_or_default()
     });

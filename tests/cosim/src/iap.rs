@@ -1,9 +1,10 @@
 //! The LPC17xx IAP ROM (UM10360 32.8) on the co-simulator: the entry point 0x1FFF_1FF1 is a
-//! `bx lr` in a mapped ROM page; when a block starts there, the command the caller's R0
-//! points at is carried out on the machine's flash model (`lpc17xx_iap::model::FlashModel`:
-//! the ROM's rules, bits only 1 -> 0, the command log), the five result words are written
-//! where R1 points, and the engine's flash is refreshed from the model when the command
-//! changed it. Every other address of the boot ROM stays unmapped (a call there is a fault).
+//! `bx lr` in a mapped ROM page; when that block runs (not when the run stops at its start
+//! and enters it again later), the command the caller's R0 points at is carried out on the
+//! machine's flash model (`lpc17xx_iap::model::FlashModel`: the ROM's rules, bits only
+//! 1 -> 0, the command log), the five result words are written where R1 points, and the
+//! engine's flash is refreshed from the model when the command changed it. Every other
+//! address of the boot ROM stays unmapped (a call there is a fault).
 //!
 //! Reported (the run's reports, not faults): a call with interrupts enabled (the ROM needs
 //! the flash idle; a handler in flash would fault), a CPU clock argument other than the

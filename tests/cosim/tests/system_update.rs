@@ -14,12 +14,13 @@ use coe_core::device::MemoryWindow;
 use coe_core::wire::FoeErrorCode;
 use ethercrab::std::ethercat_now;
 use firmware::boot::header::{Header, HeaderRepr};
-use firmware::boot::layout::{APP_SLOT, HEADER_BLOCK};
+use firmware::boot::layout::{APP_SLOT, HEADER_BLOCK, STAGING};
 use firmware::product::device::DEVICE;
 use firmware::product::identity::{NAMES, UPDATE_TARGET};
 use firmware::product::layout::BOOTSTRAP_MAILBOX;
 use futures_lite::future::{block_on, or};
 use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::image::Image;
 use lpc1754_cosim::machine::ResetCause;
 use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
 use std::cell::RefCell;
@@ -38,7 +39,10 @@ type Board = Rc<RefCell<VirtualBoard>>;
 const NEW_VERSION: &str = "9.8.7";
 
 fn image_board() -> (Board, CosimHandle) {
-    let image = load_image().expect("the release image");
+    board_of(load_image().expect("the release image"))
+}
+
+fn board_of(image: Image) -> (Board, CosimHandle) {
     let (target, handle) = image_target(image, Options::default()).expect("boot ROM checks");
     let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
         target.sii,
@@ -186,4 +190,27 @@ fn foe_update_of_the_release_programs() {
     assert!(facts.reports.is_empty(), "{}", facts.summary());
     let spi = board.borrow().esc().borrow().spi_stats.clone();
     assert_eq!(spi.errors, 0, "ET1100 SPI protocol errors");
+}
+
+/// A staged update installed by the bootloader at reset while the co-simulator stops the
+/// core at every block (steps of 10 ns, about one instruction, as a board with much traffic
+/// would in places): every IAP command is carried out once, however often the run stops at
+/// the ROM's entry, and the new application is installed.
+#[test]
+fn a_staged_update_is_installed_with_the_run_stopped_at_every_block() {
+    let new = new_update_file(NEW_VERSION);
+    let mut image = load_image().expect("the release image");
+    let at = STAGING.start as usize;
+    image.flash[at..at + new.len()].copy_from_slice(&new);
+    let (board, handle) = board_of(image);
+    // The installation (two image checks, the slot erased and written) takes about 15 ms of
+    // virtual time; the IAP ROM's own time is not modelled.
+    for _ in 0..2_500_000 {
+        board.borrow_mut().step(10);
+    }
+    let facts = handle.with(|c| c.facts()).unwrap();
+    assert!(facts.fault.is_none(), "{}", facts.summary());
+    assert!(facts.reports.is_empty(), "{}", facts.summary());
+    let installed = slot_header(&handle).expect("an application");
+    assert_eq!(installed.version_str(), Some(NEW_VERSION));
 }
