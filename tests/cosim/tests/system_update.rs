@@ -2,7 +2,8 @@
 //! LPC1754 co-simulator: the real application resets into the real bootloader on a
 //! master's INIT -> BOOT, the bootloader takes an update file over FoE into the staging
 //! area through the IAP ROM (the `lpc17xx-iap` flash model), and its reset sequence
-//! installs it and starts the new application.
+//! installs it and starts the new application. Files with a bad CRC, truncated or for
+//! another product are refused first, and the old application still runs after them.
 //!
 //! The new application is the release application with another software version: the
 //! version string (0x100A) patched in its image and the update header made for the patched
@@ -13,7 +14,7 @@
 use coe_core::device::MemoryWindow;
 use coe_core::wire::FoeErrorCode;
 use ethercrab::std::ethercat_now;
-use firmware::boot::header::{Header, HeaderRepr};
+use firmware::boot::header::{Header, HeaderRepr, Target};
 use firmware::boot::layout::{APP_SLOT, HEADER_BLOCK, STAGING};
 use firmware::product::device::DEVICE;
 use firmware::product::identity::{NAMES, UPDATE_TARGET};
@@ -53,8 +54,8 @@ fn board_of(image: Image) -> (Board, CosimHandle) {
 }
 
 /// The release update file with the software version string replaced by `version`
-/// wherever its image holds it, and a header made for the new image.
-fn new_update_file(version: &str) -> Vec<u8> {
+/// wherever its image holds it, and a header made for the new image and `target`.
+fn new_update_file(version: &str, target: &Target) -> Vec<u8> {
     let path = image_path().with_extension("efw");
     let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let old = NAMES.software_version.as_bytes();
@@ -71,7 +72,7 @@ fn new_update_file(version: &str) -> Vec<u8> {
     for a in at {
         image[a..a + old.len()].copy_from_slice(version.as_bytes());
     }
-    let mut file = HeaderRepr::for_image(&image, &UPDATE_TARGET, version)
+    let mut file = HeaderRepr::for_image(&image, target, version)
         .to_bytes()
         .to_vec();
     file.extend_from_slice(&image);
@@ -88,6 +89,25 @@ fn slot_header(handle: &CosimHandle) -> Option<HeaderRepr> {
     .ok()
 }
 
+/// The standard mailbox's SyncManager `n` (0 out, 1 in).
+fn standard(n: usize) -> MemoryWindow {
+    let sm = DEVICE.sync_managers[n];
+    MemoryWindow::new(sm.start, sm.len)
+}
+
+/// INIT -> PRE-OP, asked again while the bootloader installs a file and starts the
+/// application (IAP erase and copy).
+async fn preop<S>(sd: &ethercrab::SubDeviceRef<'_, S>) {
+    let mut preop = request_state(sd, 0x02).await;
+    for _ in 0..20 {
+        if preop.is_ok() {
+            break;
+        }
+        preop = request_state(sd, 0x02).await;
+    }
+    preop.unwrap();
+}
+
 /// The software version (0x100A) as the running application answers it on the standard
 /// mailbox.
 async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>, counter: u8) -> String {
@@ -99,10 +119,18 @@ async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>, counter: u8) -
 
 #[test]
 fn foe_update_of_the_release_programs() {
-    let new = new_update_file(NEW_VERSION);
+    let new = new_update_file(NEW_VERSION, &UPDATE_TARGET);
     let mut bad_crc = new.clone();
     let last = bad_crc.len() - 1;
     bad_crc[last] ^= 0x01;
+    let truncated = new[..new.len() - 1000].to_vec();
+    let other_product = new_update_file(
+        NEW_VERSION,
+        &Target {
+            product_code: UPDATE_TARGET.product_code + 1,
+            ..UPDATE_TARGET
+        },
+    );
     let (board, handle) = image_board();
     let storage = Box::new(Storage::new());
     let (md, tx, rx) = main_device(&storage, 0);
@@ -128,15 +156,33 @@ fn foe_update_of_the_release_programs() {
                 BOOTSTRAP_MAILBOX.0.start,
                 BOOTSTRAP_MAILBOX.1.start,
             );
-            match foe.write(&sd, "analog-io.efw", 0, &bad_crc).await {
-                Err(FoeFailure::Refused { code, text, .. }) => {
-                    assert_eq!(
-                        (code, text.as_str()),
-                        (FoeErrorCode::InvalidChecksum, "image CRC wrong")
-                    )
+            for (file, expected) in [
+                (&bad_crc, (FoeErrorCode::InvalidChecksum, "image CRC wrong")),
+                (&truncated, (FoeErrorCode::InvalidChecksum, "truncated")),
+                (
+                    &other_product,
+                    (FoeErrorCode::InvalidFirmware, "other product code"),
+                ),
+            ] {
+                match foe.write(&sd, "analog-io.efw", 0, file).await {
+                    Err(FoeFailure::Refused { code, text, .. }) => {
+                        assert_eq!((code, text.as_str()), expected)
+                    }
+                    other => panic!("{expected:?}: {other:?}"),
                 }
-                other => panic!("a bad CRC: {other:?}"),
             }
+            // BOOT -> INIT after the refused files: the old application still runs.
+            request_state(&sd, 0x01).await.unwrap();
+            configure_mailbox(&sd, standard(0), standard(1))
+                .await
+                .unwrap();
+            preop(&sd).await;
+            assert_eq!(software_version(&sd, 1).await, NAMES.software_version);
+            request_state(&sd, 0x01).await.unwrap();
+            enter_boot(&sd, BOOTSTRAP_MAILBOX.0, BOOTSTRAP_MAILBOX.1)
+                .await
+                .unwrap();
+
             let t0 = board.borrow().now_ns();
             foe.write(&sd, "analog-io.efw", 0, &new).await.unwrap();
             let t1 = board.borrow().now_ns();
@@ -151,22 +197,10 @@ fn foe_update_of_the_release_programs() {
             // BOOT -> INIT: the bootloader resets; its reset sequence installs the file and
             // starts the new application, which comes up in INIT and takes PRE-OP.
             request_state(&sd, 0x01).await.unwrap();
-            let standard = |n: usize| {
-                let sm = DEVICE.sync_managers[n];
-                MemoryWindow::new(sm.start, sm.len)
-            };
             configure_mailbox(&sd, standard(0), standard(1))
                 .await
                 .unwrap();
-            let mut preop = request_state(&sd, 0x02).await;
-            for _ in 0..20 {
-                if preop.is_ok() {
-                    break;
-                }
-                // The installation takes the bootloader a while (IAP erase and copy).
-                preop = request_state(&sd, 0x02).await;
-            }
-            preop.unwrap();
+            preop(&sd).await;
             eprintln!(
                 "BOOT -> INIT to PRE-OP of the new application (installation included): \
                  {:.1} ms of virtual time",
@@ -182,7 +216,9 @@ fn foe_update_of_the_release_programs() {
     eprintln!("{}", facts.summary());
     assert_eq!(
         facts.resets.iter().map(|r| r.0).collect::<Vec<_>>(),
-        [ResetCause::SysResetReq, ResetCause::SysResetReq],
+        // Into the bootloader, out of it after the refused files, into it again, out of it
+        // with the new application.
+        [ResetCause::SysResetReq; 4],
         "{}",
         facts.summary()
     );
@@ -198,7 +234,7 @@ fn foe_update_of_the_release_programs() {
 /// the ROM's entry, and the new application is installed.
 #[test]
 fn a_staged_update_is_installed_with_the_run_stopped_at_every_block() {
-    let new = new_update_file(NEW_VERSION);
+    let new = new_update_file(NEW_VERSION, &UPDATE_TARGET);
     let mut image = load_image().expect("the release image");
     let at = STAGING.start as usize;
     image.flash[at..at + new.len()].copy_from_slice(&new);
