@@ -33,7 +33,7 @@ use virtual_board::rig::foe_client::{
 };
 use virtual_board::rig::master::{main_device, tx_rx_task, Storage};
 use virtual_board::rig::module_cpu::{update_file, ModuleCpu, ModuleLog, SharedFlash};
-use virtual_board::rig::sdo_client::SdoUploader;
+use virtual_board::rig::sdo_client::SdoClient;
 use virtual_board::tools::sim::{firmware_device, tshark};
 
 type Board = Rc<RefCell<VirtualBoard>>;
@@ -178,7 +178,7 @@ fn scenario_update(pcap: &str) -> PathBuf {
             }
             assert_eq!(m.version().as_deref(), Some("2.0.0"));
             preop_again(&sd).await;
-            let mut sdo = SdoUploader::<MBX>::new(out.start, inp.start, 1);
+            let mut sdo = SdoClient::<MBX>::new(out.start, inp.start, 1);
             let device_type = sdo.upload(&sd, 0x1000, 0).await.unwrap();
             assert_eq!(device_type.data, 0x000C_0191u32.to_le_bytes());
         },

@@ -31,7 +31,7 @@ use virtual_board::rig::foe_client::{
     configure_mailbox, enter_boot, request_state, FoeClient, FoeFailure,
 };
 use virtual_board::rig::master::{main_device, tx_rx_task, Storage};
-use virtual_board::rig::sdo_client::SdoUploader;
+use virtual_board::rig::sdo_client::SdoClient;
 
 type Board = Rc<RefCell<VirtualBoard>>;
 
@@ -110,9 +110,9 @@ async fn preop<S>(sd: &ethercrab::SubDeviceRef<'_, S>) {
 
 /// The software version (0x100A) as the running application answers it on the standard
 /// mailbox.
-async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>, counter: u8) -> String {
+async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>) -> String {
     let (out, inp) = (DEVICE.sync_managers[0], DEVICE.sync_managers[1]);
-    let mut client = SdoUploader::<128>::new(out.start, inp.start, counter);
+    let mut client = SdoClient::<128>::new(out.start, inp.start, 1);
     let up = client.upload(sd, 0x100A, 0).await.unwrap();
     String::from_utf8(up.data).unwrap()
 }
@@ -141,7 +141,7 @@ fn foe_update_of_the_release_programs() {
                 .await
                 .expect("init");
             let sd = group.subdevice(&md, 0).unwrap();
-            assert_eq!(software_version(&sd, 1).await, NAMES.software_version);
+            assert_eq!(software_version(&sd).await, NAMES.software_version);
 
             // INIT -> BOOT: the application resets into the bootloader, which takes BOOT.
             enter_boot(&sd, BOOTSTRAP_MAILBOX.0, BOOTSTRAP_MAILBOX.1)
@@ -177,7 +177,7 @@ fn foe_update_of_the_release_programs() {
                 .await
                 .unwrap();
             preop(&sd).await;
-            assert_eq!(software_version(&sd, 1).await, NAMES.software_version);
+            assert_eq!(software_version(&sd).await, NAMES.software_version);
             request_state(&sd, 0x01).await.unwrap();
             enter_boot(&sd, BOOTSTRAP_MAILBOX.0, BOOTSTRAP_MAILBOX.1)
                 .await
@@ -206,7 +206,7 @@ fn foe_update_of_the_release_programs() {
                  {:.1} ms of virtual time",
                 (board.borrow().now_ns() - t1) as f64 / 1e6
             );
-            assert_eq!(software_version(&sd, 1).await, NEW_VERSION);
+            assert_eq!(software_version(&sd).await, NEW_VERSION);
         },
         tx_rx_task(board.clone(), tx, rx),
     ));
