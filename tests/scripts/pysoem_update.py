@@ -87,11 +87,20 @@ def main(iface, good, bad):
         # BOOT -> INIT: the bootloader installs the file and starts the new application.
         slave.state = pysoem.INIT_STATE
         slave.write_state()
-        time.sleep(0.5)
-        found = master.config_init()
-        slave = master.slaves[0]
+        # The installation takes a while (the flash erased and written): look again until
+        # the new application answers, bounded.
+        deadline = time.monotonic() + 20
+        while True:
+            time.sleep(0.5)
+            try:
+                found = master.config_init()
+                slave = master.slaves[0]
+                version = slave.sdo_read(0x100A, 0).decode(errors="replace")
+                break
+            except Exception:
+                if time.monotonic() > deadline:
+                    raise
         report(step="back", found=found, state=slave.state)
-        version = slave.sdo_read(0x100A, 0).decode(errors="replace")
         report(step="version after", version=version)
         return 0 if ok else 1
     finally:

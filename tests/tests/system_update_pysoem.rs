@@ -9,7 +9,6 @@
 //! cannot run. As in `system_iface_veth.rs`, everything happens in a private network
 //! namespace of the test's own thread.
 
-use virtual_board::tools::iface::{ip, veth_missing, veth_pair_in_new_namespace};
 use firmware::boot::header::Target;
 use firmware::product::identity::UPDATE_TARGET;
 use std::path::{Path, PathBuf};
@@ -20,19 +19,9 @@ use std::time::Duration;
 use virtual_board::models::adc::T_CYC_NS;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::module_cpu::{update_file, ModuleCpu, SharedFlash};
+use virtual_board::tools::iface::{ip, pysoem_missing, veth_pair_in_new_namespace};
 use virtual_board::tools::iface::{serve, RawSocket, ServeOptions};
 use virtual_board::tools::sim::{firmware_device, tshark};
-
-/// Why the test cannot run here, if it cannot.
-fn missing() -> Option<String> {
-    veth_missing().or_else(|| {
-        let pysoem = Command::new("python3")
-            .args(["-c", "import pysoem"])
-            .output();
-        (!pysoem.is_ok_and(|o| o.status.success()))
-            .then(|| "python3 with pysoem is not installed (`cargo xtask setup`)".into())
-    })
-}
 
 /// The files the script writes: the refused ones first, the good one last.
 fn files(dir: &Path) -> (PathBuf, Vec<PathBuf>) {
@@ -145,7 +134,7 @@ fn run_in_namespace(good: PathBuf, bad: Vec<PathBuf>) -> Result<Outcome, String>
 #[test]
 #[ignore = "needs root, iproute2, pysoem and tshark: `cargo xtask test` runs it as root"]
 fn pysoem_updates_the_module_over_a_veth_pair() {
-    if let Some(why) = missing() {
+    if let Some(why) = pysoem_missing() {
         panic!("this test cannot run here: {why}");
     }
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("pysoem-update");

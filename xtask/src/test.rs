@@ -11,11 +11,12 @@ const CI_FUZZ_SECONDS: u32 = 30;
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
 /// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, SOEM
-/// updating the module's firmware, each on a veth pair.
-const ROOT_TESTS: [&str; 3] = [
+/// updating the module's firmware on the virtual board and on the image, each on a veth pair.
+const ROOT_TESTS: [&str; 4] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
+    "pysoem_updates_the_image_over_a_veth_pair",
 ];
 
 /// The `no_std` crates that must build for every embedded target.

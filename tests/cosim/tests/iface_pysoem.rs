@@ -8,99 +8,17 @@
 //! runs it when it runs as root, and it fails, naming what is missing, when it cannot run.
 //! Everything happens in a private network namespace of the test's own thread.
 
+mod common;
+
+use common::run_script_against_image;
 use firmware::product::identity::{IDENTITY, NAMES};
-use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_target, load_image};
 use serde_json::Value;
 use std::path::PathBuf;
-use std::process::Command;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
-use virtual_board::tools::iface::{veth_missing, veth_pair_in_new_namespace};
-use virtual_board::tools::sim::{self, tshark, Line, SimConfig};
+use virtual_board::tools::iface::pysoem_missing;
+use virtual_board::tools::sim::tshark;
 
 /// Process-data exchanges the script runs in OP.
 const CYCLES: u32 = 200;
-
-fn missing() -> Option<String> {
-    veth_missing().or_else(|| {
-        let pysoem = Command::new("python3")
-            .args(["-c", "import pysoem"])
-            .output();
-        (!pysoem.is_ok_and(|o| o.status.success()))
-            .then(|| "python3 with pysoem is not installed (`cargo xtask setup`)".into())
-    })
-}
-
-struct Outcome {
-    served: u64,
-    script_ok: bool,
-    lines: Vec<Value>,
-    stderr: String,
-    facts: String,
-    clean: bool,
-    pcap: PathBuf,
-}
-
-fn run_in_namespace() -> Result<Outcome, String> {
-    veth_pair_in_new_namespace("vb0", "vb1")?;
-    let image = load_image()?;
-    let (target, handle) = image_target(image, Options::default())?;
-    let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("iface-pysoem-image.pcap");
-    let cfg = SimConfig {
-        iface: Some("vb1".into()),
-        // Wall time, bounded even if the script hangs.
-        seconds: Some(120.0),
-        pcap: Some(pcap.clone()),
-        ..Default::default()
-    };
-    let ready = Arc::new(AtomicBool::new(false));
-    let stop = Arc::new(AtomicBool::new(false));
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_master.py");
-    let (ready2, stop2) = (ready.clone(), stop.clone());
-    // The master in its own process, started once the board answers on vb1.
-    let master = std::thread::spawn(move || {
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while !ready2.load(Ordering::Acquire) && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let out = Command::new("python3")
-            .arg(&script)
-            .args(["vb0", &CYCLES.to_string()])
-            .output();
-        stop2.store(true, Ordering::Release);
-        out
-    });
-    let served = sim::run_on_interface(&cfg, target, &stop, &mut |l| {
-        if let Line::Result(s) = l {
-            if s.contains("waiting for EtherCAT frames") {
-                ready.store(true, Ordering::Release);
-            }
-        }
-    })
-    .map_err(|e| e.to_string())?;
-    let out = master
-        .join()
-        .map_err(|_| "the master thread panicked".to_string())?
-        .map_err(|e| format!("python3: {e}"))?;
-    let facts = handle
-        .with(|c| c.facts())
-        .ok_or("the co-simulator did not start")?;
-    let lines = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
-        .collect();
-    Ok(Outcome {
-        served: served.frames,
-        script_ok: out.status.success(),
-        lines,
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-        clean: facts.fault.is_none() && facts.reports.is_empty(),
-        facts: facts.summary(),
-        pcap,
-    })
-}
 
 fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
     lines
@@ -112,13 +30,18 @@ fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
 #[test]
 #[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]
 fn pysoem_drives_the_image_over_a_veth_pair() {
-    if let Some(why) = missing() {
+    if let Some(why) = pysoem_missing() {
         panic!("this test cannot run here: {why}");
     }
-    let o = std::thread::spawn(run_in_namespace)
-        .join()
-        .expect("namespace thread")
-        .unwrap();
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_master.py");
+    let args = vec![CYCLES.to_string().into()];
+    // Wall time, bounded even if the script hangs.
+    let o = std::thread::spawn(move || {
+        run_script_against_image(script, args, "iface-pysoem-image.pcap", 120.0)
+    })
+    .join()
+    .expect("namespace thread")
+    .unwrap();
     assert!(
         o.script_ok,
         "pysoem failed: {:?}\n{}\n{}",

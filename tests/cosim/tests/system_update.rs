@@ -11,8 +11,11 @@
 //! `cargo xtask build` made (`cargo xtask test` passes it in `LPC1754_IMAGE`); a missing
 //! image fails the test, it never skips it.
 
+mod common;
+
 use coe_core::device::MemoryWindow;
 use coe_core::wire::FoeErrorCode;
+use common::new_update_file;
 use ethercrab::std::ethercat_now;
 use firmware::boot::header::{Header, HeaderRepr, Target};
 use firmware::boot::layout::{APP_SLOT, HEADER_BLOCK, STAGING};
@@ -23,7 +26,7 @@ use futures_lite::future::{block_on, or};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::image::Image;
 use lpc1754_cosim::machine::ResetCause;
-use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
+use lpc1754_cosim::run::{image_target, load_image, CosimHandle};
 use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
@@ -51,32 +54,6 @@ fn board_of(image: Image) -> (Board, CosimHandle) {
     let cpu = (target.make_cpu)(board.borrow().io());
     board.borrow_mut().set_cpu(cpu);
     (board, handle)
-}
-
-/// The release update file with the software version string replaced by `version`
-/// wherever its image holds it, and a header made for the new image and `target`.
-fn new_update_file(version: &str, target: &Target) -> Vec<u8> {
-    let path = image_path().with_extension("efw");
-    let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let old = NAMES.software_version.as_bytes();
-    assert_eq!(old.len(), version.len());
-    let mut image = efw[HEADER_BLOCK as usize..].to_vec();
-    let at: Vec<usize> = image
-        .windows(old.len())
-        .enumerate()
-        .filter(|(_, w)| *w == old)
-        .map(|(i, _)| i)
-        .collect();
-    // 0x100A, and the module description (0x2001) that names it.
-    assert_eq!(at.len(), 2, "where the image holds its version");
-    for a in at {
-        image[a..a + old.len()].copy_from_slice(version.as_bytes());
-    }
-    let mut file = HeaderRepr::for_image(&image, target, version)
-        .to_bytes()
-        .to_vec();
-    file.extend_from_slice(&image);
-    file
 }
 
 /// The header of the application slot in the co-simulator's flash.

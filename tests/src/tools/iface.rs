@@ -339,6 +339,18 @@ pub fn veth_missing() -> Option<String> {
     None
 }
 
+/// Why a test with SOEM (pysoem) as the master on a veth pair cannot run here, if it cannot:
+/// [`veth_missing`], or python3 with pysoem missing.
+pub fn pysoem_missing() -> Option<String> {
+    veth_missing().or_else(|| {
+        let pysoem = std::process::Command::new("python3")
+            .args(["-c", "import pysoem"])
+            .output();
+        (!pysoem.is_ok_and(|o| o.status.success()))
+            .then(|| "python3 with pysoem is not installed (`cargo xtask setup`)".into())
+    })
+}
+
 /// Moves the calling thread (and the threads it spawns from then on) into a new network
 /// namespace and creates the veth pair `a` <-> `b` there, both up: nothing shows on the host,
 /// and the pair goes with the namespace when the thread ends. For tests (root).

@@ -1,0 +1,128 @@
+//! What the co-simulator's system tests share.
+#![allow(dead_code)]
+
+use firmware::boot::header::{HeaderRepr, Target};
+use firmware::boot::layout::HEADER_BLOCK;
+use firmware::product::identity::NAMES;
+use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::run::{image_path, image_target, load_image};
+use serde_json::Value;
+use std::ffi::OsString;
+use std::path::PathBuf;
+use std::process::Command;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use virtual_board::tools::iface::veth_pair_in_new_namespace;
+use virtual_board::tools::sim::{self, Line, SimConfig};
+
+/// What a master script did against the image served on a veth pair.
+pub struct ScriptRun {
+    /// Frames the board answered.
+    pub served: u64,
+    /// The script's exit status was 0.
+    pub script_ok: bool,
+    /// Its JSON lines.
+    pub lines: Vec<Value>,
+    /// Its stderr.
+    pub stderr: String,
+    /// The co-simulator's summary.
+    pub facts: String,
+    /// No fault and no report from the co-simulator.
+    pub clean: bool,
+    /// The capture of the run.
+    pub pcap: PathBuf,
+}
+
+/// Serves the release image on vb1 of a veth pair in a new network namespace (of the calling
+/// thread), as `cargo xtask sim --image --iface vb1` does, and runs `python3 SCRIPT vb0 ARGS`
+/// as the master once the board answers; the capture goes to `pcap_name` in the test's
+/// temporary directory. Bounded in wall time (the board by `seconds`, the master's start
+/// by a minute).
+pub fn run_script_against_image(
+    script: PathBuf,
+    args: Vec<OsString>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    veth_pair_in_new_namespace("vb0", "vb1")?;
+    let image = load_image()?;
+    let (target, handle) = image_target(image, Options::default())?;
+    let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(pcap_name);
+    let cfg = SimConfig {
+        iface: Some("vb1".into()),
+        seconds: Some(seconds),
+        pcap: Some(pcap.clone()),
+        ..Default::default()
+    };
+    let ready = Arc::new(AtomicBool::new(false));
+    let stop = Arc::new(AtomicBool::new(false));
+    let (ready2, stop2) = (ready.clone(), stop.clone());
+    // The master in its own process, started once the board answers on vb1.
+    let master = std::thread::spawn(move || {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while !ready2.load(Ordering::Acquire) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let out = Command::new("python3")
+            .arg(&script)
+            .arg("vb0")
+            .args(&args)
+            .output();
+        stop2.store(true, Ordering::Release);
+        out
+    });
+    let served = sim::run_on_interface(&cfg, target, &stop, &mut |l| {
+        if let Line::Result(s) = l {
+            if s.contains("waiting for EtherCAT frames") {
+                ready.store(true, Ordering::Release);
+            }
+        }
+    })
+    .map_err(|e| e.to_string())?;
+    let out = master
+        .join()
+        .map_err(|_| "the master thread panicked".to_string())?
+        .map_err(|e| format!("python3: {e}"))?;
+    let facts = handle
+        .with(|c| c.facts())
+        .ok_or("the co-simulator did not start")?;
+    Ok(ScriptRun {
+        served: served.frames,
+        script_ok: out.status.success(),
+        lines: String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        clean: facts.fault.is_none() && facts.reports.is_empty(),
+        facts: facts.summary(),
+        pcap,
+    })
+}
+
+/// The release update file with the software version string replaced by `version`
+/// wherever its image holds it, and a header made for the new image and `target`.
+pub fn new_update_file(version: &str, target: &Target) -> Vec<u8> {
+    let path = image_path().with_extension("efw");
+    let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let old = NAMES.software_version.as_bytes();
+    assert_eq!(old.len(), version.len());
+    let mut image = efw[HEADER_BLOCK as usize..].to_vec();
+    let at: Vec<usize> = image
+        .windows(old.len())
+        .enumerate()
+        .filter(|(_, w)| *w == old)
+        .map(|(i, _)| i)
+        .collect();
+    // 0x100A, and the module description (0x2001) that names it.
+    assert_eq!(at.len(), 2, "where the image holds its version");
+    for a in at {
+        image[a..a + old.len()].copy_from_slice(version.as_bytes());
+    }
+    let mut file = HeaderRepr::for_image(&image, target, version)
+        .to_bytes()
+        .to_vec();
+    file.extend_from_slice(&image);
+    file
+}
