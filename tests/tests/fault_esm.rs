@@ -62,7 +62,8 @@ enum Pending {
 /// SyncManagers before INIT -> PREOP, process data before PREOP -> SAFEOP, outputs in OP),
 /// with replies left unread and segmented uploads left open before many of the changes.
 /// Every allowed change succeeds, every forbidden one is refused with its code (0x0011,
-/// 0x0012 undefined, 0x0013 BOOT without support) and the acknowledge clears it; after
+/// 0x0012 undefined, 0x0013 BOOT without support, 0x0015 BOOT without the bootstrap
+/// mailbox) and the acknowledge clears it; after
 /// every INIT -> PREOP the read mailbox is empty (nothing from before INIT comes out, a
 /// transfer from before INIT is gone); a reply read later always answers this session's
 /// request; the DAC holds the fault values whenever the module is not in OP.
@@ -135,6 +136,11 @@ fn state_cycling_in_random_order() {
         } else if target == state::BOOT && now == state::INIT && !boot {
             assert_refused(s, now, al::BOOTSTRAP_NOT_SUPPORTED, "BOOT");
             "refused 0x0013"
+        } else if target == state::BOOT && now == state::INIT {
+            // BOOT resets into the bootloader only with SM0/SM1 on the bootstrap mailbox,
+            // which this master does not set (the update tests do).
+            assert_refused(s, now, al::INVALID_MAILBOX_CONFIG_BOOT, "BOOT");
+            "refused 0x0015"
         } else if allowed(now, target) {
             assert_eq!(
                 s.pair(),
@@ -221,7 +227,7 @@ fn state_cycling_in_random_order() {
 }
 
 /// Illegal AL control values: an undefined state (0x0012), BOOT without a bootstrap
-/// mailbox (0x0013), forbidden changes (0x0011), a request for a higher state while the
+/// mailbox (0x0013, or 0x0015 with one in the SII but SM0/SM1 not set to it), forbidden changes (0x0011), a request for a higher state while the
 /// error waits for its acknowledge (ignored: the first code stays), a lower state without
 /// acknowledge (carried out, the flag stays), an acknowledge without an error (harmless).
 /// The acknowledge clears each; no Emergency; the outputs stay at 0 V.
@@ -238,8 +244,8 @@ fn illegal_al_control_values() {
     }
     let s = m.write_al_control(u16::from(state::BOOT)).unwrap();
     if boot_supported(&m) {
-        assert_eq!(s.pair(), (state::BOOT, 0));
-        m.request_state(state::INIT).unwrap();
+        // Without SM0/SM1 on the bootstrap mailbox (the update tests set them).
+        assert_refused(s, state::INIT, al::INVALID_MAILBOX_CONFIG_BOOT, "BOOT");
     } else {
         assert_refused(s, state::INIT, al::BOOTSTRAP_NOT_SUPPORTED, "BOOT");
     }

@@ -59,6 +59,7 @@ pub mod al {
     pub const INVALID_STATE_CHANGE: u16 = 0x0011;
     pub const UNKNOWN_STATE: u16 = 0x0012;
     pub const BOOTSTRAP_NOT_SUPPORTED: u16 = 0x0013;
+    pub const INVALID_MAILBOX_CONFIG_BOOT: u16 = 0x0015;
     pub const INVALID_MAILBOX_CONFIG: u16 = 0x0016;
     pub const SYNC_ERROR: u16 = 0x001A;
     pub const SM_WATCHDOG: u16 = 0x001B;
