@@ -286,7 +286,8 @@ fn first_tick_ns(handle: &CosimHandle) -> u64 {
 #[test]
 fn eeprom_loaded_never_rising() {
     let (loaded, loaded_handle) = image_board();
-    step_to(&loaded, 5_000_000);
+    // The bootloader checks the application (about 6 ms) before it starts it.
+    step_to(&loaded, 20_000_000);
     let start_without_wait = first_tick_ns(&loaded_handle);
 
     let (board, handle) = image_board_with(Options::default(), |sii| sii[0] ^= 0x40);
