@@ -1,12 +1,15 @@
 //! `cargo xtask build`: the release images for the LPC1754.
 //!
 //! Builds the two programs of `firmware` for thumbv7m-none-eabi (installing flip-link first
-//! if needed): the application (bin `analog-io`, linked at 0x3100 in the application slot)
-//! and the bootloader (bin `bootloader`, the first 12 KB). Then, next to the ELFs
-//! (`target/thumbv7m-none-eabi/release/`, or under `$CARGO_TARGET_DIR`):
+//! if needed): the application (bin `analog-io`, linked at 0x3100 in the application slot,
+//! profile `release`) and the bootloader (bin `bootloader`, the first 12 KB, profile
+//! `bootloader`). Then, under `target/thumbv7m-none-eabi/` (or `$CARGO_TARGET_DIR`):
 //!
-//! - `bootloader.bin`: the vector checksum patched in (also into the ELF), read back from disk
-//!   and verified (checksum rule, vectors, CRP word);
+//! - `bootloader/bootloader.bin`: the vector checksum patched in (also into the ELF), read
+//!   back from disk and verified (checksum rule, vectors, CRP word);
+//!
+//! and next to the application's ELF (`release/`):
+//!
 //! - `analog-io.bin`: the application image from 0x3100, its vectors checked;
 //! - `analog-io.efw`: the update file, the header block (`firmware::boot::header`: identity,
 //!   hardware revision, version, length, CRC-32) and the application image;
@@ -31,6 +34,8 @@ pub const TARGET: &str = "thumbv7m-none-eabi";
 pub const BIN: &str = "analog-io";
 /// The bootloader binary's name.
 pub const BOOT_BIN: &str = "bootloader";
+/// The cargo profile the bootloader is built with (the workspace's Cargo.toml says why).
+pub const BOOT_PROFILE: &str = "bootloader";
 
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct Args {
@@ -87,14 +92,9 @@ pub fn target_dir() -> PathBuf {
     }
 }
 
-/// Where the release ELF of a firmware binary lands.
-pub fn elf_of(bin: &str) -> PathBuf {
-    target_dir().join(TARGET).join("release").join(bin)
-}
-
-/// Where the release ELF of the application lands.
-pub fn elf_path() -> PathBuf {
-    elf_of(BIN)
+/// Where the ELF of the bootloader lands (its profile's directory beside `release`).
+pub fn boot_elf_path() -> PathBuf {
+    target_dir().join(TARGET).join(BOOT_PROFILE).join(BOOT_BIN)
 }
 
 pub fn run(args: &Args) -> Result {
@@ -210,17 +210,16 @@ pub fn link(profile: &Profile) -> Result<PathBuf> {
     Ok(profile.release_dir().join(BIN))
 }
 
-/// Builds the two programs.
-fn cargo_build() -> Result {
+/// Builds the bootloader with its own profile.
+fn build_bootloader() -> Result {
     setup::targets()?;
     setup::flip_link()?;
     exec(cargo().args([
         "build",
-        "--release",
+        "--profile",
+        BOOT_PROFILE,
         "-p",
         "firmware",
-        "--bin",
-        BIN,
         "--bin",
         BOOT_BIN,
         "--target",
@@ -230,14 +229,15 @@ fn cargo_build() -> Result {
 
 /// Like [`build`] but without the budget verdict (for `size`, which reports first).
 pub fn build_unchecked(args: &Args) -> Result<Output> {
-    cargo_build()?;
-    finish_unchecked(&elf_path(), args.allow_crp)
+    let app = link(&Profile::default())?;
+    build_bootloader()?;
+    finish_unchecked(&app, args.allow_crp)
 }
 
 /// The post-link steps with `app_elf` as the application (the cargo runner passes one): the
 /// bootloader is built, everything else as [`build`].
 pub fn finish(app_elf: &Path, allow_crp: bool) -> Result<Output> {
-    cargo_build()?;
+    build_bootloader()?;
     let out = finish_unchecked(app_elf, allow_crp)?;
     check_budget(&out)?;
     Ok(out)
@@ -279,7 +279,7 @@ fn program(elf: &Path, base: u64, checksum: bool) -> Result<(Program, Vec<u8>)> 
 
 /// [`finish`] without the bootloader build and the budget verdict.
 fn finish_unchecked(app_elf: &Path, allow_crp: bool) -> Result<Output> {
-    let (boot, _) = program(&elf_of(BOOT_BIN), image::FLASH.start, true)?;
+    let (boot, _) = program(&boot_elf_path(), image::FLASH.start, true)?;
     let (app, app_bin) = program(app_elf, u64::from(APP_VECTORS), false)?;
 
     // Verify what is on disk, not what is in memory.

@@ -560,8 +560,8 @@ mod tests {
                 bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.bin"),
                 usage: Usage::default(),
                 boot: build::Program {
-                    elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/bootloader"),
-                    bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/bootloader.bin"),
+                    elf: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/bootloader"),
+                    bin: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/bootloader.bin"),
                     usage: Usage::default(),
                 },
                 crp: Crp::None(u32::MAX),

@@ -4,15 +4,15 @@
 use crate::cosim::{Cosim, Options};
 use crate::image::Image;
 use std::cell::RefCell;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use virtual_board::models::esc::SyncEdge;
 use virtual_board::rig::board::{BoardIo, PdiCpu};
 use virtual_board::tools::sim::{firmware_device, Target};
 
 /// The environment variable that names the release ELF of the application (`cargo xtask
-/// test` sets it after building the images); the bootloader's ELF (`bootloader`) and the
-/// update file (`analog-io.efw`) are beside it, as `cargo xtask build` writes them.
+/// test` sets it after building the images); the update file (`analog-io.efw`) is beside
+/// it and the bootloader's ELF at [`bootloader_path`], as `cargo xtask build` writes them.
 pub const IMAGE_ENV: &str = "LPC1754_IMAGE";
 
 /// The release ELF of the application: `$LPC1754_IMAGE`, else `cargo xtask build`'s output
@@ -30,7 +30,7 @@ pub fn image_path() -> PathBuf {
     target.join("thumbv7m-none-eabi/release/analog-io")
 }
 
-fn read(path: &std::path::Path) -> Result<Vec<u8>, String> {
+fn read(path: &Path) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| {
         format!(
             "{}: {e}: run `cargo xtask build` first (or set {IMAGE_ENV})",
@@ -46,10 +46,21 @@ pub fn load_image() -> Result<Image, String> {
     load_programs(&app, &app.with_extension("efw"))
 }
 
-/// Loads the bootloader beside `app_elf` and the update file `efw` (which must carry
-/// `app_elf`'s image).
-pub fn load_programs(app_elf: &std::path::Path, efw: &std::path::Path) -> Result<Image, String> {
-    let boot = read(&app_elf.with_file_name("bootloader"))?;
+/// The bootloader's ELF that goes with the application's `app_elf`: `cargo xtask build`
+/// builds it with its own cargo profile, `bootloader`, so it lies in that profile's
+/// directory beside the application's (`release/analog-io`, `bootloader/bootloader`).
+pub fn bootloader_path(app_elf: &Path) -> PathBuf {
+    let profiles = app_elf.parent().and_then(Path::parent);
+    profiles
+        .unwrap_or(Path::new(""))
+        .join("bootloader")
+        .join("bootloader")
+}
+
+/// Loads the bootloader that goes with `app_elf` ([`bootloader_path`]) and the update file
+/// `efw` (which must carry `app_elf`'s image).
+pub fn load_programs(app_elf: &Path, efw: &Path) -> Result<Image, String> {
+    let boot = read(&bootloader_path(app_elf))?;
     Image::from_programs(&boot, read(app_elf)?, &read(efw)?).map_err(|e| e.to_string())
 }
 
@@ -109,4 +120,17 @@ pub fn image_target(image: Image, options: Options) -> Result<(Target, CosimHand
         }),
     };
     Ok((target, handle))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bootloader_is_in_its_profile_directory_beside_the_application() {
+        assert_eq!(
+            bootloader_path(Path::new("/t/thumbv7m-none-eabi/release/analog-io")),
+            Path::new("/t/thumbv7m-none-eabi/bootloader/bootloader")
+        );
+    }
 }
