@@ -76,18 +76,24 @@ pub fn python(packages: &[(&str, &str)]) -> bool {
         eprintln!("note: Python packages {missing:?} are missing and python3 is not installed");
         return false;
     }
-    exec(
-        Command::new("python3")
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-            ])
-            .args(&missing),
-    )
-    .is_ok()
+    let pip_install = |extra: &[&str]| {
+        exec(
+            Command::new("python3")
+                .args([
+                    "-m",
+                    "pip",
+                    "install",
+                    "--quiet",
+                    "--disable-pip-version-check",
+                ])
+                .args(extra)
+                .args(&missing),
+        )
+        .is_ok()
+    };
+    // A distribution's own python3 (Debian 12 on, PEP 668) refuses pip installs into it; the
+    // test masters are pinned versions only these tests use, so they go there all the same.
+    pip_install(&[]) || pip_install(&["--break-system-packages"])
 }
 
 /// Adds the rustup targets (a no-op when present).
