@@ -370,6 +370,9 @@ pub fn rows(f: &ImageFigures) -> ImageRows {
 
 /// The note under the table: how the image rows were measured.
 pub fn note(f: &ImageFigures) -> String {
+    // Relative to the workspace, so the README's copy names no checkout of one machine.
+    let elf = std::path::Path::new(&f.elf);
+    let elf = elf.strip_prefix(crate::util::root()).unwrap_or(elf);
     format!(
         "Image rows: the release ELF ({}) on the LPC1754 co-simulator (`lpc1754-cosim bench{}`: \
          unicorn 2.1.5, instructions x CPI {}/{} at {} MHz, 12/10/6 cycles per exception \
@@ -380,7 +383,7 @@ pub fn note(f: &ImageFigures) -> String {
          it carried (no missed SYNC0, no stale output), no AD7689 result is lost (overwritten \
          unread in the GPDMA ring, an SSP1 overrun, tCYC) and the slave stays in OP; SYNC0 lies \
          half a cycle after the frame. Sweep: {}.",
-        f.elf,
+        elf.display(),
         if f.quick { " --quick" } else { "" },
         f.cpi.0,
         f.cpi.1,
