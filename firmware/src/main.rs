@@ -236,11 +236,18 @@ mod rtic_app {
             poll: PDI_POLL.swap(false, Ordering::AcqRel),
             pdi_ready: esc_eeprom_loaded.is_high(),
         };
-        pdi.samples_out.drain_into(pdi.task.app_mut().sampler_mut());
         let now = hw::timers::now_ns();
-        let done = pdi
-            .task
-            .run(esc, stage_pdi, now, wake, || esc_irq.still_asserted());
+        let samples = &mut pdi.samples_out;
+        let done = pdi.task.run(
+            esc,
+            stage_pdi,
+            now,
+            wake,
+            || esc_irq.still_asserted(),
+            |sampler| {
+                samples.drain_into(sampler);
+            },
+        );
         if done.apply_outputs {
             request_dac_apply();
         } else if done.preload_outputs {

@@ -13,6 +13,7 @@
 //! module silent.
 
 use super::outputs::{OutputStage, StageKind};
+use super::sampler::Sampler;
 use super::SlaveApp;
 use et1100::{Et1100, Pdi};
 
@@ -168,7 +169,12 @@ impl PdiTask {
         self.started
     }
 
-    /// One activation. `still_asserted` reads the line after the work is done.
+    /// One activation. `still_asserted` reads the line after the work is done. `drain` moves
+    /// the new samples into the sampler, at most once: right before the background work,
+    /// whose inputs need the newest samples, or at the end of an activation that leaves
+    /// nothing to the DAC task. An activation with outputs does not drain: the DAC task runs
+    /// when it returns, and the preload must not wait (the next poll, at the latest the
+    /// tick's every millisecond, drains; the ring holds several).
     pub fn run<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
@@ -176,8 +182,16 @@ impl PdiTask {
         now_ns: u64,
         wake: Wake,
         still_asserted: impl FnOnce() -> bool,
+        drain: impl FnOnce(&mut Sampler),
     ) -> Done {
+        let mut drain = Some(drain);
+        let mut drain_once = |app: &mut SlaveApp| {
+            if let Some(d) = drain.take() {
+                d(app.sampler_mut());
+            }
+        };
         if !self.start(esc, wake.pdi_ready) {
+            drain_once(&mut self.app);
             // Nothing can be served; the periodic tick retries. No self-pend: a line that
             // an unready ESC holds low must not keep the task busy.
             return Done::default();
@@ -209,8 +223,12 @@ impl PdiTask {
             done.take(self.outcome(r, stage));
         }
         if poll {
+            drain_once(&mut self.app);
             let r = self.app.poll(esc, stage, now_ns);
             done.take(self.outcome(r, stage));
+        }
+        if !(done.apply_outputs || done.preload_outputs) {
+            drain_once(&mut self.app);
         }
         done.pend_again = self.line.after_serve(wake.edge, still_asserted()) || self.poll_deferred;
         done
@@ -308,7 +326,7 @@ mod tests {
             pdi_ready: false,
             ..EDGE
         };
-        let done = t.run(&mut esc.driver(), &stage, 0, wake, || true);
+        let done = t.run(&mut esc.driver(), &stage, 0, wake, || true, |_| {});
         assert_eq!(done, Done::default());
         assert!(!t.started());
         assert_eq!(esc.writes, 0);
@@ -320,12 +338,12 @@ mod tests {
         let (mut t, mut esc, stage) = task();
         esc.fail_next = true;
         assert_eq!(
-            t.run(&mut esc.driver(), &stage, 0, POLL, || false),
+            t.run(&mut esc.driver(), &stage, 0, POLL, || false, |_| {}),
             Done::default()
         );
         assert!(!t.started());
         assert_eq!(t.bus_errors(), 1);
-        t.run(&mut esc.driver(), &stage, 0, POLL, || false);
+        t.run(&mut esc.driver(), &stage, 0, POLL, || false, |_| {});
         assert!(t.started());
         assert_eq!(esc.al_status(), (0x01, 0));
         assert!(esc.event_mask().contains(AlEvents::AL_CONTROL));
@@ -336,7 +354,7 @@ mod tests {
         let (mut t, mut esc, stage) = task();
         mailbox_sms(&mut esc);
         esc.master_al_control(0x02);
-        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         assert_eq!(t.app().state(), AlState::PreOp);
         assert_eq!(esc.al_status(), (0x02, 0));
         assert!(!done.pend_again);
@@ -347,14 +365,14 @@ mod tests {
         let (mut t, mut esc, stage) = task();
         mailbox_sms(&mut esc);
         esc.master_al_control(0x02);
-        t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         // An SDO upload of 0x1000 arrives; only the background poll runs.
         let upload = [
             10, 0, 0, 0, 0x00, 0x13, 0x00, 0x20, 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0,
         ];
         assert!(esc.master_write_mailbox(&upload));
         esc.master_al_control(0x01);
-        t.run(&mut esc.driver(), &stage, 1_000, POLL, || true);
+        t.run(&mut esc.driver(), &stage, 1_000, POLL, || true, |_| {});
         let reply = esc
             .master_read_mailbox()
             .expect("the poll served the mailbox");
@@ -367,15 +385,49 @@ mod tests {
     #[test]
     fn dc_mode_asks_for_a_preload_after_serving_events() {
         let (mut t, mut esc, stage) = task();
-        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         assert!(!done.preload_outputs, "not in DC mode");
         stage.set_dc_mode(true);
-        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         assert!(done.preload_outputs);
         assert!(!done.apply_outputs);
         // A pure poll serves no SM2 event: nothing new to preload.
-        let done = t.run(&mut esc.driver(), &stage, 0, POLL, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, POLL, || false, |_| {});
         assert!(!done.preload_outputs);
+    }
+
+    /// The samples are drained once per activation: before the background work (its inputs
+    /// take the newest samples), never in an activation that leaves outputs to the DAC task
+    /// (the preload must not wait), else at the end.
+    #[test]
+    fn samples_are_drained_before_the_background_work_and_never_before_a_preload() {
+        let (mut t, mut esc, stage) = task();
+        mailbox_sms(&mut esc);
+        esc.master_al_control(0x02);
+        let drains = core::cell::Cell::new(0);
+        let count = |_: &mut Sampler| drains.set(drains.get() + 1);
+        t.run(&mut esc.driver(), &stage, 0, EDGE, || false, count);
+        assert_eq!(
+            drains.get(),
+            1,
+            "an activation without outputs drains at its end"
+        );
+        assert_eq!(t.app().state(), AlState::PreOp);
+        t.run(&mut esc.driver(), &stage, 1_000, POLL, || false, count);
+        assert_eq!(drains.get(), 2, "a poll drains (once)");
+        stage.set_dc_mode(true);
+        let both = Wake { poll: true, ..EDGE };
+        let done = t.run(&mut esc.driver(), &stage, 2_000, both, || false, count);
+        assert!(done.preload_outputs && done.pend_again);
+        assert_eq!(drains.get(), 2, "no drain before the DAC task's preload");
+        let next = Wake {
+            edge: false,
+            line_asserted: false,
+            poll: false,
+            pdi_ready: true,
+        };
+        t.run(&mut esc.driver(), &stage, 3_000, next, || false, count);
+        assert_eq!(drains.get(), 3, "the deferred poll drained");
     }
 
     /// An IRQ and the background work in one activation, in DC mode: the activation
@@ -386,11 +438,11 @@ mod tests {
         let (mut t, mut esc, stage) = task();
         mailbox_sms(&mut esc);
         esc.master_al_control(0x02);
-        t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         assert_eq!(t.app().state(), AlState::PreOp);
         stage.set_dc_mode(true);
         let both = Wake { poll: true, ..EDGE };
-        let done = t.run(&mut esc.driver(), &stage, 1_000, both, || false);
+        let done = t.run(&mut esc.driver(), &stage, 1_000, both, || false, |_| {});
         assert!(done.preload_outputs && done.pend_again);
         // The next activation (no edge, no new request) runs the background work: in PREOP
         // it samples the event bits, an access of its own.
@@ -401,16 +453,16 @@ mod tests {
             pdi_ready: true,
         };
         let reads = esc.reads;
-        let done = t.run(&mut esc.driver(), &stage, 5_000_000, next, || false);
+        let done = t.run(&mut esc.driver(), &stage, 5_000_000, next, || false, |_| {});
         assert!(!done.pend_again);
         assert!(esc.reads > reads, "the deferred poll ran");
         // Nothing deferred any more.
         let reads = esc.reads;
-        t.run(&mut esc.driver(), &stage, 5_000_000, next, || false);
+        t.run(&mut esc.driver(), &stage, 5_000_000, next, || false, |_| {});
         assert_eq!(esc.reads, reads);
         // Outside DC mode and without outputs to apply, both run in one activation.
         stage.set_dc_mode(false);
-        let done = t.run(&mut esc.driver(), &stage, 9_000_000, both, || false);
+        let done = t.run(&mut esc.driver(), &stage, 9_000_000, both, || false, |_| {});
         assert!(!done.pend_again);
     }
 
@@ -418,13 +470,13 @@ mod tests {
     fn a_stuck_line_is_served_a_bounded_number_of_times() {
         let (mut t, mut esc, stage) = task();
         let mut activations = 1;
-        let mut done = t.run(&mut esc.driver(), &stage, 0, EDGE, || true);
+        let mut done = t.run(&mut esc.driver(), &stage, 0, EDGE, || true, |_| {});
         while done.pend_again {
             let wake = Wake {
                 edge: false,
                 ..EDGE
             };
-            done = t.run(&mut esc.driver(), &stage, 0, wake, || true);
+            done = t.run(&mut esc.driver(), &stage, 0, wake, || true, |_| {});
             activations += 1;
             assert!(activations <= 1 + usize::from(MAX_REPENDS));
         }
@@ -437,17 +489,17 @@ mod tests {
     #[test]
     fn a_stuck_line_in_dc_mode_does_not_put_the_background_work_off_for_ever() {
         let (mut t, mut esc, stage) = task();
-        t.run(&mut esc.driver(), &stage, 0, POLL, || false);
+        t.run(&mut esc.driver(), &stage, 0, POLL, || false, |_| {});
         stage.set_dc_mode(true);
         let both = Wake { poll: true, ..EDGE };
         let mut activations = 1;
-        let mut done = t.run(&mut esc.driver(), &stage, 0, both, || true);
+        let mut done = t.run(&mut esc.driver(), &stage, 0, both, || true, |_| {});
         while done.pend_again {
             let wake = Wake {
                 edge: false,
                 ..both
             };
-            done = t.run(&mut esc.driver(), &stage, 0, wake, || true);
+            done = t.run(&mut esc.driver(), &stage, 0, wake, || true, |_| {});
             activations += 1;
             assert!(activations <= 2 + usize::from(MAX_REPENDS));
         }
@@ -456,18 +508,18 @@ mod tests {
     #[test]
     fn a_failed_access_still_applies_a_staged_fault() {
         let (mut t, mut esc, stage) = task();
-        t.run(&mut esc.driver(), &stage, 0, POLL, || false);
+        t.run(&mut esc.driver(), &stage, 0, POLL, || false, |_| {});
         stage.set_dc_mode(true);
         stage.stage(DacPair::new(1, 2));
         esc.fail_next = true;
-        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         // DC mode, outputs waiting for SYNC0: not applied early.
         assert!(!done.apply_outputs);
         assert_eq!(t.bus_errors(), 1);
         let mut latch = DacLatch::new();
         stage.enter_fault(&Default::default());
         esc.fail_next = true;
-        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false);
+        let done = t.run(&mut esc.driver(), &stage, 0, EDGE, || false, |_| {});
         assert!(done.apply_outputs);
         assert!(latch.apply_now(&stage).pair().is_some());
     }

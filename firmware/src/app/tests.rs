@@ -843,7 +843,14 @@ fn dc_safety_service_follows_the_outputs() {
         pdi_ready: true,
     };
     esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
-    let done = task.run(&mut esc.driver(), &stage, now + 10_000, irq, || false);
+    let done = task.run(
+        &mut esc.driver(),
+        &stage,
+        now + 10_000,
+        irq,
+        || false,
+        |_| {},
+    );
     assert!(done.preload_outputs && done.pend_again);
     assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
     assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
@@ -852,13 +859,27 @@ fn dc_safety_service_follows_the_outputs() {
         line_asserted: false,
         ..irq
     };
-    let done = task.run(&mut esc.driver(), &stage, now + 20_000, again, || false);
+    let done = task.run(
+        &mut esc.driver(),
+        &stage,
+        now + 20_000,
+        again,
+        || false,
+        |_| {},
+    );
     assert!(!done.pend_again);
     assert!(esc.sm_register_reads > sm_reads, "then the safety service");
     assert!(!task.app().safety_service_due(now + 20_000));
     // Nothing is put off any more.
     let sm_reads = esc.sm_register_reads;
-    let done = task.run(&mut esc.driver(), &stage, now + 30_000, again, || false);
+    let done = task.run(
+        &mut esc.driver(),
+        &stage,
+        now + 30_000,
+        again,
+        || false,
+        |_| {},
+    );
     assert!(!done.pend_again);
     assert_eq!(esc.sm_register_reads, sm_reads);
 }

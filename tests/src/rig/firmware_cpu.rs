@@ -45,7 +45,7 @@ use firmware::app::dac::OutputDac;
 use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
 use firmware::app::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
 use firmware::app::process_data::ProcessData;
-use firmware::app::sampler::Sample;
+use firmware::app::sampler::{Sample, Sampler};
 use firmware::app::{AppConfig, SlaveApp};
 
 /// What the device description gives the firmware: the object dictionary, the SyncManager
@@ -222,11 +222,6 @@ impl FirmwareCpu {
 
     /// One activation of the PDI task.
     fn pdi_task(&mut self, io: &BoardIo, edge: bool) {
-        if !self.pending.is_empty() {
-            self.stats.samples += self.pending.len() as u64;
-            self.task.app_mut().on_samples(&self.pending);
-            self.pending.clear();
-        }
         let wake = Wake {
             edge,
             line_asserted: edge,
@@ -234,9 +229,21 @@ impl FirmwareCpu {
             pdi_ready: pdi_ready(io),
         };
         let line = io.esc.clone();
-        let done = self
-            .task
-            .run(&mut self.esc, &self.stage, io.now_ns(), wake, || line.irq());
+        let (pending, stats) = (&mut self.pending, &mut self.stats);
+        // The samples move where the firmware's task drains its ring (`PdiTask::run`).
+        let drain = |sampler: &mut Sampler| {
+            stats.samples += pending.len() as u64;
+            sampler.add_all(pending);
+            pending.clear();
+        };
+        let done = self.task.run(
+            &mut self.esc,
+            &self.stage,
+            io.now_ns(),
+            wake,
+            || line.irq(),
+            drain,
+        );
         // The board calls `on_irq` again while the line stays asserted (bounded), which
         // is what `pend_again` asks for.
         self.dac_task(done);
