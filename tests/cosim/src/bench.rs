@@ -29,7 +29,8 @@ use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::rig::sdo_client::SdoClient;
 use virtual_board::tools::image_figures::{
-    shares_text, DcCheck, ImageFigures, Latency, Longest, ProfileRun, SamplerShare, Sweep, Vector,
+    shares_text, DcCheck, HotCode, ImageFigures, Latency, Longest, ProfileRun, SamplerShare, Sweep,
+    Vector,
 };
 
 /// A board shared between the master's rig and the measurement.
@@ -514,6 +515,54 @@ fn pdi_breakdown(facts: &Facts, code: impl Iterator<Item = (u32, u64)>) -> Vec<(
         .collect()
 }
 
+/// Crates of the project: [`hot_code`] names a chain after its innermost function of one.
+const OWN_CRATES: [&str; 6] = [
+    "firmware::",
+    "analog_io::",
+    "et1100::",
+    "ad5663::",
+    "ad7689::",
+    "coe_core::",
+];
+
+/// Functions shown per task in [`ProfileRun::hot_code`].
+const HOT_FUNCTIONS: usize = 16;
+
+/// Per task (every exception that ran code between `before` and `after`), its
+/// [`HOT_FUNCTIONS`] most expensive functions in cycles per judged DC cycle (`cycles` of them).
+fn hot_code(before: &Facts, after: &Facts, vectors: &[Vector], cycles: u64) -> Vec<HotCode> {
+    let own = |f: &&String| {
+        let f = f.trim_start_matches('<');
+        OWN_CRATES.iter().any(|c| f.starts_with(c))
+    };
+    let mut out = Vec::new();
+    for v in vectors.iter().filter(|v| v.number != THREAD) {
+        let mut by_name: Vec<(String, u64)> = Vec::new();
+        for (chain, n) in code_between(before, after, v.number) {
+            let names = after.chain(chain);
+            let name = names.iter().rev().find(own).or(names.last());
+            let name = name.cloned().unwrap_or_default();
+            match by_name.iter_mut().find(|(f, _)| *f == name) {
+                Some((_, i)) => *i += n,
+                None => by_name.push((name, n)),
+            }
+        }
+        by_name.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        out.extend(
+            by_name
+                .into_iter()
+                .take(HOT_FUNCTIONS)
+                .map(|(function, n)| HotCode {
+                    task: v.task.clone().unwrap_or_else(|| v.name.clone()),
+                    function,
+                    cycles_per_cycle: crate::cosim::instruction_cycles(n) as f64
+                        / cycles.max(1) as f64,
+                }),
+        );
+    }
+    out
+}
+
 /// (chain, instructions) that context `context` executed between `before` and `after`.
 fn code_between(before: &Facts, after: &Facts, context: u32) -> Vec<(u32, u64)> {
     after
@@ -609,6 +658,7 @@ pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), Stri
         share: (dma_irq + drain_cycles) as f64 / cycles_window,
     };
     let pdi = after.exception(PDI_TASK).ok_or("the PDI task never ran")?;
+    let hot_code = hot_code(before, after, &vectors, run.check.edges);
     let profile = ProfileRun {
         dc: run.check.clone(),
         vectors,
@@ -621,6 +671,7 @@ pub fn profile_run(image: &Image, cycles: u64) -> Result<(ProfileRun, u64), Stri
             phase: run.phases.at(pdi.max_at_ns).to_string(),
             work: pdi_breakdown(after, pdi.longest_code.iter().copied()),
         },
+        hot_code,
     };
     Ok((profile, after.cclk_hz))
 }

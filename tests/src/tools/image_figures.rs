@@ -52,6 +52,22 @@ pub struct ProfileRun {
     /// The longest activation of the PDI task: when (phase of the run) and where its cycles
     /// went.
     pub pdi_longest: Longest,
+    /// Per task in the OP part, the functions its cycles went to, most first.
+    #[serde(default)]
+    pub hot_code: Vec<HotCode>,
+}
+
+/// One function's own cycles in a task, per judged DC cycle: the code of library functions
+/// inlined into it (register access, iterators, `read_volatile`) counts to it, so what
+/// speeds up a cycle can be read off by name.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct HotCode {
+    /// The task (RTIC task name, else the vector's).
+    pub task: String,
+    /// The innermost function of the project's crates the cycles were spent in.
+    pub function: String,
+    /// Its cycles per judged DC cycle.
+    pub cycles_per_cycle: f64,
 }
 
 /// One exception (an RTIC task's vector) or thread mode (number 0: init and idle).
