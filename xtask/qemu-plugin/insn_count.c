@@ -10,6 +10,9 @@
  * empty region as well and subtracts it. Every executed instruction is seen through an
  * execution callback (not per translation block), so partial blocks and re-translations do
  * not change the count; with -icount shift=0 the run is deterministic.
+ *
+ * Optional trace=FILE2 writes "<region> <pc>" for every instruction counted, so the count of
+ * a region can be split by function (symbolise the addresses with the ELF's symbol table).
  */
 #include <inttypes.h>
 #include <stdio.h>
@@ -23,6 +26,7 @@ __attribute__((visibility("default"))) int qemu_plugin_version = INSN_COUNT_API_
 static uint64_t begin_addr = UINT64_MAX;
 static uint64_t end_addr = UINT64_MAX;
 static FILE *out;
+static FILE *trace;
 static int active;
 static uint64_t count;
 static unsigned regions;
@@ -34,6 +38,9 @@ static void on_insn(unsigned int vcpu, void *udata)
     if (pc == begin_addr) {
         active = 1;
         count = 1;
+        if (trace != NULL) {
+            fprintf(trace, "%u %" PRIx64 "\n", regions, pc);
+        }
         return;
     }
     if (!active) {
@@ -46,6 +53,9 @@ static void on_insn(unsigned int vcpu, void *udata)
         return;
     }
     count++;
+    if (trace != NULL) {
+        fprintf(trace, "%u %" PRIx64 "\n", regions, pc);
+    }
 }
 
 static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
@@ -68,6 +78,9 @@ static void on_qemu_exit(qemu_plugin_id_t id, void *udata)
         fprintf(out, "unfinished %u %" PRIu64 "\n", regions, count);
     }
     fclose(out);
+    if (trace != NULL) {
+        fclose(trace);
+    }
 }
 
 static int parse_addr(const char *arg, const char *key, uint64_t *dst)
@@ -86,6 +99,7 @@ __attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t 
                                                                int argc, char **argv)
 {
     const char *path = NULL;
+    const char *trace_path = NULL;
     if (info->version.cur < INSN_COUNT_API_VERSION ||
         info->version.min > INSN_COUNT_API_VERSION) {
         fprintf(stderr, "insn_count: QEMU plugin API %d..%d, built for %d\n", info->version.min,
@@ -100,6 +114,10 @@ __attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t 
             path = argv[i] + 4;
             continue;
         }
+        if (strncmp(argv[i], "trace=", 6) == 0) {
+            trace_path = argv[i] + 6;
+            continue;
+        }
         fprintf(stderr, "insn_count: unknown argument '%s'\n", argv[i]);
         return -1;
     }
@@ -111,6 +129,13 @@ __attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t 
     if (out == NULL) {
         fprintf(stderr, "insn_count: cannot write %s\n", path);
         return -1;
+    }
+    if (trace_path != NULL) {
+        trace = fopen(trace_path, "w");
+        if (trace == NULL) {
+            fprintf(stderr, "insn_count: cannot write %s\n", trace_path);
+            return -1;
+        }
     }
     qemu_plugin_register_vcpu_tb_trans_cb(id, on_translate);
     qemu_plugin_register_atexit_cb(id, on_qemu_exit, NULL);
