@@ -154,10 +154,13 @@ impl ScanReader {
             let at = self.read as usize % RING_WORDS;
             // `read` stays scan-aligned and the ring holds whole scans, so this is always
             // `Some`; checked instead of indexed so no input can make the drain panic.
-            let Some(scan) = ring.get(at..at + CHANNELS) else {
+            let Some(scan) = ring
+                .get(at..at + CHANNELS)
+                .and_then(|s| <&[AtomicU16; CHANNELS]>::try_from(s).ok())
+            else {
                 break;
             };
-            sampler.add_scan(scan.iter().map(|w| w.load(Ordering::Relaxed)));
+            sampler.add_whole_scan(scan, |w| w.load(Ordering::Relaxed));
             self.read = self.read.wrapping_add(CHANNELS as u32);
             report.scans += 1;
         }

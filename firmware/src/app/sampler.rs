@@ -234,30 +234,47 @@ impl Sampler {
         }
     }
 
-    /// Adds one whole scan: the i-th code is input i (at most [`CHANNELS`] codes are taken;
-    /// a shorter scan counts per channel like [`add`](Self::add)). The DMA path's drain calls
-    /// this once per scan instead of `add` eight times: one scan count for all channels, and
-    /// the sum wraps instead of saturating (a u64 of 16-bit codes cannot wrap within 2^48
-    /// samples, ~285 years at 31.25 kSPS).
-    #[inline]
+    /// Adds one scan: the i-th code is input i (at most [`CHANNELS`] codes are taken; a
+    /// shorter scan counts per channel like [`add`](Self::add)).
     pub fn add_scan(&mut self, codes: impl IntoIterator<Item = u16>) {
+        let mut scan = [0u16; CHANNELS];
         let mut n = 0;
-        for code in codes.into_iter().take(CHANNELS) {
-            if let (Some(latest), Some(sum)) = (self.latest.get_mut(n), self.sums.get_mut(n)) {
-                *latest = code;
-                *sum = sum.wrapping_add(u64::from(code));
-            }
+        for (slot, code) in scan.iter_mut().zip(codes) {
+            *slot = code;
             n += 1;
         }
         if n == CHANNELS {
-            self.scans = self.scans.saturating_add(1);
-        } else {
-            for count in self.counts.iter_mut().take(n) {
-                *count = count.saturating_add(1);
-            }
-            self.singles = self.singles.saturating_add(1);
+            self.add_whole_scan(&scan, |c| *c);
+            return;
         }
+        let channels = self
+            .latest
+            .iter_mut()
+            .zip(&mut self.sums)
+            .zip(&mut self.counts);
+        for (((latest, sum), count), code) in channels.zip(scan.iter().take(n)) {
+            *latest = *code;
+            *sum = sum.wrapping_add(u64::from(*code));
+            *count = count.saturating_add(1);
+        }
+        self.singles = self.singles.saturating_add(1);
         self.received = self.received.wrapping_add(n as u32);
+    }
+
+    /// Adds one whole scan: `code` of word i is input i. The DMA path's drain calls this
+    /// once per scan on the ring's words instead of `add` eight times: one scan count for
+    /// all channels, and the sum wraps instead of saturating (a u64 of 16-bit codes cannot
+    /// wrap within 2^48 samples, ~285 years at 31.25 kSPS). A fixed-size scan read in place
+    /// leaves the loop without bounds checks or a copy.
+    #[inline]
+    pub fn add_whole_scan<W>(&mut self, scan: &[W; CHANNELS], code: impl Fn(&W) -> u16) {
+        for ((latest, sum), word) in self.latest.iter_mut().zip(&mut self.sums).zip(scan) {
+            let c = code(word);
+            *latest = c;
+            *sum = sum.wrapping_add(u64::from(c));
+        }
+        self.scans = self.scans.saturating_add(1);
+        self.received = self.received.wrapping_add(CHANNELS as u32);
     }
 
     /// Adds several samples.
