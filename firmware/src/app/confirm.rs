@@ -33,7 +33,7 @@ pub fn read_confirmed<E>(
     scratch: &mut [u8],
     mut read: impl FnMut(&mut [u8]) -> Result<(), E>,
 ) -> Result<Confirmed, E> {
-    let same = |b: &[u8]| last.is_some_and(|l| l == b);
+    let same = |b: &[u8]| last.is_some_and(|l| same_bytes(l, b));
     read(buf)?;
     if same(buf) {
         return Ok(Confirmed::Same);
@@ -43,7 +43,7 @@ pub fn read_confirmed<E>(
     };
     for _ in 1..MAX_READS {
         read(scratch)?;
-        if scratch == buf {
+        if same_bytes(scratch, buf) {
             return Ok(Confirmed::New);
         }
         buf.copy_from_slice(scratch);
@@ -52,6 +52,12 @@ pub fn read_confirmed<E>(
         }
     }
     Ok(Confirmed::Unstable)
+}
+
+/// Whether `a` and `b` hold the same bytes. The reads confirmed are a few bytes long: a
+/// loop costs less than the call into `memcmp` that `==` on slices makes.
+fn same_bytes(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y)
 }
 
 #[cfg(test)]
