@@ -63,10 +63,50 @@ impl Slot {
     }
 }
 
-/// The fast-path plan of one process image: byte offset and slot of every mapped object.
+/// A run of the fast-path plan: `count` objects of one kind, channels `first`,
+/// `first + 1`, .. at consecutive places of the image from byte `offset` (an error
+/// register is a run of its own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Run {
+    /// Byte offset of the first object in the image.
+    pub offset: u8,
+    /// The first object's slot.
+    pub first: Slot,
+    /// Objects in the run.
+    pub count: u8,
+}
+
+impl Run {
+    /// The run's image bytes and, for the channel kinds, its channel range.
+    fn spans(&self) -> (core::ops::Range<usize>, core::ops::Range<usize>) {
+        let (o, n) = (usize::from(self.offset), usize::from(self.count));
+        let channels = match self.first {
+            Slot::Ai(i) | Slot::Ao(i) => usize::from(i)..usize::from(i) + n,
+            Slot::ErrorRegister => 0..0,
+        };
+        (o..o + n * self.first.len(), channels)
+    }
+
+    /// Whether `slot` at byte `offset` is the next object of this run.
+    fn continued_by(&self, offset: u8, slot: Slot) -> bool {
+        let next = usize::from(self.offset) + usize::from(self.count) * slot.len();
+        let n = self.count;
+        usize::from(offset) == next
+            && match (self.first, slot) {
+                (Slot::Ai(a), Slot::Ai(b)) | (Slot::Ao(a), Slot::Ao(b)) => {
+                    a.checked_add(n) == Some(b)
+                }
+                _ => false,
+            }
+    }
+}
+
+/// The fast-path plan of one process image: the mapped objects as runs of consecutive
+/// channels, so a cycle copies each run in one loop (the default mapping is one run per
+/// direction) instead of deciding per object.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FastImage {
-    fields: [(u8, Slot); MAX_FIELDS],
+    runs: [Run; MAX_FIELDS],
     count: usize,
 }
 
@@ -75,7 +115,11 @@ impl FastImage {
     /// not allowed in this direction (`allow`).
     pub fn build(layout: &ImageLayout<MAX_FIELDS>, allow: fn(Slot) -> bool) -> Option<Self> {
         let mut plan = Self {
-            fields: [(0, Slot::ErrorRegister); MAX_FIELDS],
+            runs: [Run {
+                offset: 0,
+                first: Slot::ErrorRegister,
+                count: 0,
+            }; MAX_FIELDS],
             count: 0,
         };
         for field in layout.fields() {
@@ -85,15 +129,24 @@ impl FastImage {
             if field.bit_offset % 8 != 0 || usize::from(offset) + slot.len() > MAX_IMAGE {
                 return None;
             }
-            *plan.fields.get_mut(plan.count)? = (offset, slot);
+            let last = plan.count.checked_sub(1).and_then(|i| plan.runs.get_mut(i));
+            if let Some(run) = last.filter(|r| r.continued_by(offset, slot)) {
+                run.count += 1;
+                continue;
+            }
+            *plan.runs.get_mut(plan.count)? = Run {
+                offset,
+                first: slot,
+                count: 1,
+            };
             plan.count += 1;
         }
         Some(plan)
     }
 
-    /// Byte offset and slot of each mapped object.
-    pub fn fields(&self) -> &[(u8, Slot)] {
-        self.fields.get(..self.count).unwrap_or(&[])
+    /// The runs of the plan, in image order.
+    pub fn runs(&self) -> &[Run] {
+        self.runs.get(..self.count).unwrap_or(&[])
     }
 }
 
@@ -340,11 +393,11 @@ impl ProcessData {
             return Ok(sink.ao);
         };
         let mut ao = ao;
-        for &(offset, slot) in plan.fields() {
-            let o = usize::from(offset);
-            if let (Slot::Ao(i), Some(&[lo, hi])) = (slot, self.outputs.get(o..o + 2)) {
-                if let Some(v) = ao.get_mut(usize::from(i)) {
-                    *v = i16::from_le_bytes([lo, hi]);
+        for run in plan.runs() {
+            let (bytes, channels) = run.spans();
+            if let (Some(src), Some(dst)) = (self.outputs.get(bytes), ao.get_mut(channels)) {
+                for (value, b) in dst.iter_mut().zip(src.chunks_exact(2)) {
+                    *value = i16::from_le_bytes([b[0], b[1]]);
                 }
             }
         }
@@ -364,23 +417,27 @@ impl ProcessData {
             return self.pack(&mut source);
         };
         let image = self.inputs.get_mut(..n).unwrap_or(&mut []);
-        for &(offset, slot) in plan.fields() {
-            let o = usize::from(offset);
-            let value = match slot {
-                Slot::Ai(i) => values
-                    .ai_codes
-                    .get(usize::from(i))
-                    .map_or(0, |c| adc_code_to_ai(*c)),
-                Slot::Ao(i) => values.ao.get(usize::from(i)).copied().unwrap_or(0),
-                Slot::ErrorRegister => {
-                    if let Some(b) = image.get_mut(o) {
-                        *b = values.error_register;
-                    }
-                    continue;
-                }
+        for run in plan.runs() {
+            let (bytes, channels) = run.spans();
+            let Some(dst) = image.get_mut(bytes) else {
+                continue;
             };
-            if let Some(dst) = image.get_mut(o..o + 2) {
-                dst.copy_from_slice(&value.to_le_bytes());
+            match run.first {
+                Slot::Ai(_) => {
+                    if let Some(codes) = values.ai_codes.get(channels) {
+                        for (b, code) in dst.chunks_exact_mut(2).zip(codes) {
+                            b.copy_from_slice(&adc_code_to_ai(*code).to_le_bytes());
+                        }
+                    }
+                }
+                Slot::Ao(_) => {
+                    if let Some(ao) = values.ao.get(channels) {
+                        for (b, value) in dst.chunks_exact_mut(2).zip(ao) {
+                            b.copy_from_slice(&value.to_le_bytes());
+                        }
+                    }
+                }
+                Slot::ErrorRegister => dst.fill(values.error_register),
             }
         }
         Ok(image)
@@ -535,6 +592,38 @@ mod tests {
         pd.pack(&mut source).unwrap().to_vec()
     }
 
+    fn run(offset: u8, first: Slot, count: u8) -> Run {
+        Run {
+            offset,
+            first,
+            count,
+        }
+    }
+
+    /// Prepares `rx`/`tx`, checks the plans' runs, and that the fast path packs `packed`
+    /// and unpacks `[0x34, 0x12, 0xFE, 0xFF]` to `ao` as the generic path does.
+    fn check_fast_path(
+        (rx, rx_runs): (&[PdoEntry], &[Run]),
+        (tx, tx_runs): (&[PdoEntry], &[Run]),
+        packed: &[u8],
+        ao: [i16; AO_CHANNELS],
+    ) {
+        let mut pd = prepared(rx, tx);
+        let (fast_rx, fast_tx) = pd.fast_plans();
+        assert_eq!(fast_rx.unwrap().runs(), rx_runs);
+        assert_eq!(fast_tx.unwrap().runs(), tx_runs);
+        let fast = pd.pack_values(&VALUES).unwrap().to_vec();
+        assert_eq!(fast, packed);
+        assert_eq!(fast, generic_pack(&mut pd));
+
+        pd.output_image_mut()
+            .copy_from_slice(&[0x34, 0x12, 0xFE, 0xFF]);
+        assert_eq!(pd.unpack_ao([7, 7], AlState::Op).unwrap(), ao);
+        let mut sink = RxSink { ao: [7, 7] };
+        pd.unpack(&mut sink, AlState::Op).unwrap();
+        assert_eq!(sink.ao, ao);
+    }
+
     #[test]
     fn byte_aligned_layouts_take_the_fast_path_with_the_generic_result() {
         let rx = [PdoEntry::new(0x6411, 2, 16), PdoEntry::new(0x6411, 1, 16)];
@@ -544,27 +633,49 @@ mod tests {
             PdoEntry::new(0x0000, 0, 8),
             PdoEntry::new(0x6401, 1, 16),
         ];
-        let mut pd = prepared(&rx, &tx);
-        let (fast_rx, fast_tx) = pd.fast_plans();
-        assert_eq!(
-            fast_rx.unwrap().fields(),
-            &[(0, Slot::Ao(1)), (2, Slot::Ao(0))]
+        check_fast_path(
+            (&rx, &[run(0, Slot::Ao(1), 1), run(2, Slot::Ao(0), 1)]),
+            (
+                &tx,
+                &[
+                    run(0, Slot::Ai(7), 1),
+                    run(2, Slot::ErrorRegister, 1),
+                    run(4, Slot::Ai(0), 1),
+                ],
+            ),
+            &[0x78, 0x78, 0x81, 0, 0x02, 0x01],
+            [-2, 0x1234],
         );
-        assert_eq!(
-            fast_tx.unwrap().fields(),
-            &[(0, Slot::Ai(7)), (2, Slot::ErrorRegister), (4, Slot::Ai(0))]
-        );
-        let fast = pd.pack_values(&VALUES).unwrap().to_vec();
-        assert_eq!(fast, [0x78, 0x78, 0x81, 0, 0x02, 0x01]);
-        assert_eq!(fast, generic_pack(&mut pd));
+    }
 
-        pd.output_image_mut()
-            .copy_from_slice(&[0x34, 0x12, 0xFE, 0xFF]);
-        let ao = pd.unpack_ao([7, 7], AlState::Op).unwrap();
-        assert_eq!(ao, [-2, 0x1234]);
-        let mut sink = RxSink { ao: [7, 7] };
-        pd.unpack(&mut sink, AlState::Op).unwrap();
-        assert_eq!(sink.ao, ao);
+    #[test]
+    fn consecutive_channels_form_one_run() {
+        let rx = [PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)];
+        let tx = [
+            PdoEntry::new(0x6401, 1, 16),
+            PdoEntry::new(0x6401, 2, 16),
+            PdoEntry::new(0x1001, 0, 8),
+            PdoEntry::new(0x0000, 0, 8),
+            PdoEntry::new(0x6401, 5, 16),
+            PdoEntry::new(0x6401, 4, 16),
+            PdoEntry::new(0x6401, 6, 16),
+            PdoEntry::new(0x6401, 7, 16),
+        ];
+        check_fast_path(
+            (&rx, &[run(0, Slot::Ao(0), 2)]),
+            (
+                &tx,
+                &[
+                    run(0, Slot::Ai(0), 2),
+                    run(4, Slot::ErrorRegister, 1),
+                    run(6, Slot::Ai(4), 1),
+                    run(8, Slot::Ai(3), 1),
+                    run(10, Slot::Ai(5), 2),
+                ],
+            ),
+            &[2, 1, 0xFE, 0x7F, 0x81, 0, 5, 0, 4, 0, 6, 0, 7, 0],
+            [0x1234, -2],
+        );
     }
 
     #[test]
