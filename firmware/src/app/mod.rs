@@ -307,10 +307,11 @@ impl SlaveApp {
             // preload, past the SYNC0 edge. Without SM2 events (the master stopped) there
             // are no outputs to delay: the poll runs them two SYNC0 cycles late.
             let dc = self.data.sync.mode() == SyncMode::DcSync0 && self.data.sync.armed();
-            let late = self
-                .mailbox_check_ns
-                .saturating_add(2 * u64::from(self.data.sync.sync0_cycle_ns()));
-            if self.safety_service_due(now_ns) && (!dc || now_ns >= late) {
+            let late = || {
+                self.mailbox_check_ns
+                    .saturating_add(2 * u64::from(self.data.sync.sync0_cycle_ns()))
+            };
+            if self.safety_service_due(now_ns) && (!dc || now_ns >= late()) {
                 self.registers_service(esc, stage, now_ns, &mut out)?;
             } else if work {
                 self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
@@ -654,7 +655,7 @@ impl SlaveApp {
                         [mask, 0, 0, 0, 0],
                     );
                     self.mailbox.queue_emergency(e);
-                } else if ao.iter().all(|v| *v >= 0) {
+                } else if !set.out_of_range {
                     if let Some(e) = self.data.diag.clear(ERR_MANUFACTURER) {
                         self.mailbox.queue_emergency(e);
                     }

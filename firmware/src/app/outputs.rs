@@ -407,6 +407,8 @@ pub struct SetOutcome {
     pub staged: bool,
     /// A value became out of range (negative) with this update: report it once.
     pub newly_out_of_range: bool,
+    /// A value is out of range.
+    pub out_of_range: bool,
 }
 
 impl AnalogOutputs {
@@ -462,6 +464,7 @@ impl AnalogOutputs {
         SetOutcome {
             staged: in_op,
             newly_out_of_range,
+            out_of_range: bad,
         }
     }
 
@@ -628,9 +631,12 @@ mod tests {
     fn out_of_range_is_reported_once_per_episode() {
         let stage = dc_stage();
         let mut ao = AnalogOutputs::new();
-        assert!(ao.set_values([-1, 0], true, &stage).newly_out_of_range);
-        assert!(!ao.set_values([-5, 0], true, &stage).newly_out_of_range);
-        assert!(!ao.set_values([5, 0], true, &stage).newly_out_of_range);
+        let set = ao.set_values([-1, 0], true, &stage);
+        assert!(set.newly_out_of_range && set.out_of_range);
+        let set = ao.set_values([-5, 0], true, &stage);
+        assert!(!set.newly_out_of_range && set.out_of_range);
+        let set = ao.set_values([5, 0], true, &stage);
+        assert!(!set.newly_out_of_range && !set.out_of_range);
         assert!(ao.set_values([5, -2], true, &stage).newly_out_of_range);
         assert_eq!(stage.staged().1, DacPair::new(10, 0));
     }
