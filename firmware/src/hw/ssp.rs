@@ -135,11 +135,12 @@ impl<S: SspInstance> Ssp<S> {
         Some(self.ssp.dr.read().bits() as u16)
     }
 
-    /// Runs one bus operation, FIFO kept full. One copy for all four operations (not one per
-    /// operation): the DAC's SPI transaction inlines every operation, so per-operation loops
-    /// would all land in the flash image.
+    /// Runs one bus operation, FIFO kept full. Two copies: one for the writes of the DAC
+    /// preload in every DC cycle ([`WriteOnly`]: no decision per frame), one for the other
+    /// three operations ([`Frames`]); the DAC's SPI transaction inlines every operation, so
+    /// a loop per operation would all land in the flash image.
     #[inline(never)]
-    fn run(&mut self, mut frames: Frames<'_>) -> Result<(), SspError> {
+    fn run(&mut self, mut frames: impl Buffers) -> Result<(), SspError> {
         let n = frames.len();
         let (mut sent, mut got, mut idle) = (0, 0, 0u32);
         while got < n {
@@ -181,11 +182,34 @@ impl<S: SspInstance> ErrorType for Ssp<S> {
 }
 
 /// The buffers of one bus operation: what frame `i` sends and where its reply goes.
+trait Buffers {
+    /// Frames of the operation.
+    fn len(&self) -> usize;
+    /// The byte frame `i` sends.
+    fn tx(&self, i: usize) -> u8;
+    /// Takes the reply to frame `i`.
+    fn rx(&mut self, i: usize, b: u8);
+}
+
+/// Bytes out, replies dropped (the common operation: the AD5663's frames).
+struct WriteOnly<'a>(&'a [u8]);
+
+impl Buffers for WriteOnly<'_> {
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    fn tx(&self, i: usize) -> u8 {
+        self.0.get(i).copied().unwrap_or(0)
+    }
+
+    fn rx(&mut self, _: usize, _: u8) {}
+}
+
+/// The other operations' buffers.
 enum Frames<'a> {
     /// Zeros out, replies kept.
     Read(&'a mut [u8]),
-    /// Bytes out, replies dropped.
-    Write(&'a [u8]),
     /// `max(len)` frames: `write` (then zeros) out, replies into `read` (the rest dropped).
     Transfer(&'a mut [u8], &'a [u8]),
     /// Bytes out, each replaced by its reply. Frames in flight are at most FIFO_DEPTH
@@ -194,11 +218,10 @@ enum Frames<'a> {
     InPlace(&'a mut [u8]),
 }
 
-impl Frames<'_> {
+impl Buffers for Frames<'_> {
     fn len(&self) -> usize {
         match self {
             Frames::Read(r) | Frames::InPlace(r) => r.len(),
-            Frames::Write(w) => w.len(),
             Frames::Transfer(r, w) => r.len().max(w.len()),
         }
     }
@@ -206,7 +229,7 @@ impl Frames<'_> {
     fn tx(&self, i: usize) -> u8 {
         match self {
             Frames::Read(_) => 0,
-            Frames::Write(w) | Frames::Transfer(_, w) => w.get(i).copied().unwrap_or(0),
+            Frames::Transfer(_, w) => w.get(i).copied().unwrap_or(0),
             Frames::InPlace(w) => w.get(i).copied().unwrap_or(0),
         }
     }
@@ -218,7 +241,6 @@ impl Frames<'_> {
                     *slot = b;
                 }
             }
-            Frames::Write(_) => {}
         }
     }
 }
@@ -229,7 +251,7 @@ impl<S: SspInstance> SpiBus<u8> for Ssp<S> {
     }
 
     fn write(&mut self, words: &[u8]) -> Result<(), SspError> {
-        self.run(Frames::Write(words))
+        self.run(WriteOnly(words))
     }
 
     fn transfer(&mut self, read: &mut [u8], write: &[u8]) -> Result<(), SspError> {
