@@ -115,12 +115,20 @@ impl SpiBus<u8> for LegacySpi {
     }
 
     fn transfer(&mut self, read: &mut [u8], write: &[u8]) -> Result<(), SpiError> {
-        let n = read.len().max(write.len());
-        for i in 0..n {
-            let b = self.exchange(write.get(i).copied().unwrap_or(0))?;
-            if let Some(r) = read.get_mut(i) {
-                *r = b;
-            }
+        // The ESC's address phases send and receive as many bytes: that part is a loop
+        // without a decision per byte. The longer side's rest is read (0x00 out) or
+        // written, called only when there is one (the calls are not inlined here).
+        let both = read.len().min(write.len());
+        let (read_both, read_rest) = read.split_at_mut(both);
+        let (write_both, write_rest) = write.split_at(both);
+        for (r, &w) in read_both.iter_mut().zip(write_both) {
+            *r = self.exchange(w)?;
+        }
+        if !read_rest.is_empty() {
+            self.read(read_rest)?;
+        }
+        if !write_rest.is_empty() {
+            self.write(write_rest)?;
         }
         Ok(())
     }
