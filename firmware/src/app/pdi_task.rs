@@ -190,7 +190,8 @@ impl PdiTask {
                 d(app.sampler_mut());
             }
         };
-        if !self.start(esc, wake.pdi_ready) {
+        // Started once; every later activation skips the call.
+        if !(self.started || self.start(esc, wake.pdi_ready)) {
             drain_once(&mut self.app);
             // Nothing can be served; the periodic tick retries. No self-pend: a line that
             // an unready ESC holds low must not keep the task busy.
