@@ -155,11 +155,12 @@ impl<const N: usize> SampleConsumer<'_, N> {
     /// Moves at most `N` queued samples into `sampler` (bounded: the producer may keep adding
     /// while this runs); returns how many.
     pub fn drain_into(&mut self, sampler: &mut Sampler) -> usize {
+        sampler.restart_stale_sums();
         let mut moved = 0;
         while moved < N {
             match self.inner.dequeue() {
                 Some(sample) => {
-                    sampler.add(sample);
+                    sampler.add_to_fresh_sums(sample);
                     moved += 1;
                 }
                 None => break,
@@ -175,6 +176,9 @@ impl<const N: usize> SampleConsumer<'_, N> {
 pub struct Sampler {
     latest: [u16; CHANNELS],
     sums: [u64; CHANNELS],
+    /// Set by a publish: `sums` still hold the cycle before, and the next addition starts
+    /// them over (a publish in every cycle would otherwise clear 64 bytes).
+    sums_stale: bool,
     /// Single samples per channel since the last publish (whole scans are in `scans`).
     counts: [u32; CHANNELS],
     /// Additions of single samples (or short scans) since the last publish: `counts` holds
@@ -194,6 +198,7 @@ impl Sampler {
         Self {
             latest: [0; CHANNELS],
             sums: [0; CHANNELS],
+            sums_stale: false,
             counts: [0; CHANNELS],
             singles: 0,
             scans: 0,
@@ -217,6 +222,13 @@ impl Sampler {
     /// Adds one sample to its channel's accumulator. A sample for a channel outside 0..=7 is
     /// counted as rejected and otherwise ignored.
     pub fn add(&mut self, sample: Sample) {
+        self.restart_stale_sums();
+        self.add_to_fresh_sums(sample);
+    }
+
+    /// [`add`](Self::add) after [`restart_stale_sums`](Self::restart_stale_sums): a drain
+    /// of many samples checks the flag once.
+    fn add_to_fresh_sums(&mut self, sample: Sample) {
         let ch = usize::from(sample.channel);
         match (
             self.latest.get_mut(ch),
@@ -247,6 +259,7 @@ impl Sampler {
             self.add_whole_scan(&scan, |c| *c);
             return;
         }
+        self.restart_stale_sums();
         let channels = self
             .latest
             .iter_mut()
@@ -268,19 +281,38 @@ impl Sampler {
     /// leaves the loop without bounds checks or a copy.
     #[inline]
     pub fn add_whole_scan<W>(&mut self, scan: &[W; CHANNELS], code: impl Fn(&W) -> u16) {
-        for ((latest, sum), word) in self.latest.iter_mut().zip(&mut self.sums).zip(scan) {
-            let c = code(word);
-            *latest = c;
-            *sum = sum.wrapping_add(u64::from(c));
+        let channels = self.latest.iter_mut().zip(&mut self.sums).zip(scan);
+        // A whole scan starts every stale sum over: set, not added.
+        if core::mem::take(&mut self.sums_stale) {
+            for ((latest, sum), word) in channels {
+                let c = code(word);
+                *latest = c;
+                *sum = u64::from(c);
+            }
+        } else {
+            for ((latest, sum), word) in channels {
+                let c = code(word);
+                *latest = c;
+                *sum = sum.wrapping_add(u64::from(c));
+            }
         }
         self.scans = self.scans.saturating_add(1);
         self.received = self.received.wrapping_add(CHANNELS as u32);
     }
 
+    /// Clears the sums if a publish left them stale (before a single sample or a short
+    /// scan: they add to some channels only).
+    fn restart_stale_sums(&mut self) {
+        if core::mem::take(&mut self.sums_stale) {
+            self.sums = [0; CHANNELS];
+        }
+    }
+
     /// Adds several samples.
     pub fn add_all(&mut self, samples: &[Sample]) {
+        self.restart_stale_sums();
         for sample in samples {
-            self.add(*sample);
+            self.add_to_fresh_sums(*sample);
         }
     }
 
@@ -311,8 +343,9 @@ impl Sampler {
             }
         }
         // A channel without samples since the last publish has a zero sum and count
-        // already, so clearing all of them is the same as clearing those that published.
-        self.sums = [0; CHANNELS];
+        // already, so starting all of them over is the same as those that published. The
+        // sums start over at the next addition; until then no channel has a count.
+        self.sums_stale = true;
         if singles {
             self.counts = [0; CHANNELS];
         }
