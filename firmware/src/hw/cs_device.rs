@@ -28,21 +28,25 @@ impl<B: ErrorType> ErrorType for CsDevice<B> {
 impl<B: SpiBus<u8>> SpiDevice<u8> for CsDevice<B> {
     fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), B::Error> {
         self.cs.set(false);
-        let result = operations
-            .iter_mut()
-            .try_for_each(|op| match op {
-                Operation::Read(words) => self.bus.read(words),
-                Operation::Write(words) => self.bus.write(words),
-                Operation::Transfer(read, write) => self.bus.transfer(read, write),
-                Operation::TransferInPlace(words) => self.bus.transfer_in_place(words),
-                Operation::DelayNs(ns) => {
-                    CycleDelay.delay_ns(*ns);
-                    Ok(())
-                }
-            })
-            .and_then(|()| self.bus.flush());
+        let result = self.run(operations);
         // Deselected on every path, also after a bus error.
         self.cs.set(true);
         result
+    }
+}
+
+impl<B: SpiBus<u8>> CsDevice<B> {
+    /// The operations on the selected device, up to the first bus error.
+    fn run(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), B::Error> {
+        for op in operations {
+            match op {
+                Operation::Read(words) => self.bus.read(words)?,
+                Operation::Write(words) => self.bus.write(words)?,
+                Operation::Transfer(read, write) => self.bus.transfer(read, write)?,
+                Operation::TransferInPlace(words) => self.bus.transfer_in_place(words)?,
+                Operation::DelayNs(ns) => CycleDelay.delay_ns(*ns),
+            }
+        }
+        self.bus.flush()
     }
 }
