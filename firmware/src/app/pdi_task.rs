@@ -182,17 +182,11 @@ impl PdiTask {
         now_ns: u64,
         wake: Wake,
         still_asserted: impl FnOnce() -> bool,
-        drain: impl FnOnce(&mut Sampler),
+        mut drain: impl FnMut(&mut Sampler),
     ) -> Done {
-        let mut drain = Some(drain);
-        let mut drain_once = |app: &mut SlaveApp| {
-            if let Some(d) = drain.take() {
-                d(app.sampler_mut());
-            }
-        };
         // Started once; every later activation skips the call.
         if !(self.started || self.start(esc, wake.pdi_ready)) {
-            drain_once(&mut self.app);
+            drain(self.app.sampler_mut());
             // Nothing can be served; the periodic tick retries. No self-pend: a line that
             // an unready ESC holds low must not keep the task busy.
             return Done::default();
@@ -224,12 +218,11 @@ impl PdiTask {
             done.take(self.outcome(r, stage));
         }
         if poll {
-            drain_once(&mut self.app);
+            drain(self.app.sampler_mut());
             let r = self.app.poll(esc, stage, now_ns);
             done.take(self.outcome(r, stage));
-        }
-        if !(done.apply_outputs || done.preload_outputs) {
-            drain_once(&mut self.app);
+        } else if !(done.apply_outputs || done.preload_outputs) {
+            drain(self.app.sampler_mut());
         }
         done.pend_again = self.line.after_serve(wake.edge, still_asserted()) || self.poll_deferred;
         done
