@@ -137,6 +137,9 @@ pub struct SlaveApp {
     sync0_seen: u32,
     /// Time of the next unconditional mailbox service (ns).
     mailbox_check_ns: u64,
+    /// The safety service has read the PDI error counter; the mailbox registers follow in
+    /// the next slot.
+    pdi_errors_read: bool,
     /// Time of the background poll's next own event sample (ns).
     event_sample_ns: u64,
     /// Read changed outputs twice before taking them (decided at PREOP -> SAFEOP).
@@ -164,6 +167,7 @@ impl SlaveApp {
             mask: None,
             sync0_seen: 0,
             mailbox_check_ns: 0,
+            pdi_errors_read: false,
             event_sample_ns: 0,
             confirm_outputs: true,
             fresh: [0; MAX_IMAGE],
@@ -717,7 +721,10 @@ impl SlaveApp {
         Ok(out)
     }
 
-    /// The safety service: the PDI error counter, then the mailbox from its registers.
+    /// The safety service, one access per call: the PDI error counter, then, in the next
+    /// call (the service is due until the mailbox registers are read), the mailbox from its
+    /// registers, which also sends an Emergency the first queued. In DC mode a cycle that
+    /// carried all three register reads had its next outputs late.
     fn registers_service<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
@@ -725,7 +732,11 @@ impl SlaveApp {
         now_ns: u64,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
-        self.report_pdi_errors(esc)?;
+        if !self.pdi_errors_read {
+            self.report_pdi_errors(esc)?;
+            self.pdi_errors_read = true;
+            return Ok(());
+        }
         let how = Service::Registers {
             check_repeat: false,
         };
@@ -736,6 +747,8 @@ impl SlaveApp {
     /// read at `now_ns`.
     fn arm_mailbox_check(&mut self, now_ns: u64) {
         self.mailbox_check_ns = now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
+        // The next safety service starts with the PDI error counter again.
+        self.pdi_errors_read = false;
     }
 
     fn serve_mailbox<P: Pdi>(

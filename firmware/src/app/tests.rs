@@ -775,8 +775,11 @@ fn dc_cycle_reads_no_mailbox_registers() {
     assert!(!r.app.mailbox().sm1_busy());
     assert_eq!(r.esc.sm_register_reads, sm_reads);
     assert_eq!(r.esc.al_status(), (0x08, 0));
-    // The periodic safety service reads the registers even without events.
+    // The periodic safety service reads the registers even without events (one access
+    // per call: the PDI error counter first, the registers in the next).
     r.now += u64::from(super::mailbox::SAFETY_SERVICE_MS) * 1_000_000;
+    r.poll();
+    assert_eq!(r.esc.sm_register_reads, sm_reads);
     r.poll();
     assert!(r.esc.sm_register_reads > sm_reads);
 }
@@ -827,7 +830,8 @@ fn dc_safety_service_follows_the_outputs() {
         r.esc.sm_register_reads, sm_reads,
         "a poll later in the cycle"
     );
-    // The master's outputs of the next cycle arrive.
+    // The master's outputs of the next two cycles arrive; after each, one access of the
+    // service: the PDI error counter, then the mailbox registers.
     let Rig {
         mut esc,
         app,
@@ -859,6 +863,7 @@ fn dc_safety_service_follows_the_outputs() {
         line_asserted: false,
         ..irq
     };
+    let reads = esc.reads;
     let done = task.run(
         &mut esc.driver(),
         &stage,
@@ -868,14 +873,40 @@ fn dc_safety_service_follows_the_outputs() {
         |_| {},
     );
     assert!(!done.pend_again);
-    assert!(esc.sm_register_reads > sm_reads, "then the safety service");
-    assert!(!task.app().safety_service_due(now + 20_000));
+    assert_eq!(esc.reads - reads, 1, "then the PDI error counter");
+    assert_eq!(esc.sm_register_reads, sm_reads);
+    assert!(task.app().safety_service_due(now + 20_000));
+    esc.master_write_outputs(&[0x00, 0x3F, 0x00, 0x1F]);
+    let done = task.run(
+        &mut esc.driver(),
+        &stage,
+        now + 1_010_000,
+        irq,
+        || false,
+        |_| {},
+    );
+    assert!(done.preload_outputs && done.pend_again);
+    assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
+    let done = task.run(
+        &mut esc.driver(),
+        &stage,
+        now + 1_020_000,
+        again,
+        || false,
+        |_| {},
+    );
+    assert!(!done.pend_again);
+    assert!(
+        esc.sm_register_reads > sm_reads,
+        "then the mailbox registers"
+    );
+    assert!(!task.app().safety_service_due(now + 1_020_000));
     // Nothing is put off any more.
     let sm_reads = esc.sm_register_reads;
     let done = task.run(
         &mut esc.driver(),
         &stage,
-        now + 30_000,
+        now + 1_030_000,
         again,
         || false,
         |_| {},
@@ -885,7 +916,8 @@ fn dc_safety_service_follows_the_outputs() {
 }
 
 /// In DC mode without SM2 events (the master stopped) the safety service has no outputs
-/// to wait for: the poll after an edge runs it two SYNC0 cycles after it came due.
+/// to wait for: the poll after an edge starts it two SYNC0 cycles after it came due (the
+/// PDI error counter), the next one reads the mailbox registers.
 #[test]
 fn dc_safety_service_runs_late_when_the_master_stops() {
     let mut r = Rig::new();
@@ -903,7 +935,7 @@ fn dc_safety_service_runs_late_when_the_master_stops() {
         late += u32::from(due);
         assert!(late <= 3, "the safety service never ran");
     }
-    assert_eq!(late, 2, "put off by two cycles");
+    assert_eq!(late, 3, "put off by two cycles, then the PDI error counter");
     assert!(!r.app.safety_service_due(r.now));
     assert_eq!(r.esc.al_status(), (0x08, 0));
 }
@@ -1000,6 +1032,8 @@ fn unstable_output_reads_are_dropped_and_reported() {
     // The ESC counted errors of its own as well; the safety service reports both.
     r.esc.mem[usize::from(Register::PdiErrorCounter.addr())] = 3;
     r.now += u64::from(super::mailbox::SAFETY_SERVICE_MS) * 1_000_000;
+    // The counter, then the registers, which send the Emergency.
+    r.poll();
     r.poll();
     let frame = r.esc.master_read_mailbox().expect("an Emergency");
     assert_eq!(&frame[6..8], &[0x00, 0x10], "CoE Emergency");
