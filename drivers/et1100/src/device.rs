@@ -232,6 +232,24 @@ impl<P: Pdi> Et1100<P> {
         self.read_array(addr).map(SyncManager::from_bytes)
     }
 
+    /// SyncManagers `n` and `n + 1` (0x0800 + 8n, 16 bytes) in one access: the pair as one
+    /// snapshot, with one address phase instead of two (e.g. the mailbox's SM0 and SM1).
+    /// Side effect as [`read_sm`](Self::read_sm), for both.
+    pub fn read_sm_pair(
+        &mut self,
+        n: u8,
+    ) -> Result<(SyncManager, SyncManager), Error<P::BusError>> {
+        let addr = Self::sm_address(n)?;
+        Self::sm_address(n.checked_add(1).ok_or(Error::InvalidIndex)?)?;
+        let mut b = [[0u8; 8]; 2];
+        self.pdi.read(addr, b.as_flattened_mut())?;
+        let [first, second] = b;
+        Ok((
+            SyncManager::from_bytes(first),
+            SyncManager::from_bytes(second),
+        ))
+    }
+
     /// Writes SyncManager `n`'s PDI control byte (0x0807 + 8n), e.g.
     /// [`SyncManager::PDI_DEACTIVATE`].
     pub fn sm_pdi_control(&mut self, n: u8, value: u8) -> Result<(), Error<P::BusError>> {

@@ -180,6 +180,26 @@ fn sm_decode_in_one_access() {
 }
 
 #[test]
+fn sm_pair_in_one_access() {
+    // SM0 at 0x0800 (40 03) and SM1 after it: 16 bytes in one read.
+    let sm0 = [0x00, 0x10, 0x80, 0x00, 0x26, 0x08, 0x01, 0x00];
+    let sm1 = [0x80, 0x10, 0x80, 0x00, 0x22, 0x00, 0x01, 0x00];
+    let mut both = [0u8; 16];
+    both[..8].copy_from_slice(&sm0);
+    both[8..].copy_from_slice(&sm1);
+    let mut e = esc(&[rd(&[0x40, 0x03], &[0x00, 0x00], &both)]);
+    let (first, second) = e.read_sm_pair(0).unwrap();
+    assert_eq!(first.to_bytes(), sm0);
+    assert_eq!(second.to_bytes(), sm1);
+    assert_eq!((first.start, second.start), (0x1000, 0x1080));
+    assert!(first.mailbox_full() && !second.mailbox_full());
+    // The pair must lie inside the 16 SyncManagers; no access otherwise.
+    assert_eq!(e.read_sm_pair(15), Err(Error::InvalidIndex));
+    assert_eq!(e.read_sm_pair(255), Err(Error::InvalidIndex));
+    done(e);
+}
+
+#[test]
 fn sm_pdi_control_and_repeat_ack() {
     let sm1 = SyncManager {
         start: 0x1080,

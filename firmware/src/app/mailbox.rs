@@ -375,13 +375,12 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
                 (sm0, sm1, self.sm1_busy, request)
             }
             (how, _) => {
-                let sm1 = esc.read_sm(1)?;
+                let (sm0, sm1) = esc.read_sm_pair(0)?;
                 let check_repeat = how == Service::Registers { check_repeat: true };
                 if check_repeat && sm1.repeat_requested() {
                     self.repeat(esc, &sm1)?;
                     return Ok(());
                 }
-                let sm0 = esc.read_sm(0)?;
                 self.registers = Some((sm0, sm1));
                 (sm0, sm1, sm1.mailbox_full(), sm0.mailbox_full())
             }
