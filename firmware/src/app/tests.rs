@@ -840,6 +840,9 @@ fn dc_safety_service_follows_the_outputs() {
         ..
     } = r;
     let mut task = PdiTask::new(app);
+    let run = |task: &mut PdiTask, esc: &mut FakeEsc, at: u64, wake: Wake| {
+        task.run(&mut esc.driver(), &stage, at, wake, || false, |_| {})
+    };
     let irq = Wake {
         edge: true,
         line_asserted: true,
@@ -847,14 +850,7 @@ fn dc_safety_service_follows_the_outputs() {
         pdi_ready: true,
     };
     esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
-    let done = task.run(
-        &mut esc.driver(),
-        &stage,
-        now + 10_000,
-        irq,
-        || false,
-        |_| {},
-    );
+    let done = run(&mut task, &mut esc, now + 10_000, irq);
     assert!(done.preload_outputs && done.pend_again);
     assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
     assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
@@ -864,37 +860,16 @@ fn dc_safety_service_follows_the_outputs() {
         ..irq
     };
     let reads = esc.reads;
-    let done = task.run(
-        &mut esc.driver(),
-        &stage,
-        now + 20_000,
-        again,
-        || false,
-        |_| {},
-    );
+    let done = run(&mut task, &mut esc, now + 20_000, again);
     assert!(!done.pend_again);
     assert_eq!(esc.reads - reads, 1, "then the PDI error counter");
     assert_eq!(esc.sm_register_reads, sm_reads);
     assert!(task.app().safety_service_due(now + 20_000));
     esc.master_write_outputs(&[0x00, 0x3F, 0x00, 0x1F]);
-    let done = task.run(
-        &mut esc.driver(),
-        &stage,
-        now + 1_010_000,
-        irq,
-        || false,
-        |_| {},
-    );
+    let done = run(&mut task, &mut esc, now + 1_010_000, irq);
     assert!(done.preload_outputs && done.pend_again);
     assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
-    let done = task.run(
-        &mut esc.driver(),
-        &stage,
-        now + 1_020_000,
-        again,
-        || false,
-        |_| {},
-    );
+    let done = run(&mut task, &mut esc, now + 1_020_000, again);
     assert!(!done.pend_again);
     assert!(
         esc.sm_register_reads > sm_reads,
@@ -903,14 +878,7 @@ fn dc_safety_service_follows_the_outputs() {
     assert!(!task.app().safety_service_due(now + 1_020_000));
     // Nothing is put off any more.
     let sm_reads = esc.sm_register_reads;
-    let done = task.run(
-        &mut esc.driver(),
-        &stage,
-        now + 1_030_000,
-        again,
-        || false,
-        |_| {},
-    );
+    let done = run(&mut task, &mut esc, now + 1_030_000, again);
     assert!(!done.pend_again);
     assert_eq!(esc.sm_register_reads, sm_reads);
 }
