@@ -39,6 +39,29 @@ def reach(slave, state):
         )
 
 
+def amend_mbx(slave, mailbox, start_address, size):
+    """pysoem's amend_mbx writes the SM registers with a fixed 2-4 ms datagram timeout of its
+    own (not pysoem.settings.timeouts), which the virtual board on a loaded host can miss: the
+    write is idempotent, so a lost datagram is retried (bounded) as SOEM retries its own
+    configuration writes."""
+    for attempt in range(1, 4):
+        try:
+            slave.amend_mbx(mailbox=mailbox, start_address=start_address, size=size)
+            return
+        except pysoem.WkcError as e:
+            if attempt == 3:
+                raise RuntimeError(
+                    f"writing the {mailbox} mailbox's SM registers: working counter {e.wkc}"
+                ) from e
+
+
+def describe(e):
+    """The exception as text; pysoem's WkcError has no message, only a working counter."""
+    text = f"{type(e).__name__}: {e}"
+    wkc = getattr(e, "wkc", None)
+    return text if wkc is None else f"{text} (working counter {wkc})"
+
+
 def main(iface, good, bad):
     # SOEM waits 2 ms for a datagram by default; the virtual board answers from a user-space
     # thread, which a loaded host can keep waiting longer. A real module answers in
@@ -63,8 +86,8 @@ def main(iface, good, bad):
         rx_addr, rx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_RX_MBX))
         tx_addr, tx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_TX_MBX))
         report(step="bootstrap mailbox", out=[rx_addr, rx_len], **{"in": [tx_addr, tx_len]})
-        slave.amend_mbx(mailbox="out", start_address=rx_addr, size=rx_len)
-        slave.amend_mbx(mailbox="in", start_address=tx_addr, size=tx_len)
+        amend_mbx(slave, "out", rx_addr, rx_len)
+        amend_mbx(slave, "in", tx_addr, tx_len)
         reach(slave, pysoem.BOOT_STATE)
         report(step="boot")
 
@@ -78,7 +101,7 @@ def main(iface, good, bad):
                 result = slave.foe_write(os.path.basename(path), 0, data, TIMEOUT_US)
                 error = None
             except Exception as e:  # pysoem's error types differ between versions
-                result, error = None, f"{type(e).__name__}: {e}"
+                result, error = None, describe(e)
             accepted = result is not None and result > 0
             report(step="foe write", file=os.path.basename(path), bytes=len(data),
                    result=result, error=error, accepted=accepted)
@@ -114,5 +137,5 @@ if __name__ == "__main__":
     try:
         sys.exit(main(sys.argv[1], sys.argv[2], sys.argv[3:]))
     except Exception as e:  # the test shows the message
-        report(step="error", message=str(e))
+        report(step="error", message=describe(e))
         sys.exit(1)
