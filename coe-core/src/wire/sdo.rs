@@ -106,6 +106,15 @@ impl Direction {
             _ => None,
         }
     }
+
+    /// The CoE service a frame travelling in this direction is sent with (an abort, a
+    /// request-direction frame, uses "SDO request" from either side).
+    pub const fn coe_service(self) -> CoeService {
+        match self {
+            Direction::Request => CoeService::SdoRequest,
+            Direction::Response => CoeService::SdoResponse,
+        }
+    }
 }
 
 /// A read/write view of an SDO frame (the bytes after the CoE header).
@@ -552,10 +561,7 @@ impl<'a> SdoRepr<'a> {
     /// The CoE service the frame is sent with (an abort uses "SDO request" in both
     /// directions).
     pub const fn coe_service(&self) -> CoeService {
-        match self.direction() {
-            Direction::Request => CoeService::SdoRequest,
-            Direction::Response => CoeService::SdoResponse,
-        }
+        self.direction().coe_service()
     }
 
     /// Length of the emitted frame (without CoE header).
