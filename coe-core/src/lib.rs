@@ -16,7 +16,9 @@ mod open_enum;
 
 pub mod abort;
 pub mod al_status;
+pub mod canopen;
 pub mod device;
+pub mod emergency_queue;
 pub mod esi;
 pub mod esm;
 pub mod foe;

@@ -19,6 +19,7 @@
 //! [`crate::sdo_server::SdoServer`] owns one [`MailboxService`] and is the entry point the
 //! firmware calls. Every frame is read and written through the [`crate::wire`] layer.
 
+use crate::emergency_queue::EmergencyQueue;
 use crate::esm::AlState;
 use crate::wire::{
     self, Coe, CoeRepr, CoeService, EmergencyRepr, Mailbox, MailboxErrorReply,
@@ -92,10 +93,7 @@ pub struct MailboxService<const MBX: usize, const EMCY: usize> {
     tx_counter: u8,
     backup: [u8; MBX],
     backup_len: usize,
-    emcy: [Option<Emergency>; EMCY],
-    emcy_head: usize,
-    emcy_len: usize,
-    emcy_dropped: u32,
+    emcy: EmergencyQueue<EMCY>,
 }
 
 impl<const MBX: usize, const EMCY: usize> Default for MailboxService<MBX, EMCY> {
@@ -165,10 +163,7 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
             tx_counter: 0,
             backup: [0; MBX],
             backup_len: 0,
-            emcy: [None; EMCY],
-            emcy_head: 0,
-            emcy_len: 0,
-            emcy_dropped: 0,
+            emcy: EmergencyQueue::new(),
         }
     }
 
@@ -210,40 +205,17 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
 
     /// Queues an Emergency; when the queue is full the oldest one is dropped (and counted).
     pub fn push_emergency(&mut self, emergency: Emergency) {
-        if EMCY == 0 {
-            self.emcy_dropped = self.emcy_dropped.saturating_add(1);
-            return;
-        }
-        if self.emcy_len == EMCY {
-            self.emcy_head = (self.emcy_head + 1) % EMCY;
-            self.emcy_len -= 1;
-            self.emcy_dropped = self.emcy_dropped.saturating_add(1);
-        }
-        let tail = (self.emcy_head + self.emcy_len) % EMCY;
-        if let Some(slot) = self.emcy.get_mut(tail) {
-            *slot = Some(emergency);
-            self.emcy_len += 1;
-        }
+        self.emcy.push(emergency);
     }
 
     /// Number of queued Emergencies.
     pub fn pending_emergencies(&self) -> usize {
-        self.emcy_len
+        self.emcy.len()
     }
 
     /// Number of Emergencies dropped because the queue was full.
     pub fn dropped_emergencies(&self) -> u32 {
-        self.emcy_dropped
-    }
-
-    fn pop_emergency(&mut self) -> Option<Emergency> {
-        if self.emcy_len == 0 || EMCY == 0 {
-            return None;
-        }
-        let item = self.emcy.get_mut(self.emcy_head).and_then(Option::take);
-        self.emcy_head = (self.emcy_head + 1) % EMCY;
-        self.emcy_len -= 1;
-        item
+        self.emcy.dropped()
     }
 
     /// Checks a received frame (the whole write-mailbox content).
@@ -350,7 +322,7 @@ impl<const MBX: usize, const EMCY: usize> MailboxService<MBX, EMCY> {
         if reply.len() < MAILBOX_HEADER_LEN + wire::emergency::MAILBOX_LEN {
             return Reply::None;
         }
-        let Some(emergency) = self.pop_emergency() else {
+        let Some(emergency) = self.emcy.pop() else {
             return Reply::None;
         };
         let len = emit_coe(payload_area(reply), CoeService::Emergency, |out| {
