@@ -495,34 +495,46 @@ impl<const N: usize> ImageLayout<N> {
         mappings: &[PdoMapping<M>],
     ) -> Result<Self, SdoAbortCode> {
         let mut layout = Self::new();
-        let mut offset = 0u32;
         for pdo in assignment.pdos() {
             let mapping = mappings
                 .iter()
                 .find(|m| m.index() == *pdo)
                 .ok_or(SdoAbortCode::ValueRangeExceeded)?;
-            for entry in mapping.entries() {
-                if !entry.is_gap() {
-                    if entry.bit_len > 64 {
-                        return Err(SdoAbortCode::CannotBeMapped);
-                    }
-                    let field = layout
-                        .fields
-                        .get_mut(layout.count)
-                        .ok_or(SdoAbortCode::PdoLengthExceeded)?;
-                    *field = ImageField {
-                        index: entry.index,
-                        subindex: entry.subindex,
-                        bit_len: entry.bit_len,
-                        bit_offset: offset,
-                    };
-                    layout.count += 1;
-                }
-                offset += u32::from(entry.bit_len);
-            }
+            layout.append(mapping)?;
         }
-        layout.bit_len = offset;
         Ok(layout)
+    }
+
+    /// The layout of one PDO on its own (a CAN PDO is one mapping, no assignment). Errors
+    /// as [`ImageLayout::build`].
+    pub fn of_mapping<const M: usize>(mapping: &PdoMapping<M>) -> Result<Self, SdoAbortCode> {
+        let mut layout = Self::new();
+        layout.append(mapping)?;
+        Ok(layout)
+    }
+
+    /// Lays out the entries of `mapping` after what is there.
+    fn append<const M: usize>(&mut self, mapping: &PdoMapping<M>) -> Result<(), SdoAbortCode> {
+        for entry in mapping.entries() {
+            if !entry.is_gap() {
+                if entry.bit_len > 64 {
+                    return Err(SdoAbortCode::CannotBeMapped);
+                }
+                let field = self
+                    .fields
+                    .get_mut(self.count)
+                    .ok_or(SdoAbortCode::PdoLengthExceeded)?;
+                *field = ImageField {
+                    index: entry.index,
+                    subindex: entry.subindex,
+                    bit_len: entry.bit_len,
+                    bit_offset: self.bit_len,
+                };
+                self.count += 1;
+            }
+            self.bit_len += u32::from(entry.bit_len);
+        }
+        Ok(())
     }
 
     /// The mapped objects in image order.

@@ -5,8 +5,8 @@
 //! - Heartbeat producer: every 0x1017 ms one byte, the NMT state code; the boot-up message
 //!   (state 0) is the first heartbeat. A state change is reported at once as well.
 //! - Heartbeat consumer: each 0x1016 entry (`node << 16 | time_ms`) watches one node;
-//!   monitoring starts with that node's first heartbeat, and a gap longer than the time is
-//!   a heartbeat event (reported once, until the node is heard again).
+//!   monitoring starts with that node's first heartbeat, and a gap of the time or longer
+//!   is a heartbeat event (reported once, until the node is heard again).
 //! - Node guarding: the master sends a remote frame to 0x700 + node-ID; the node answers one
 //!   byte, bit 7 a toggle (0 in the first answer after a reset of communication) and the
 //!   state code. Life guarding: once guarded, a node that hears no guard request for
@@ -177,7 +177,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
             if !entry.is_active() || w.lost {
                 continue;
             }
-            if now_us > last + u64::from(entry.time_ms) * US_PER_MS {
+            if now_us >= last + u64::from(entry.time_ms) * US_PER_MS {
                 w.lost = true;
                 return Some(ConsumerEvent::Lost { node: entry.node });
             }
@@ -264,7 +264,7 @@ impl NodeGuarding {
     ) -> Option<LifeGuardEvent> {
         let life = Self::life_time_us(guard_time_ms, life_factor)?;
         let last = self.last_request_us?;
-        if !self.lost && now_us > last + life {
+        if !self.lost && now_us >= last + life {
             self.lost = true;
             return Some(LifeGuardEvent::Lost);
         }
@@ -336,9 +336,9 @@ mod tests {
         assert_eq!(c.heard(&entries, 3, 5, 0), None);
         assert_eq!(c.state_of(&entries, 3), Some(NmtState::Operational));
         assert_eq!(c.next_deadline_us(&entries), Some(100_000));
-        assert_eq!(c.check(&entries, 100_000), None, "exactly on time");
+        assert_eq!(c.check(&entries, 99_999), None, "in time");
         assert_eq!(
-            c.check(&entries, 100_001),
+            c.check(&entries, 100_000),
             Some(ConsumerEvent::Lost { node: 3 })
         );
         assert_eq!(c.check(&entries, 200_000), None, "reported once");
@@ -359,8 +359,8 @@ mod tests {
         assert_eq!(g.request(NmtState::PreOperational, 100_000), (0xFF, None));
         assert_eq!(g.request(NmtState::Operational, 200_000), (0x05, None));
         assert_eq!(g.deadline_us(100, 3), Some(500_000));
-        assert_eq!(g.check(100, 3, 500_000), None);
-        assert_eq!(g.check(100, 3, 500_001), Some(LifeGuardEvent::Lost));
+        assert_eq!(g.check(100, 3, 499_999), None);
+        assert_eq!(g.check(100, 3, 500_000), Some(LifeGuardEvent::Lost));
         assert_eq!(g.check(100, 3, 900_000), None, "reported once");
         assert_eq!(
             g.request(NmtState::Operational, 900_000),

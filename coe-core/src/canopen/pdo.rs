@@ -325,7 +325,7 @@ impl RpdoRuntime {
             return false;
         }
         match self.last_us {
-            Some(last) if now_us > last + u64::from(event_timer_ms) * 1000 => {
+            Some(last) if now_us >= last + u64::from(event_timer_ms) * 1000 => {
                 self.timed_out = true;
                 true
             }
@@ -616,8 +616,8 @@ mod tests {
         assert!(!rt.deadline_passed(100, 1_000_000), "not received yet");
         rt.last_us = Some(0);
         assert_eq!(rt.deadline_us(100), Some(100_000));
-        assert!(!rt.deadline_passed(100, 100_000));
-        assert!(rt.deadline_passed(100, 100_001));
+        assert!(!rt.deadline_passed(100, 99_999));
+        assert!(rt.deadline_passed(100, 100_000));
         assert!(!rt.deadline_passed(100, 200_000), "reported once");
         assert!(!RpdoRuntime::default().deadline_passed(0, u64::MAX));
     }

@@ -3,7 +3,7 @@
 //!
 //! A SYNC frame carries no data, or one byte, the counter (1..=0x1019 value), when 0x1019 is
 //! 2..=240. A SYNC of the other length is reported (EMCY 0x8240) and not used. With a
-//! communication cycle period (µs) configured, a gap of more than 1.5 periods without a
+//! communication cycle period (µs) configured, a gap of 1.5 periods without a
 //! SYNC while operational is reported once (EMCY 0x8100), until SYNCs come again.
 //!
 //! This node consumes SYNC only: 0x1005 bit 30 (the node produces SYNC) and bit 29 (29-bit
@@ -130,7 +130,7 @@ impl SyncConsumer {
     /// True when the deadline has just passed at `now_us` (reported once).
     pub fn timed_out(&mut self, params: &SyncParams, now_us: u64) -> bool {
         match self.deadline_us(params) {
-            Some(t) if now_us > t => {
+            Some(t) if now_us >= t => {
                 self.timed_out = true;
                 true
             }
@@ -193,8 +193,8 @@ mod tests {
         assert!(!c.timed_out(&p, 1_000_000), "not started");
         c.receive(&p, &[], 0).unwrap();
         assert_eq!(c.deadline_us(&p), Some(15_000));
-        assert!(!c.timed_out(&p, 15_000));
-        assert!(c.timed_out(&p, 15_001));
+        assert!(!c.timed_out(&p, 14_999));
+        assert!(c.timed_out(&p, 15_000));
         assert!(!c.timed_out(&p, 20_000), "once");
         assert_eq!(c.receive(&p, &[], 30_000), Ok(SyncEvent::Resumed(None)));
     }
