@@ -18,6 +18,7 @@ pub mod abort;
 pub mod al_status;
 pub mod canopen;
 pub mod device;
+pub mod eds;
 pub mod emergency_queue;
 pub mod esi;
 pub mod esm;

@@ -58,6 +58,18 @@ pub const TPDO_COMMUNICATION: u16 = 0x1800;
 /// 0x1A00 TPDO 1 mapping parameter.
 pub const TPDO_MAPPING: u16 = 0x1A00;
 
+/// True for the entries whose default is relative to the node-ID (the COB-IDs of the
+/// predefined connection set: 0x1014, 0x1200:01/02, the PDOs' sub 1); the EDS writes their
+/// default as `$NODEID+base`.
+pub const fn is_node_relative(index: u16, sub: u8) -> bool {
+    match index {
+        COB_ID_EMCY => sub == 0,
+        SDO_SERVER_PARAMETER => sub == 1 || sub == 2,
+        RPDO_COMMUNICATION..=0x15FF | TPDO_COMMUNICATION..=0x19FF => sub == 1,
+        _ => false,
+    }
+}
+
 /// 0x1029:01 values.
 pub mod error_behaviour {
     /// Change to pre-operational (only from operational).
