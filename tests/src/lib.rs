@@ -41,6 +41,7 @@
 /// The chips: ET1100 (with its SPI front end), AD5663, AD7689.
 pub mod models {
     pub mod adc;
+    pub mod can;
     pub mod dac;
     pub mod esc;
     pub mod spi;
@@ -67,4 +68,5 @@ pub mod tools {
     pub mod loopback;
     pub mod pcap;
     pub mod sim;
+    pub mod socketcand;
 }
