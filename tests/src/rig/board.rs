@@ -1,13 +1,15 @@
-//! The virtual board: ESC + DAC + ADC + virtual clock + pcap, with a pluggable
+//! The virtual board: ESC + DAC + ADC + CAN bus + virtual clock + pcap, with a pluggable
 //! PDI-side "CPU" (the firmware's slave application, or a test responder).
 //!
 //! Frames enter through [`VirtualBoard::exchange`]. Time moves only through the board:
 //! each frame advances the clock by its wire time plus `frame_gap_ns`, and
 //! [`VirtualBoard::step`] advances it explicitly. The CPU is called in priority order at
 //! the virtual time of each event: SYNC0/SYNC1 edges first, then the (level) IRQ line
-//! while it stays asserted, then `poll`.
+//! while it stays asserted, then `poll`. Frames the CAN bus delivers to the MCU's CAN
+//! controller raise [`PdiCpu::on_can_rx`] at the time the frame ends on the bus.
 
 use crate::models::adc::{Ad7689, AdcSpi, SharedAdc};
+use crate::models::can::{CanBus, PortId, SharedCanBus};
 use crate::models::dac::{Ad5663, DacSpi, LdacPin, SharedDac};
 use crate::models::esc::{Esc, EscConfig, SyncEdge, SyncSignal};
 use crate::models::spi::{EscSpi, SharedEsc};
@@ -29,6 +31,17 @@ pub struct BoardIo {
     pub adc: AdcSpi,
     /// The virtual clock.
     pub clock: Clock,
+    /// The MCU's CAN controller: its port on the board's CAN bus.
+    pub can: CanPortIo,
+}
+
+/// The MCU's CAN controller as the CPU sees it: a port on the bus.
+#[derive(Clone)]
+pub struct CanPortIo {
+    /// The bus.
+    pub bus: SharedCanBus,
+    /// The controller's port.
+    pub port: PortId,
 }
 
 impl BoardIo {
@@ -54,6 +67,8 @@ pub trait PdiCpu {
     fn on_sync1(&mut self, _io: &mut BoardIo, _edge: &SyncEdge) {}
     /// The ESC IRQ line is asserted (level). Called again while it stays asserted.
     fn on_irq(&mut self, _io: &mut BoardIo) {}
+    /// The CAN controller received frames (take them from [`BoardIo::can`]).
+    fn on_can_rx(&mut self, _io: &mut BoardIo) {}
     /// Background work after every event (lowest priority).
     fn poll(&mut self, _io: &mut BoardIo) {}
     /// The CPU's next timer deadline (virtual ns), e.g. the ADC's conversion timer: the
@@ -97,6 +112,8 @@ pub struct BoardConfig {
     pub frame_gap_ns: u64,
     /// Capture frames into a pcap.
     pub capture: bool,
+    /// Bit rate of the CAN bus (bit/s).
+    pub can_bit_rate: u32,
     /// How often `on_irq` is called for one event before the board gives up (an IRQ
     /// the CPU never clears).
     pub max_irq_calls: u32,
@@ -109,10 +126,14 @@ impl BoardConfig {
             esc: EscConfig::new(sii),
             frame_gap_ns: 10_000,
             capture: true,
+            can_bit_rate: DEFAULT_CAN_BIT_RATE,
             max_irq_calls: 64,
         }
     }
 }
+
+/// The CAN bit rate of a board unless configured (bit/s).
+pub const DEFAULT_CAN_BIT_RATE: u32 = 500_000;
 
 /// Counters of the board.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -129,6 +150,8 @@ pub struct BoardStats {
     pub irq_stuck: u64,
     /// `on_timer` calls.
     pub timer_calls: u64,
+    /// `on_can_rx` calls.
+    pub can_rx_calls: u64,
 }
 
 /// The virtual board.
@@ -138,6 +161,7 @@ pub struct VirtualBoard {
     esc: SharedEsc,
     dac: SharedDac,
     adc: SharedAdc,
+    can: SharedCanBus,
     io: BoardIo,
     cpu: Box<dyn PdiCpu>,
     pcap: Option<PcapWriter>,
@@ -154,12 +178,18 @@ impl VirtualBoard {
         let esc = Rc::new(RefCell::new(Esc::new(cfg.esc.clone())));
         let dac = Rc::new(RefCell::new(Ad5663::new(clock.clone())));
         let adc = Rc::new(RefCell::new(Ad7689::new(clock.clone())));
+        let can = CanBus::shared(cfg.can_bit_rate);
+        let port = can.borrow_mut().attach("board (LPC1754 CAN1)");
         let io = BoardIo {
             esc: EscSpi::new(esc.clone()),
             dac: DacSpi::new(dac.clone()),
             ldac: LdacPin::new(dac.clone()),
             adc: AdcSpi::new(adc.clone()),
             clock: clock.clone(),
+            can: CanPortIo {
+                bus: can.clone(),
+                port,
+            },
         };
         let pcap = cfg.capture.then(PcapWriter::new);
         Self {
@@ -168,6 +198,7 @@ impl VirtualBoard {
             esc,
             dac,
             adc,
+            can,
             io,
             cpu: Box::new(IdleCpu),
             pcap,
@@ -204,6 +235,11 @@ impl VirtualBoard {
     /// The ADC model.
     pub fn adc(&self) -> &SharedAdc {
         &self.adc
+    }
+
+    /// The CAN bus.
+    pub fn can(&self) -> &SharedCanBus {
+        &self.can
     }
 
     /// The virtual clock.
@@ -262,13 +298,14 @@ impl VirtualBoard {
                 .next_sync_edge_ns()
                 .filter(|&t| t <= target);
             let timer = self.cpu.next_timer_ns().filter(|&t| t <= target);
-            let t = match (sync, timer) {
-                (None, None) => break,
-                (Some(a), Some(b)) => a.min(b),
-                (Some(a), None) | (None, Some(a)) => a,
+            let can = self.can.borrow().next_event_ns().filter(|&t| t <= target);
+            let Some(t) = [sync, timer, can].into_iter().flatten().min() else {
+                break;
             };
             self.run_cpu_until(t);
-            if sync == Some(t) {
+            if can == Some(t) && sync != Some(t) {
+                self.can_event(t);
+            } else if sync == Some(t) {
                 // From the ESC's own time: a continuously running CPU may have moved the
                 // board's clock past the edge already (its peripherals act at their time).
                 let now = self.esc.borrow().now_ns();
@@ -277,6 +314,7 @@ impl VirtualBoard {
                 for e in edges {
                     self.deliver(e);
                 }
+                self.bus_to(t);
                 self.service();
             } else if let Some(t) = timer {
                 let now = self.esc.borrow().now_ns();
@@ -285,6 +323,7 @@ impl VirtualBoard {
                 for e in edges {
                     self.deliver(e);
                 }
+                self.bus_to(t);
                 self.stats.timer_calls += 1;
                 self.cpu.on_timer(&mut self.io);
                 // The ESC raised its IRQ line while time passed (a watchdog, an EEPROM
@@ -303,6 +342,29 @@ impl VirtualBoard {
         self.clock.set_ns(target);
         for e in edges {
             self.deliver(e);
+        }
+        self.bus_to(target);
+    }
+
+    /// The CAN bus at `t`: the frames that end there reach the controller.
+    fn can_event(&mut self, t: u64) {
+        let now = self.esc.borrow().now_ns();
+        let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
+        self.clock.set_ns(t);
+        for e in edges {
+            self.deliver(e);
+        }
+        self.bus_to(t);
+        self.service();
+    }
+
+    /// Brings the bus to `t` (the CPU may send at this time) and hands the controller the
+    /// frames that ended by then.
+    fn bus_to(&mut self, t: u64) {
+        self.can.borrow_mut().advance_to(t);
+        if self.can.borrow().has_rx(self.io.can.port) {
+            self.stats.can_rx_calls += 1;
+            self.cpu.on_can_rx(&mut self.io);
         }
     }
 

@@ -15,6 +15,7 @@
 //! Needs `CAP_NET_RAW` (root). Linux only.
 
 use crate::rig::board::VirtualBoard;
+use crate::tools::socketcand::SocketcandServer;
 use std::ffi::CString;
 use std::io;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
@@ -265,11 +266,31 @@ pub fn serve(
     opts: &ServeOptions,
     progress: &mut dyn FnMut(&ServeStats),
 ) -> io::Result<ServeStats> {
+    serve_ports(board, Some(sock), None, stop, opts, progress)
+}
+
+/// The board on the wall clock with its outside connections: EtherCAT frames on `sock` (if
+/// given) and the CAN bus through `can`, a socketcand server (if given). Runs until `stop`
+/// is set or the duration has passed; `progress` is called every `progress_every`.
+pub fn serve_ports(
+    board: &mut VirtualBoard,
+    sock: Option<&RawSocket>,
+    mut can: Option<&mut SocketcandServer>,
+    stop: &AtomicBool,
+    opts: &ServeOptions,
+    progress: &mut dyn FnMut(&ServeStats),
+) -> io::Result<ServeStats> {
     let start = Instant::now();
     let t0 = board.now_ns();
     let mut stats = ServeStats::default();
     let mut buf = vec![0u8; 16 * 1024];
     let mut next_progress = start + opts.progress_every;
+    // With both, neither waits long for the other.
+    let tick = if sock.is_some() && can.is_some() {
+        opts.tick / 4
+    } else {
+        opts.tick
+    };
     loop {
         let now = Instant::now();
         stats.elapsed = now - start;
@@ -284,7 +305,17 @@ pub fn serve(
             progress(&stats);
             next_progress += opts.progress_every;
         }
-        let got = sock.recv(&mut buf, opts.tick)?;
+        let got = match (sock, can.as_deref()) {
+            (Some(sock), _) => sock.recv(&mut buf, tick)?,
+            (None, Some(server)) => {
+                server.wait(tick);
+                None
+            }
+            (None, None) => {
+                std::thread::sleep(tick);
+                None
+            }
+        };
         // Bring the board's virtual time up to the wall clock (never backwards), by at most
         // one tick per frame or wait: a board slower than real time (the image
         // co-simulator on a busy machine) then runs slow instead of leaving the frames
@@ -294,6 +325,9 @@ pub fn serve(
             let tick = opts.tick.as_nanos() as u64;
             board.step((wall - board.now_ns()).min(tick.max(1)));
         }
+        if let Some(server) = can.as_deref_mut() {
+            server.serve(&mut board.can().borrow_mut());
+        }
         let Some(n) = got else { continue };
         let frame = &buf[..n];
         if n < 16 || u16::from_be_bytes([frame[12], frame[13]]) != ETHERTYPE_ECAT {
@@ -301,7 +335,9 @@ pub fn serve(
             continue;
         }
         let reply = board.exchange(frame);
-        sock.send(&reply)?;
+        if let Some(sock) = sock {
+            sock.send(&reply)?;
+        }
         stats.frames += 1;
     }
     stats.al_status = board

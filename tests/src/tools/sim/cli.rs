@@ -19,7 +19,8 @@ pub struct SimArgs {
     #[arg(long, value_name = "N", default_value_t = super::DEFAULT_CYCLE_US)]
     pub cycle_us: u32,
     /// In process: virtual seconds of loop-back per frequency (default 0.1, at most 60).
-    /// With --iface: how long to serve, in wall-clock seconds (default: until Ctrl-C).
+    /// With --iface or --can-port: how long to serve, in wall-clock seconds (default: until
+    /// Ctrl-C).
     #[arg(long, value_name = "S")]
     pub seconds: Option<f64>,
     /// Frequencies of the input sine in Hz, one run each (repeat the option or give
@@ -49,12 +50,24 @@ pub struct SimArgs {
     /// inputs) instead of the firmware: for checking a master's link only.
     #[arg(long)]
     pub echo: bool,
+    /// Serve the module's CAN bus through socketcand on 127.0.0.1:PORT (wall-clock time,
+    /// until Ctrl-C or --seconds; together with --iface both fieldbuses are served):
+    /// python-can's `socketcand` interface, channel `can0`, connects to it.
+    #[arg(long, value_name = "PORT")]
+    pub can_port: Option<u16>,
+    /// CAN bit rate in bit/s (125000, 250000, 500000, 800000 or 1000000).
+    #[arg(long, value_name = "BPS", default_value_t = crate::rig::board::DEFAULT_CAN_BIT_RATE)]
+    pub can_bit_rate: u32,
+    /// The module's CANopen node-ID (1..=127).
+    #[arg(long, value_name = "N", default_value_t = super::DEFAULT_NODE_ID)]
+    pub node_id: u8,
 }
 
 /// The examples and notes under `--help`.
 pub const AFTER_HELP: &str = "\
 The board's virtual time: in process it advances with the frames and the cycle (a run is
-fast and repeatable; --seconds is virtual time); on an interface it follows the wall clock.
+fast and repeatable; --seconds is virtual time); on an interface or with --can-port it
+follows the wall clock.
 
 Loop-back figures (per frequency): amplitude and offset of the DAC output's fundamental,
 amplitude error against the input, latency (phase delay of the fundamental, including the
@@ -65,7 +78,8 @@ Examples:
   cargo xtask sim
   cargo xtask sim --cycle-us 100 --freq 1000 --seconds 0.05 --pcap sim.pcap
   sudo ip link add vb0 type veth peer name vb1 && sudo ip link set vb0 up && sudo ip link set vb1 up
-  sudo cargo xtask sim --iface vb1          # then point a master at vb0 (README)";
+  sudo cargo xtask sim --iface vb1          # then point a master at vb0 (README)
+  cargo xtask sim --can-port 29536          # then python-canopen on the same machine (README)";
 
 impl SimArgs {
     /// The run's configuration.
@@ -80,6 +94,9 @@ impl SimArgs {
             ao_channel: self.ao,
             pcap: self.pcap.clone(),
             iface: self.iface.clone(),
+            can_port: self.can_port,
+            can_bit_rate: self.can_bit_rate,
+            node_id: self.node_id,
         }
     }
 }
@@ -93,7 +110,7 @@ pub fn print(line: Line) {
 }
 
 /// Runs the board with the target `make_target` gives (called after the options are
-/// checked): in process, or on `--iface`. `after` prints what the caller adds (the image
+/// checked): in process, or on the wall clock (`--iface`, `--can-port`). `after` prints what the caller adds (the image
 /// co-simulator's facts) before the verdict.
 pub fn run(
     args: &SimArgs,
@@ -109,9 +126,9 @@ pub fn run(
     let Some(target) = make_target(args.echo)? else {
         return Ok(());
     };
-    if cfg.iface.is_some() {
+    if cfg.wall_clock() {
         let stop = crate::tools::iface::ctrl_c_flag();
-        let served = super::run_on_interface(&cfg, target, stop, &mut print);
+        let served = super::run_wall_clock(&cfg, target, stop, &mut print);
         after();
         served.map_err(|e| e.to_string())?;
         if let Some(path) = &cfg.pcap {

@@ -6,8 +6,10 @@
 //!   object dictionary summary over SDO, then runs the thesis loop-back experiment: a sine
 //!   into an analog input, the master copies that input to an analog output every cycle,
 //!   and the DAC model's output is analysed ([`crate::tools::loopback`]).
-//! - [`run_on_interface`]: the board on a Linux network interface ([`crate::tools::iface`]), for
-//!   any external master, on wall-clock time.
+//! - [`run_wall_clock`]: the board on wall-clock time for masters outside the process: on a
+//!   Linux network interface ([`crate::tools::iface`]) for any EtherCAT master, and/or on
+//!   its CAN bus through a socketcand server ([`crate::tools::socketcand`]) for any CANopen
+//!   master (python-canopen through python-can's `socketcand` interface).
 //!
 //! What runs on the board's PDI side is a [`Target`]: the firmware's slave application
 //! ([`firmware_target`]) or the transport test responder ([`responder::EchoResponder`]).
@@ -18,10 +20,12 @@ pub mod responder;
 pub mod tshark;
 
 use crate::models::adc::Signal;
+use crate::models::can::BIT_RATES;
 use crate::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
 use crate::rig::master::tx_rx_task;
 use crate::tools::iface::{self, RawSocket, ServeOptions, ServeStats};
 use crate::tools::loopback::{self, Analysis, AnalysisOptions};
+use crate::tools::socketcand::{SocketcandServer, BUS_NAME};
 use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{
@@ -52,6 +56,9 @@ pub const DEFAULT_AMPLITUDE_V: f64 = 4.0;
 /// Offset of the input sine (V).
 pub const DEFAULT_OFFSET_V: f64 = 5.0;
 
+/// The module's CANopen node-ID unless configured.
+pub const DEFAULT_NODE_ID: u8 = firmware_device::DEFAULT_CAN_NODE_ID;
+
 /// What `cargo xtask sim` does.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimConfig {
@@ -74,6 +81,12 @@ pub struct SimConfig {
     pub pcap: Option<PathBuf>,
     /// Attach to this network interface instead of the in-process master.
     pub iface: Option<String>,
+    /// Serve the CAN bus through socketcand on this TCP port (wall-clock time).
+    pub can_port: Option<u16>,
+    /// CAN bit rate (bit/s, one of [`BIT_RATES`]).
+    pub can_bit_rate: u32,
+    /// The module's CANopen node-ID (1..=127).
+    pub node_id: u8,
 }
 
 impl Default for SimConfig {
@@ -88,6 +101,9 @@ impl Default for SimConfig {
             ao_channel: 0,
             pcap: None,
             iface: None,
+            can_port: None,
+            can_bit_rate: crate::rig::board::DEFAULT_CAN_BIT_RATE,
+            node_id: DEFAULT_NODE_ID,
         }
     }
 }
@@ -125,7 +141,7 @@ impl SimConfig {
             if !(s.is_finite() && s > 0.0) {
                 return err(format!("--seconds {s}: must be a positive number"));
             }
-            if self.iface.is_none() && s > 60.0 {
+            if !self.wall_clock() && s > 60.0 {
                 return err(format!(
                     "--seconds {s}: at most 60 s of virtual time per frequency in process"
                 ));
@@ -145,7 +161,7 @@ impl SimConfig {
                     self.cycle_us
                 ));
             }
-            if self.iface.is_none() {
+            if !self.wall_clock() {
                 let secs = self.loopback_seconds();
                 if secs * f < 1.0 {
                     return err(format!(
@@ -176,7 +192,26 @@ impl SimConfig {
                 self.ao_channel
             ));
         }
+        if !BIT_RATES.contains(&self.can_bit_rate) {
+            return err(format!(
+                "--can-bit-rate {}: the CAN controller runs at {}",
+                self.can_bit_rate,
+                BIT_RATES.map(|r| r.to_string()).join(", ")
+            ));
+        }
+        if !(1..=127).contains(&self.node_id) {
+            return err(format!(
+                "--node-id {}: a CANopen node-ID is 1..=127",
+                self.node_id
+            ));
+        }
         Ok(())
+    }
+
+    /// True when the board runs on the wall clock for masters outside the process
+    /// (`--iface` and/or `--can-port`).
+    pub fn wall_clock(&self) -> bool {
+        self.iface.is_some() || self.can_port.is_some()
     }
 
     /// Virtual seconds of loop-back per frequency (in process).
@@ -864,20 +899,41 @@ async fn master(
     Ok(())
 }
 
-/// Serves the board on a network interface until Ctrl-C (or `cfg.seconds`).
-pub fn run_on_interface(
+/// What a wall-clock run served.
+#[derive(Clone, Debug, Default)]
+pub struct WallClockReport {
+    /// EtherCAT side (frames answered on the interface, time served, AL status).
+    pub ecat: ServeStats,
+    /// CAN side, if served: connections and frames through socketcand, frames on the bus.
+    pub can: Option<(crate::tools::socketcand::ServerStats, u64)>,
+}
+
+/// Serves the board on the wall clock until Ctrl-C (or `cfg.seconds`): on the network
+/// interface `cfg.iface` for an EtherCAT master and/or on the CAN bus through socketcand
+/// on `cfg.can_port` for a CANopen master. Without `--iface` the EtherCAT port stays
+/// unconnected (the module is a CANopen device only, its ESM in INIT).
+pub fn run_wall_clock(
     cfg: &SimConfig,
     target: Target,
     stop: &AtomicBool,
     out: Out<'_>,
-) -> Result<ServeStats, SimError> {
-    let name = cfg
-        .iface
-        .as_deref()
-        .ok_or_else(|| SimError("no interface given".into()))?;
-    let sock = RawSocket::open(name).map_err(|e| SimError(e.to_string()))?;
+) -> Result<WallClockReport, SimError> {
+    cfg.validate().map_err(|e| SimError(e.to_string()))?;
+    let sock = match cfg.iface.as_deref() {
+        Some(name) => Some(RawSocket::open(name).map_err(|e| SimError(e.to_string()))?),
+        None => None,
+    };
+    let mut server = match cfg.can_port {
+        Some(port) => Some(SocketcandServer::bind(port).map_err(|e| {
+            SimError(format!(
+                "--can-port {port}: cannot listen on 127.0.0.1:{port}: {e}"
+            ))
+        })?),
+        None => None,
+    };
     let mut bcfg = BoardConfig::new(target.sii);
     bcfg.capture = cfg.pcap.is_some();
+    bcfg.can_bit_rate = cfg.can_bit_rate;
     let mut board = VirtualBoard::new(bcfg);
     let cpu = (target.make_cpu)(board.io());
     board.set_cpu(cpu);
@@ -887,42 +943,72 @@ pub fn run_on_interface(
         freq_hz: cfg.freqs_hz[0],
         phase: 0.0,
     };
+    let until = match cfg.seconds {
+        Some(s) => format!(" for {s} s"),
+        None => " until Ctrl-C".into(),
+    };
     out(Line::Result(format!(
-        "virtual board on `{name}` (ifindex {}), PDI side: {}; AI{} = {} V +- {} V at {} Hz; \
-         waiting for EtherCAT frames{}",
-        sock.ifindex(),
-        target.description,
-        cfg.ai_channel,
-        cfg.offset_v,
-        cfg.amplitude_v,
-        cfg.freqs_hz[0],
-        match cfg.seconds {
-            Some(s) => format!(" for {s} s"),
-            None => " until Ctrl-C".into(),
-        }
+        "virtual board, PDI side: {}; AI{} = {} V +- {} V at {} Hz; serving{until}",
+        target.description, cfg.ai_channel, cfg.offset_v, cfg.amplitude_v, cfg.freqs_hz[0],
     )));
+    if let (Some(sock), Some(name)) = (&sock, cfg.iface.as_deref()) {
+        out(Line::Result(format!(
+            "EtherCAT: interface `{name}` (ifindex {}), waiting for frames",
+            sock.ifindex()
+        )));
+    }
+    if let Some(server) = &server {
+        out(Line::Result(format!(
+            "CAN: {} kbit/s, node-ID {}; socketcand on 127.0.0.1:{} (bus `{BUS_NAME}`): \
+             python-can `can.Bus(interface=\"socketcand\", host=\"127.0.0.1\", port={}, channel=\"{BUS_NAME}\")`",
+            cfg.can_bit_rate / 1000,
+            cfg.node_id,
+            server.port(),
+            server.port(),
+        )));
+    }
     let opts = ServeOptions {
         duration: cfg.seconds.map(Duration::from_secs_f64),
         ..Default::default()
     };
-    let stats = iface::serve(&mut board, &sock, stop, &opts, &mut |s| {
-        out(Line::Progress(format!(
-            "{:6.1} s: {} frames answered, AL status {:#06x}",
-            s.elapsed.as_secs_f64(),
-            s.frames,
-            s.al_status
-        )))
-    })
-    .map_err(|e| SimError(format!("interface `{name}`: {e}")))?;
+    let can_frames = |b: &VirtualBoard| b.can().borrow().stats.frames;
+    let stats = iface::serve_ports(
+        &mut board,
+        sock.as_ref(),
+        server.as_mut(),
+        stop,
+        &opts,
+        &mut |s| {
+            out(Line::Progress(format!(
+                "{:6.1} s: {} EtherCAT frames answered, AL status {:#06x}",
+                s.elapsed.as_secs_f64(),
+                s.frames,
+                s.al_status
+            )))
+        },
+    )
+    .map_err(|e| SimError(format!("serving: {e}")))?;
+    let report = WallClockReport {
+        ecat: stats.clone(),
+        can: server
+            .as_ref()
+            .map(|s| (s.stats.clone(), can_frames(&board))),
+    };
     out(Line::Result(format!(
-        "served {} frames in {:.1} s ({} dropped); AL status {:#06x}; DAC outputs A {:.4} V, B {:.4} V",
-        stats.frames,
+        "served {:.1} s: {} EtherCAT frames ({} dropped), AL status {:#06x}; DAC outputs A {:.4} V, B {:.4} V",
         stats.elapsed.as_secs_f64(),
+        stats.frames,
         stats.dropped,
         stats.al_status,
         board.dac().borrow().output_volts(0).unwrap_or(0.0),
         board.dac().borrow().output_volts(1).unwrap_or(0.0),
     )));
+    if let Some((s, frames)) = &report.can {
+        out(Line::Result(format!(
+            "CAN: {frames} frames on the bus; socketcand: {} connections, {} frames in, {} out",
+            s.connections, s.frames_in, s.frames_out
+        )));
+    }
     if let (Some(path), Some(p)) = (&cfg.pcap, board.pcap()) {
         p.save(path)
             .map_err(|e| SimError(format!("cannot write {}: {e}", path.display())))?;
@@ -932,7 +1018,7 @@ pub fn run_on_interface(
             path.display()
         )));
     }
-    Ok(stats)
+    Ok(report)
 }
 
 #[cfg(test)]
