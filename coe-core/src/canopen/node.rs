@@ -176,27 +176,29 @@ impl Outbox {
         }
     }
 
-    /// The frame with the lowest identifier (the one that wins arbitration); among equal
-    /// identifiers the oldest.
-    fn pop(&mut self) -> Option<CanFrame> {
-        let mut best: Option<usize> = None;
+    /// Where the frame with the lowest identifier (the one that wins arbitration) is; among
+    /// equal identifiers the oldest.
+    fn best(&self) -> Option<usize> {
+        let mut best: Option<(usize, u16)> = None;
         for (i, f) in self.frames.iter().enumerate() {
             if let Some(f) = f {
-                let better = match best.and_then(|b| self.frames.get(b).copied().flatten()) {
-                    Some(b) => f.id() < b.id(),
-                    None => true,
-                };
-                if better {
-                    best = Some(i);
+                if best.is_none_or(|(_, id)| f.id() < id) {
+                    best = Some((i, f.id()));
                 }
             }
         }
-        let frame = self.frames.get_mut(best?)?.take();
+        best.map(|(i, _)| i)
+    }
+
+    fn peek(&self) -> Option<CanFrame> {
+        self.frames.get(self.best()?).copied().flatten()
+    }
+
+    fn pop(&mut self) -> Option<CanFrame> {
+        let i = self.best()?;
+        let frame = self.frames.get_mut(i)?.take();
         // Keep the order of the rest: shift later frames down.
-        if let Some(i) = best {
-            let tail = self.frames.get_mut(i..).unwrap_or_default();
-            tail.rotate_left(1);
-        }
+        self.frames.get_mut(i..).unwrap_or_default().rotate_left(1);
         frame
     }
 
@@ -486,6 +488,12 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
     /// The next frame to send (lowest identifier first).
     pub fn pop_tx(&mut self) -> Option<CanFrame> {
         self.outbox.pop()
+    }
+
+    /// The frame [`CanNode::pop_tx`] would give, left in place (for a controller that may
+    /// have no free buffer).
+    pub fn peek_tx(&self) -> Option<CanFrame> {
+        self.outbox.peek()
     }
 
     /// Queues an Emergency of the application (e.g. one the EtherCAT side raised); it goes

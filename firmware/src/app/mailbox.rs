@@ -35,12 +35,12 @@
 //!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
 //!   catches anything the events missed.
 
-use super::objects::AppData;
 use crate::boot::staging::is_firmware_name;
 use crate::product::capacity::{EMERGENCY_QUEUE, MAILBOX_SIZE, TRANSFER_BUFFER};
 use coe_core::device::sm_control;
 use coe_core::foe::{FileStore, FoeEndpoint, FoeError, FoeServer, WriteRefusal};
 use coe_core::mailbox::MAILBOX_HEADER_LEN;
+use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
 use coe_core::wire::FoeErrorCode;
 use coe_core::AlState;
@@ -67,13 +67,13 @@ pub type Server = SdoServer<MAILBOX_SIZE, TRANSFER_BUFFER, EMERGENCY_QUEUE>;
 /// free SM1.
 pub trait MailboxServer {
     /// What the server works on besides the frames (the application's objects, the
-    /// bootloader's file store).
-    type Context: ?Sized;
+    /// bootloader's file store), borrowed for one call.
+    type Context<'a>: ?Sized;
 
     /// Serves one request (the whole SM0 content) into `reply` (the read mailbox size).
     fn process(
         &mut self,
-        ctx: &mut Self::Context,
+        ctx: &mut Self::Context<'_>,
         request: &[u8],
         state: AlState,
         now_ms: u32,
@@ -81,7 +81,7 @@ pub trait MailboxServer {
     ) -> Reply;
 
     /// A frame that waits for SM1 (fragments, Emergencies), if any.
-    fn poll(&mut self, ctx: &mut Self::Context, reply: &mut [u8]) -> Reply;
+    fn poll(&mut self, ctx: &mut Self::Context<'_>, reply: &mut [u8]) -> Reply;
 
     /// The last frame again (the repeat request).
     fn repeat(&self, reply: &mut [u8]) -> Reply;
@@ -90,7 +90,7 @@ pub trait MailboxServer {
     fn has_outgoing(&self) -> bool;
 
     /// An ESM transition.
-    fn on_state_change(&mut self, ctx: &mut Self::Context, from: AlState, to: AlState);
+    fn on_state_change(&mut self, ctx: &mut Self::Context<'_>, from: AlState, to: AlState);
 }
 
 /// The application's FoE files: none. A firmware file (`*.efw`) is written in BOOT, where
@@ -118,16 +118,19 @@ impl FileStore for BootOnlyFiles {
     fn abort(&mut self) {}
 }
 
-/// The application's server: the SDO server, FoE on the same mailbox beside it.
+/// The application's server: the SDO server on the dictionary `od`, FoE on the same
+/// mailbox beside it.
 pub struct AppServer {
+    od: &'static ObjectDictionary,
     sdo: Server,
     foe: FoeServer,
 }
 
 impl AppServer {
     /// Nothing in progress.
-    pub const fn new() -> Self {
+    pub const fn new(od: &'static ObjectDictionary) -> Self {
         Self {
+            od,
             sdo: SdoServer::new(),
             foe: FoeServer::new(),
         }
@@ -139,34 +142,29 @@ impl AppServer {
     }
 }
 
-impl Default for AppServer {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
 impl MailboxServer for AppServer {
-    type Context = AppData;
+    /// The dictionary's objects, as `dyn`: the SDO machine exists once in the image, for
+    /// this mailbox and the CAN node's SDO server alike.
+    type Context<'a> = dyn ObjectAccess + 'a;
 
     fn process(
         &mut self,
-        data: &mut AppData,
+        objects: &mut (dyn ObjectAccess + '_),
         request: &[u8],
         state: AlState,
         now_ms: u32,
         reply: &mut [u8],
     ) -> Reply {
-        let od = data.od();
         let mut foe = FoeEndpoint {
             server: &mut self.foe,
             files: &mut BootOnlyFiles,
         };
         self.sdo
-            .process_with(request, state, od, data, now_ms, reply, &mut foe)
+            .process_with(request, state, self.od, objects, now_ms, reply, &mut foe)
     }
 
-    fn poll(&mut self, data: &mut AppData, reply: &mut [u8]) -> Reply {
-        self.sdo.poll(data.od(), reply)
+    fn poll(&mut self, _: &mut (dyn ObjectAccess + '_), reply: &mut [u8]) -> Reply {
+        self.sdo.poll(self.od, reply)
     }
 
     fn repeat(&self, reply: &mut [u8]) -> Reply {
@@ -177,7 +175,7 @@ impl MailboxServer for AppServer {
         self.sdo.has_outgoing()
     }
 
-    fn on_state_change(&mut self, _: &mut AppData, from: AlState, to: AlState) {
+    fn on_state_change(&mut self, _: &mut (dyn ObjectAccess + '_), from: AlState, to: AlState) {
         self.sdo.on_state_change(from, to);
         self.foe.on_state_change(from, to, &mut BootOnlyFiles);
     }
@@ -223,13 +221,12 @@ pub struct MailboxLink<S, const MBX: usize> {
 /// The application's link.
 pub type AppLink = MailboxLink<AppServer, MAILBOX_SIZE>;
 
-impl Default for AppLink {
-    fn default() -> Self {
-        Self::new(AppServer::new())
-    }
-}
-
 impl AppLink {
+    /// The application's link on the dictionary `od`, nothing pending.
+    pub const fn for_dictionary(od: &'static ObjectDictionary) -> Self {
+        Self::new(AppServer::new(od))
+    }
+
     /// Queues an Emergency (sent when SM1 is free).
     pub fn queue_emergency(&mut self, emergency: Emergency) {
         self.server.sdo.queue_emergency(emergency);
@@ -311,7 +308,7 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
     }
 
     /// ESM transition.
-    pub fn on_state_change(&mut self, ctx: &mut S::Context, from: AlState, to: AlState) {
+    pub fn on_state_change(&mut self, ctx: &mut S::Context<'_>, from: AlState, to: AlState) {
         self.server.on_state_change(ctx, from, to);
         if to == AlState::Init {
             self.pending = 0;
@@ -362,7 +359,7 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
         &mut self,
         esc: &mut Et1100<P>,
         state: AlState,
-        ctx: &mut S::Context,
+        ctx: &mut S::Context<'_>,
         now_ms: u32,
         how: Service,
     ) -> PdiResult<(), P> {
@@ -420,7 +417,7 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
     fn send_background<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        ctx: &mut S::Context,
+        ctx: &mut S::Context<'_>,
         sm1: &SyncManager,
     ) -> PdiResult<(), P> {
         let reply_len = usize::from(sm1.length).min(MBX);
@@ -596,7 +593,7 @@ mod tests {
         assert!(sm0.mailbox_full() && sm1.mailbox_full());
         assert_eq!((sm1.repeat_request(), sm1.repeat_ack()), (false, true));
 
-        let mut link = AppLink::default();
+        let mut link = AppLink::for_dictionary(&crate::product::od::OD);
         link.start(&mut esc.driver(), sm0, sm1).unwrap();
         let (sm0, sm1) = (esc.sm(0), esc.sm(1));
         assert!(

@@ -7,6 +7,7 @@
 //! |----------------------------|----------------------------------------|---------------------------------|
 //! | SYNC0 / DAC task (highest) | [`DacLatch::on_sync0`], [`DacLatch::apply_now`], [`DacLatch::preload`] | its `DacLatch` (local), `&OutputStage` (atomics) |
 //! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`]               | `SlaveApp` (local), the ESC, `&OutputStage` |
+//! | CAN task (middle, same as the PDI task) | [`SlaveApp::on_can_frame`], [`SlaveApp::poll_can`], [`SlaveApp::can_tx`] | same as the PDI task |
 //! | background / idle          | [`SlaveApp::poll`]                     | same as the PDI task (call it from that task, or lock) |
 //! | GPDMA interrupt (lowest)   | [`adc_dma::HalfCounter::on_terminal_count`] | the half count (atomic)    |
 //! | sampler task (`adc-irq`)   | [`sampler::SampleProducer::push`]      | its producer half (local)       |
@@ -40,6 +41,8 @@
 
 pub mod adc_dma;
 pub mod adc_scan;
+pub mod can;
+pub mod can_task;
 pub mod confirm;
 pub mod dac;
 pub mod diagnostics;
@@ -58,18 +61,18 @@ pub mod timebase;
 #[cfg(test)]
 mod tests;
 
+use crate::product::can::{COMM_DEFAULTS, DEFAULT_NODE_ID};
 use crate::product::capacity::MAX_IMAGE;
 use crate::product::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use crate::product::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
+use can::{CanView, Node};
+use coe_core::canopen::{CanFrame, NmtState};
 use coe_core::device::{MemoryWindow, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
 use coe_core::od::ObjectDictionary;
 use coe_core::{AlState, AlStatusCode};
 use confirm::Confirmed;
-use diagnostics::{
-    EMCY_AO_OUT_OF_RANGE, EMCY_PDI_ERROR, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION,
-    ERR_MANUFACTURER,
-};
+use diagnostics::{EMCY_PDI_ERROR, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION};
 use et1100::{
     AlEvents, AlStatus, Et1100, Pdi, PdiResult, Register, SmMode, SyncManager, WatchdogStatus,
 };
@@ -94,6 +97,8 @@ pub struct AppConfig {
     /// for INIT -> BOOT, which resets the module into its bootloader; `None`: no BOOT state
     /// (refused with 0x0013).
     pub bootstrap: Option<(MemoryWindow, MemoryWindow)>,
+    /// The CANopen node-ID (1..=127).
+    pub can_node_id: u8,
 }
 
 impl AppConfig {
@@ -104,6 +109,7 @@ impl AppConfig {
             sm: SYNC_MANAGERS,
             device_id: None,
             bootstrap: Some(BOOTSTRAP_MAILBOX),
+            can_node_id: DEFAULT_NODE_ID,
         }
     }
 }
@@ -127,10 +133,12 @@ const BASE_EVENTS: AlEvents = AlEvents::AL_CONTROL
     .union(AlEvents::SM_ACTIVATION)
     .union(AlEvents::WATCHDOG);
 
-/// The slave application (PDI side).
+/// The slave application: the EtherCAT side (ESM, mailbox, process data over the PDI) and
+/// the CAN side (the CANopen node, [`can`]) on one dictionary.
 pub struct SlaveApp {
     esm: Esm,
     mailbox: AppLink,
+    can: Node,
     data: AppData,
     config: AppConfig,
     mask: Option<AlEvents>,
@@ -161,7 +169,8 @@ impl SlaveApp {
             esm: Esm::new()
                 .with_device_id(config.device_id)
                 .with_bootstrap(config.bootstrap.is_some()),
-            mailbox: AppLink::default(),
+            mailbox: AppLink::for_dictionary(od),
+            can: Node::new(config.can_node_id, od, &COMM_DEFAULTS),
             data: AppData::new(od, pd),
             config,
             mask: None,
@@ -195,6 +204,11 @@ impl SlaveApp {
     /// The mailbox link.
     pub fn mailbox(&self) -> &AppLink {
         &self.mailbox
+    }
+
+    /// The CANopen node.
+    pub fn can_node(&self) -> &Node {
+        &self.can
     }
 
     /// The sampler (the PDI task drains the sample ring into it).
@@ -330,6 +344,7 @@ impl SlaveApp {
     /// Writes AL status code and AL status and reads them back, writing again what did not
     /// arrive: the master must see the state the slave is in, and the SPI has no checksum.
     fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        self.data.running.ethercat = matches!(self.esm.state(), AlState::SafeOp | AlState::Op);
         let (status, code) = (self.esm.status(), self.esm.status_code_word());
         for _ in 0..confirm::MAX_READS {
             esc.write_al_status(AlStatus(status), code)?;
@@ -345,6 +360,12 @@ impl SlaveApp {
             }
         }
         Ok(())
+    }
+
+    /// An Emergency of the application: out on both fieldbuses.
+    fn emergency(&mut self, e: coe_core::sdo_server::Emergency) {
+        self.mailbox.queue_emergency(e);
+        self.can.queue_emergency(e);
     }
 
     fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
@@ -381,7 +402,7 @@ impl SlaveApp {
         let decision = self.esm.request(control);
         if had_error && !self.esm.error() {
             if let Some(e) = self.data.diag.clear(ERR_COMMUNICATION) {
-                self.mailbox.queue_emergency(e);
+                self.emergency(e);
             }
         }
         match decision {
@@ -494,6 +515,10 @@ impl SlaveApp {
             Ok(mode) => mode,
             Err(e) => return Ok(Err(e.al_status_code())),
         };
+        if self.data.source == objects::OutputSource::Can && self.data.pd.output_len() > 0 {
+            // CAN drives the outputs (crate::product::can): EtherCAT runs inputs only.
+            return Ok(Err(AlStatusCode::InvalidOutputConfiguration));
+        }
         let [_, _, expect2, expect3] = self.config.sm;
         let od = self.data.od();
         if let Err(code) = self.data.pd.prepare(od, &sm2, &sm3, &expect2, &expect3) {
@@ -523,7 +548,7 @@ impl SlaveApp {
                 .data
                 .diag
                 .raise(ERR_COMMUNICATION, EMCY_WATCHDOG, [0; 5]);
-            self.mailbox.queue_emergency(e);
+            self.emergency(e);
         }
         Ok(())
     }
@@ -543,7 +568,7 @@ impl SlaveApp {
             EMCY_SYNC_ERROR,
             [counter[0], counter[1], 0, 0, 0],
         );
-        self.mailbox.queue_emergency(e);
+        self.emergency(e);
         if self.esm.state() == AlState::Op {
             self.local_error(esc, stage, code, out)?;
         }
@@ -583,7 +608,7 @@ impl SlaveApp {
                 .data
                 .diag
                 .report(EMCY_PDI_ERROR, [b[0], b[1], lo, hi, 0]);
-            self.mailbox.queue_emergency(e);
+            self.emergency(e);
         }
         Ok(())
     }
@@ -641,28 +666,8 @@ impl SlaveApp {
             .on_sm2_event(now_ns, in_op, stage.sync0_counts());
         if in_op {
             if let Ok(ao) = self.data.pd.unpack_ao(self.data.outputs.values(), state) {
-                let set = self.data.outputs.set_values(ao, true, stage);
-                if set.newly_out_of_range {
-                    let mask = ao.iter().enumerate().fold(
-                        0u8,
-                        |m, (i, v)| {
-                            if *v < 0 {
-                                m | 1 << i
-                            } else {
-                                m
-                            }
-                        },
-                    );
-                    let e = self.data.diag.raise(
-                        ERR_MANUFACTURER,
-                        EMCY_AO_OUT_OF_RANGE,
-                        [mask, 0, 0, 0, 0],
-                    );
-                    self.mailbox.queue_emergency(e);
-                } else if !set.out_of_range {
-                    if let Some(e) = self.data.diag.clear(ERR_MANUFACTURER) {
-                        self.mailbox.queue_emergency(e);
-                    }
+                if let (_, Some(e)) = self.data.set_outputs(ao, true, stage) {
+                    self.emergency(e);
                 }
                 if self.data.sync.mode() != SyncMode::DcSync0 {
                     out.apply_outputs = true;
@@ -765,15 +770,86 @@ impl SlaveApp {
         }
         // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
         let now_ms = div::div_u64_u32(now_ns >> 6, 15_625) as u32;
-        self.mailbox
-            .service(esc, state, &mut self.data, now_ms, how)?;
-        if let Some(values) = self.data.take_ao_written() {
-            let set = self
-                .data
-                .outputs
-                .set_values(values, state == AlState::Op, stage);
-            out.apply_outputs |= set.staged;
+        let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
+        // The CAN node's access: its communication objects, the rest the application's.
+        let mut access = self.can.access(&mut view, micros(now_ns));
+        self.mailbox.service(esc, state, &mut access, now_ms, how)?;
+        // SDO-written outputs take effect if EtherCAT drives the outputs and is in OP.
+        if let Some(values) = view.data.take_ao_written() {
+            let owner = view.data.source == objects::OutputSource::EtherCat;
+            view.stage_outputs(values, owner && state == AlState::Op);
+        }
+        if let Some(e) = view.emergency.take() {
+            self.emergency(e);
         }
         Ok(())
     }
+
+    // ------------------------------------------------------------ CAN
+
+    /// A frame the CAN controller received at `now_ns`.
+    pub fn on_can_frame(
+        &mut self,
+        frame: &CanFrame,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiOutcome {
+        self.can_call(stage, now_ns, |node, view, now_us| {
+            node.receive(frame, view, now_us)
+        })
+    }
+
+    /// The CAN node's timers at `now_ns` (call at [`SlaveApp::can_deadline_ns`] at the
+    /// latest).
+    pub fn poll_can(&mut self, stage: &OutputStage, now_ns: u64) -> PdiOutcome {
+        self.can_call(stage, now_ns, |_, _, _| {})
+    }
+
+    /// The next frame for the CAN controller (highest priority first).
+    pub fn can_tx(&mut self) -> Option<CanFrame> {
+        self.can.pop_tx()
+    }
+
+    /// The frame [`SlaveApp::can_tx`] would give, left in place.
+    pub fn peek_can_tx(&self) -> Option<CanFrame> {
+        self.can.peek_tx()
+    }
+
+    /// When [`SlaveApp::poll_can`] must run next (ns).
+    pub fn can_deadline_ns(&self) -> Option<u64> {
+        self.can
+            .next_deadline_us()
+            .map(|us| us.saturating_mul(1000))
+    }
+
+    /// One call into the CAN node, then its poll, and what follows from it for the outputs
+    /// and the other fieldbus.
+    fn can_call(
+        &mut self,
+        stage: &OutputStage,
+        now_ns: u64,
+        call: impl FnOnce(&mut Node, &mut CanView<'_>, u64),
+    ) -> PdiOutcome {
+        let now_us = micros(now_ns);
+        let mut out = PdiOutcome::default();
+        let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
+        call(&mut self.can, &mut view, now_us);
+        self.can.poll(&mut view, now_us);
+        let operational = self.can.state() == NmtState::Operational;
+        view.data.running.can = operational;
+        // SDO-written outputs take effect if CAN drives the outputs and is operational.
+        if let Some(values) = view.data.take_ao_written() {
+            let owner = view.data.source == objects::OutputSource::Can;
+            view.stage_outputs(values, owner && operational);
+        }
+        if let Some(e) = view.emergency.take() {
+            self.emergency(e);
+        }
+        out
+    }
+}
+
+/// Nanoseconds to microseconds (32-bit divisions only).
+fn micros(now_ns: u64) -> u64 {
+    div::div_u64_u32(now_ns, 1000)
 }

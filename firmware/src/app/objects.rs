@@ -6,23 +6,70 @@
 //! 0x1001 error register, 0x10F1 error settings, 0x1600../0x1A00../0x1C12/0x1C13 PDO
 //! configuration ([`ProcessData`]), 0x1C32/0x1C33 ([`SyncMonitor`]), 0x6401 AI values
 //! ([`Sampler`]), 0x6411 AO values, 0x6443/0x6444 fault configuration, and the
-//! manufacturer settings object ([`SETTINGS_INDEX`]).
+//! manufacturer settings object ([`SETTINGS_INDEX`]), and for the CAN side the process-data
+//! source ([`PROCESS_DATA_SOURCE_INDEX`]) and 0x6423 ([`AI_INTERRUPT_ENABLE_INDEX`]).
 //!
 //! Vetoes (the SDO server has already checked existence, access per state, length and the
 //! dictionary's min/max): PDO configuration and sync mode/cycle only in PREOP (0x08000022),
+//! and the PDO configuration not while EtherCAT runs process data whichever fieldbus asks;
+//! the process-data source only while neither fieldbus runs process data (0x08000022),
 //! unsupported sync modes, fault modes, filter modes and fault values outside 0..=0x7FFF
 //! (0x06090030).
 
-use super::diagnostics::Diagnostics;
+use super::diagnostics::{Diagnostics, EMCY_AO_OUT_OF_RANGE, ERR_MANUFACTURER};
 use super::entry_bytes::{channel, put};
-use super::outputs::{AnalogOutputs, ErrorMode};
+use super::outputs::{AnalogOutputs, ErrorMode, OutputStage, SetOutcome};
 use super::process_data::ProcessData;
 use super::sampler::{PublishMode, Sampler};
 use super::sync::{le_u16, le_u32, SyncMonitor};
+use crate::product::can::{
+    AI_INTERRUPT_ENABLE_INDEX, PROCESS_DATA_SOURCE_INDEX, SOURCE_CAN, SOURCE_ETHERCAT,
+};
 use crate::product::capacity::{AI_CHANNELS, AO_CHANNELS};
 use crate::product::od::SETTINGS_INDEX;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
+use coe_core::sdo_server::Emergency;
 use coe_core::{AlState, SdoAbortCode};
+
+/// Which fieldbus drives the outputs ([`PROCESS_DATA_SOURCE_INDEX`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OutputSource {
+    /// EtherCAT (SM2), the default.
+    #[default]
+    EtherCat,
+    /// CAN (RPDOs).
+    Can,
+}
+
+impl OutputSource {
+    /// The object's value.
+    pub const fn value(self) -> u8 {
+        match self {
+            Self::EtherCat => SOURCE_ETHERCAT,
+            Self::Can => SOURCE_CAN,
+        }
+    }
+
+    /// The source a value names.
+    pub const fn from_value(value: u8) -> Option<Self> {
+        match value {
+            SOURCE_ETHERCAT => Some(Self::EtherCat),
+            SOURCE_CAN => Some(Self::Can),
+            _ => None,
+        }
+    }
+}
+
+/// Which fieldbus runs process data now (set by the ESM and the CAN node).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Running {
+    /// The ESM is in SAFEOP or OP.
+    pub ethercat: bool,
+    /// The CAN node is operational.
+    pub can: bool,
+}
 
 /// The application data behind the dictionary.
 pub struct AppData {
@@ -37,6 +84,12 @@ pub struct AppData {
     pub pd: ProcessData,
     /// Error register and 0x10F1:01.
     pub diag: Diagnostics,
+    /// Which fieldbus drives the outputs.
+    pub source: OutputSource,
+    /// CiA 401 0x6423: event-driven CAN TPDOs go out on a change of the inputs.
+    pub ai_events: bool,
+    /// Which fieldbus runs process data.
+    pub running: Running,
     ao_written: Option<[i16; AO_CHANNELS]>,
 }
 
@@ -50,7 +103,59 @@ impl AppData {
             sync: SyncMonitor::new(),
             pd,
             diag: Diagnostics::new(),
+            source: OutputSource::EtherCat,
+            ai_events: false,
+            running: Running {
+                ethercat: false,
+                can: false,
+            },
             ao_written: None,
+        }
+    }
+
+    /// New output values: staged for the DAC when `in_op` ([`AnalogOutputs::set_values`]),
+    /// and the Emergency the out-of-range rule asks for: 0xFF01 (data byte 0: the channels)
+    /// when a value becomes negative, the error reset when all are back in range.
+    pub fn set_outputs(
+        &mut self,
+        values: [i16; AO_CHANNELS],
+        in_op: bool,
+        stage: &OutputStage,
+    ) -> (SetOutcome, Option<Emergency>) {
+        let set = self.outputs.set_values(values, in_op, stage);
+        let emergency = if set.newly_out_of_range {
+            let mask = values
+                .iter()
+                .enumerate()
+                .fold(0u8, |m, (i, v)| if *v < 0 { m | 1 << i } else { m });
+            Some(
+                self.diag
+                    .raise(ERR_MANUFACTURER, EMCY_AO_OUT_OF_RANGE, [mask, 0, 0, 0, 0]),
+            )
+        } else if values.iter().all(|v| *v >= 0) {
+            self.diag.clear(ERR_MANUFACTURER)
+        } else {
+            None
+        };
+        (set, emergency)
+    }
+
+    /// The application parameters back to their power-on values (CAN NMT reset node): AO
+    /// fault configuration, AI filter, 0x6423 and the process-data source; the PDO
+    /// configuration too unless EtherCAT runs process data on it.
+    pub fn reset_parameters(&mut self) {
+        *self.outputs.fault_config_mut() = *AnalogOutputs::new().fault_config();
+        self.sampler.set_mode(PublishMode::Latest);
+        self.ai_events = false;
+        self.source = OutputSource::EtherCat;
+        self.reset_pdo_configuration();
+    }
+
+    /// The PDO configuration back to its defaults (CAN NMT reset communication while CAN
+    /// drives the outputs), unless EtherCAT runs process data on it.
+    pub fn reset_pdo_configuration(&mut self) {
+        if !self.running.ethercat {
+            self.pd.reset();
         }
     }
 
@@ -117,6 +222,8 @@ impl ObjectAccess for AppData {
                 put(buf, &v.unwrap_or(0).to_le_bytes())
             }
             (SETTINGS_INDEX, 1) => put(buf, &[self.sampler.mode().setting()]),
+            (PROCESS_DATA_SOURCE_INDEX, 0) => put(buf, &[self.source.value()]),
+            (AI_INTERRUPT_ENABLE_INDEX, 0) => put(buf, &[u8::from(self.ai_events)]),
             _ => self.read_default(index, sub, buf),
         }
     }
@@ -140,6 +247,8 @@ impl ObjectAccess for AppData {
             (0x1C32 | 0x1C33, 1 | 2) if state != AlState::PreOp => Err(SdoAbortCode::DeviceState),
             (0x1C32, _) => self.sync.write(false, sub, data),
             (0x1C33, _) => self.sync.write(true, sub, data),
+            // The other fieldbus may be in its configuration state while EtherCAT runs.
+            (i, _) if self.pd.owns(i) && self.running.ethercat => Err(SdoAbortCode::DeviceState),
             (i, _) if self.pd.owns(i) => self.pd.write(i, sub, data, state, self.od),
             (0x6411, _) => {
                 let i = channel(sub, AO_CHANNELS)?;
@@ -174,6 +283,26 @@ impl ObjectAccess for AppData {
                 if let Some(slot) = self.outputs.fault_config_mut().value.get_mut(i) {
                     *slot = v;
                 }
+                Ok(())
+            }
+            (PROCESS_DATA_SOURCE_INDEX, 0) => {
+                let source = match data {
+                    [v] => OutputSource::from_value(*v).ok_or(SdoAbortCode::ValueRangeExceeded)?,
+                    _ => return Err(SdoAbortCode::LengthMismatch),
+                };
+                if source != self.source && (self.running.ethercat || self.running.can) {
+                    return Err(SdoAbortCode::DeviceState);
+                }
+                self.source = source;
+                Ok(())
+            }
+            (AI_INTERRUPT_ENABLE_INDEX, 0) => {
+                self.ai_events = match data {
+                    [0] => false,
+                    [1] => true,
+                    [_] => return Err(SdoAbortCode::ValueRangeExceeded),
+                    _ => return Err(SdoAbortCode::LengthMismatch),
+                };
                 Ok(())
             }
             (SETTINGS_INDEX, 1) => {

@@ -560,7 +560,11 @@ mod tests {
     fn prepared(rx: &[PdoEntry], tx: &[PdoEntry]) -> ProcessData {
         let mut pd = ProcessData::new(
             [Mapping::with_entries(0x1600, rx), Mapping::new(0x1601)],
-            [Mapping::with_entries(0x1A00, tx), Mapping::new(0x1A01)],
+            [
+                Mapping::with_entries(0x1A00, tx),
+                Mapping::new(0x1A01),
+                Mapping::new(0x1A02),
+            ],
             &[0x1600],
             &[0x1A00],
         );

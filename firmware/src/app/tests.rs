@@ -140,6 +140,7 @@ fn config() -> AppConfig {
             SyncManagerDesc::new(SmRole::ProcessDataIn, PD_IN, 0, 0x20),
         ],
         device_id: Some(0x0042),
+        can_node_id: crate::product::can::DEFAULT_NODE_ID,
         bootstrap: None,
     }
 }
@@ -174,6 +175,7 @@ fn process_data() -> ProcessData {
                 &[PdoEntry::new(0x6401, 1, 16), PdoEntry::new(0x6401, 2, 16)],
             ),
             Mapping::new(0x1A01),
+            Mapping::new(0x1A02),
         ],
         &[0x1600],
         &[0x1A00],

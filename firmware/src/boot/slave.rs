@@ -58,11 +58,11 @@ impl<E: IapEntry> Default for BootServer<E> {
 }
 
 impl<E: IapEntry> MailboxServer for BootServer<E> {
-    type Context = StagingWriter<E>;
+    type Context<'a> = StagingWriter<E>;
 
     fn process(
         &mut self,
-        files: &mut Self::Context,
+        files: &mut Self::Context<'_>,
         request: &[u8],
         state: AlState,
         now_ms: u32,
@@ -71,7 +71,7 @@ impl<E: IapEntry> MailboxServer for BootServer<E> {
         self.foe.process(request, state, files, now_ms, reply)
     }
 
-    fn poll(&mut self, _: &mut Self::Context, _: &mut [u8]) -> Reply {
+    fn poll(&mut self, _: &mut Self::Context<'_>, _: &mut [u8]) -> Reply {
         // FoE answers every packet at once; nothing waits.
         Reply::None
     }
@@ -84,7 +84,7 @@ impl<E: IapEntry> MailboxServer for BootServer<E> {
         false
     }
 
-    fn on_state_change(&mut self, files: &mut Self::Context, from: AlState, to: AlState) {
+    fn on_state_change(&mut self, files: &mut Self::Context<'_>, from: AlState, to: AlState) {
         self.foe.on_state_change(from, to, files)
     }
 }

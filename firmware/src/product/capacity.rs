@@ -17,10 +17,12 @@ pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait for the mailbox.
 pub const EMERGENCY_QUEUE: usize = 4;
 
-/// RxPDO mapping objects the module offers (0x1600, 0x1601).
+/// RxPDO mapping objects the module offers (0x1600, 0x1601); on CAN each has its RPDO
+/// communication parameter (0x1400, 0x1401).
 pub const RX_PDOS: usize = 2;
-/// TxPDO mapping objects the module offers (0x1A00, 0x1A01).
-pub const TX_PDOS: usize = 2;
+/// TxPDO mapping objects the module offers (0x1A00..0x1A02); on CAN each has its TPDO
+/// communication parameter (0x1800..0x1802).
+pub const TX_PDOS: usize = 3;
 /// Entries per mapping object.
 pub const PDO_ENTRIES: usize = 8;
 /// Largest process image per direction in bytes.

@@ -13,11 +13,13 @@
 //! | [`capacity`] | channel counts, mailbox size, PDO and process image capacities    |
 //! | [`analog`]   | the analog front end: reference, divider and gain, full scale     |
 //! | [`sync`]     | sync modes offered and the figures of 0x1C32/0x1C33 (minimum cycle) |
+//! | [`can`]      | the CANopen device on CAN: node-ID, PDO defaults, output source, EDS |
 //! | [`layout`]   | the SyncManagers in the ESC's process RAM                         |
 //! | [`od`]       | the object dictionary                                             |
 //! | [`device`]   | the device description (SII, ESI) built from all of the above     |
 
 pub mod analog;
+pub mod can;
 pub mod capacity;
 pub mod device;
 pub mod identity;

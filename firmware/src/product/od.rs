@@ -14,6 +14,10 @@
 //! documented in `crate::app::objects`.
 
 use super::analog::FULL_SCALE_UV;
+use super::can::{
+    AI_INTERRUPT_ENABLE_INDEX, COMM_DEFAULTS, HEARTBEAT_CONSUMERS, PROCESS_DATA_SOURCE_INDEX,
+    SOURCE_CAN, SOURCE_ETHERCAT,
+};
 use super::capacity::{AI_CHANNELS, AO_CHANNELS, PDO_ENTRIES, RX_PDOS, TX_PDOS};
 use super::identity::{IDENTITY, NAMES};
 use super::layout::SYNC_MANAGERS;
@@ -21,6 +25,7 @@ use super::sync::{
     DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
     OUTPUT_DELAY_NS, SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS,
 };
+use coe_core::canopen::objects::CommObjects;
 use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange};
 use coe_core::pdo::PdoEntry;
 
@@ -58,29 +63,37 @@ pub const MODULE_DESCRIPTION: &str = concat!(
     "."
 );
 
-/// The AI default TxPDO: 0x1A00 -> 0x6401:01..08.
-const TXPDO_DEFAULT: [PdoEntry; AI_CHANNELS] = {
-    let mut out = [PdoEntry::new(0, 0, 0); AI_CHANNELS];
+/// The AI entries 0x6401:`first`..`first + N - 1`.
+const fn ai_entries<const N: usize>(first: u8) -> [PdoEntry; N] {
+    let mut out = [PdoEntry::new(0, 0, 0); N];
     let mut i = 0;
-    while i < AI_CHANNELS {
-        out[i] = PdoEntry::new(0x6401, i as u8 + 1, 16);
+    while i < N {
+        out[i] = PdoEntry::new(0x6401, first + i as u8, 16);
         i += 1;
     }
     out
-};
+}
 
-/// The AO default RxPDO: 0x1600 -> 0x6411:01..02.
+/// The AI default TxPDO of EtherCAT: 0x1A00 -> 0x6401:01..08.
+const TXPDO_DEFAULT: [PdoEntry; AI_CHANNELS] = ai_entries(1);
+/// CiA 401 TPDO 2 and 3 (one CAN frame each): 0x6401:01..04 and 0x6401:05..08.
+const TXPDO_AI_1_4: [PdoEntry; 4] = ai_entries(1);
+const TXPDO_AI_5_8: [PdoEntry; 4] = ai_entries(5);
+
+/// The AO default RxPDO: 0x6411:01..02 (EtherCAT's 0x1600, CiA 401 RPDO 2's 0x1601).
 const RXPDO_DEFAULT: [PdoEntry; AO_CHANNELS] =
     [PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)];
 
-/// The RxPDO mapping objects and their default entries (the second one is empty).
+/// The RxPDO mapping objects and their default entries: 0x1600 the EtherCAT default,
+/// 0x1601 CiA 401 RPDO 2 ([`super::can`]), both the two outputs.
 pub const RX_MAPPINGS: [u16; RX_PDOS] = [0x1600, 0x1601];
 /// Default entries of [`RX_MAPPINGS`].
-pub const RX_DEFAULTS: [&[PdoEntry]; RX_PDOS] = [&RXPDO_DEFAULT, &[]];
-/// The TxPDO mapping objects and their default entries (the second one is empty).
-pub const TX_MAPPINGS: [u16; TX_PDOS] = [0x1A00, 0x1A01];
+pub const RX_DEFAULTS: [&[PdoEntry]; RX_PDOS] = [&RXPDO_DEFAULT, &RXPDO_DEFAULT];
+/// The TxPDO mapping objects and their default entries: 0x1A00 the EtherCAT default (all
+/// eight inputs), 0x1A01/0x1A02 CiA 401 TPDO 2/3 (four inputs each, one CAN frame).
+pub const TX_MAPPINGS: [u16; TX_PDOS] = [0x1A00, 0x1A01, 0x1A02];
 /// Default entries of [`TX_MAPPINGS`].
-pub const TX_DEFAULTS: [&[PdoEntry]; TX_PDOS] = [&TXPDO_DEFAULT, &[]];
+pub const TX_DEFAULTS: [&[PdoEntry]; TX_PDOS] = [&TXPDO_DEFAULT, &TXPDO_AI_1_4, &TXPDO_AI_5_8];
 /// The default RxPDO assignment (0x1C12).
 pub const RX_ASSIGN_DEFAULT: [u16; 1] = [RX_MAPPINGS[0]];
 /// The default TxPDO assignment (0x1C13).
@@ -149,6 +162,12 @@ static RXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(RX_DEFAULTS[0]);
 static RXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(RX_DEFAULTS[1]);
 static TXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[0]);
 static TXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[1]);
+static TXPDO_3: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[2]);
+
+/// The CAN communication objects (0x1005.., 0x1400.., 0x1800..) with the product's
+/// defaults ([`super::can::COMM_DEFAULTS`]).
+static CAN: CommObjects<RX_PDOS, TX_PDOS, { HEARTBEAT_CONSUMERS + 1 }> =
+    CommObjects::new(&COMM_DEFAULTS);
 static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&RX_ASSIGN_DEFAULT);
 static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
 
@@ -254,6 +273,8 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         "Error register",
         &[EntryDesc::new(0, "Error register", U8, RO.tx_mappable())],
     ),
+    CAN.sync_cob_id(),
+    CAN.cycle_period(),
     ObjectDesc::var(
         0x1008,
         "Device name",
@@ -277,6 +298,12 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             NAMES.software_version,
         )],
     ),
+    CAN.guard_time(),
+    CAN.life_factor(),
+    CAN.emcy_cob_id(),
+    CAN.emcy_inhibit(),
+    CAN.consumers(),
+    CAN.producer(),
     ObjectDesc::record(
         0x1018,
         "Identity",
@@ -293,6 +320,8 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
                 .with_default(Value::Uint(IDENTITY.serial_number as u64)),
         ],
     ),
+    CAN.sync_overflow(),
+    CAN.error_behaviour(),
     // Manufacturer record types 0x0040.. (ETG.1000.6: device-specific complex types).
     ObjectDesc::record(
         0x10F1,
@@ -305,10 +334,17 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
                 .with_default(Value::Uint(DEFAULT_SYNC_ERROR_LIMIT as u64)),
         ],
     ),
+    CAN.sdo_server(),
+    CAN.rpdo(0),
+    CAN.rpdo(1),
     ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &RXPDO_1),
     ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &RXPDO_2),
+    CAN.tpdo(0),
+    CAN.tpdo(1),
+    CAN.tpdo(2),
     ObjectDesc::record(TX_MAPPINGS[0], "TxPDO 1", DataType::PdoMapping, &TXPDO_1),
     ObjectDesc::record(TX_MAPPINGS[1], "TxPDO 2", DataType::PdoMapping, &TXPDO_2),
+    ObjectDesc::record(TX_MAPPINGS[2], "TxPDO 3", DataType::PdoMapping, &TXPDO_3),
     ObjectDesc::array(0x1C00, "Sync manager type", &SM_TYPES),
     ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGN),
     ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGN),
@@ -350,8 +386,26 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             MODULE_DESCRIPTION,
         )],
     ),
+    ObjectDesc::var(
+        PROCESS_DATA_SOURCE_INDEX,
+        "Process data source",
+        &[EntryDesc::new(0, "Process data source", U8, RW)
+            .with_default(Value::Uint(SOURCE_ETHERCAT as u64))
+            .with_range(&ValueRange {
+                min: Value::Uint(SOURCE_ETHERCAT as u64),
+                max: Value::Uint(SOURCE_CAN as u64),
+            })],
+    ),
     ObjectDesc::array(0x6401, "Read analog input 16-bit", &AI),
     ObjectDesc::array(0x6411, "Write analog output 16-bit", &AO),
+    ObjectDesc::var(
+        AI_INTERRUPT_ENABLE_INDEX,
+        "Analog input global interrupt enable",
+        &[
+            EntryDesc::new(0, "Analog input global interrupt enable", BOOL, RW)
+                .with_default(Value::Uint(0)),
+        ],
+    ),
     ObjectDesc::array(0x6443, "Analog output error mode", &AO_ERROR_MODE),
     ObjectDesc::array(0x6444, "Analog output error value", &AO_ERROR_VALUE),
 ]);

@@ -65,7 +65,17 @@ fn default_pdo_mapping_is_ao_out_and_ai_in() {
     let ai: Vec<PdoEntry> = DEVICE.pdo_entries(0x1A00).collect();
     let expected: Vec<PdoEntry> = (1..=8).map(|s| PdoEntry::new(0x6401, s, 16)).collect();
     assert_eq!(ai, expected);
-    assert_eq!(DEVICE.pdo_entries(0x1601).count(), 0);
+    // The CiA 401 CAN PDOs (product::can): 0x1601 the outputs, 0x1A01/0x1A02 four inputs
+    // each; not assigned on EtherCAT by default.
+    assert_eq!(DEVICE.pdo_entries(0x1601).collect::<Vec<_>>(), ao);
+    assert_eq!(
+        DEVICE.pdo_entries(0x1A01).collect::<Vec<_>>(),
+        expected[..4]
+    );
+    assert_eq!(
+        DEVICE.pdo_entries(0x1A02).collect::<Vec<_>>(),
+        expected[4..]
+    );
     assert_eq!(DEVICE.default_pdo_bits(PdoDirection::Rx), 32);
     assert_eq!(DEVICE.default_pdo_bits(PdoDirection::Tx), 128);
     assert_eq!(DEVICE.default_sm_len(&SYNC_MANAGERS[2]), 4);

@@ -1,0 +1,115 @@
+//! The CAN side of the application: coe-core's CANopen node ([`Node`]) on the module's
+//! dictionary, and how the application answers it ([`CanView`]).
+//!
+//! [`super::SlaveApp`] owns the node: the EtherCAT mailbox serves the CAN communication
+//! objects through it (one dictionary for both fieldbuses), EtherCAT-side Emergencies go
+//! out on CAN too, and the process-data source decides which fieldbus drives the outputs
+//! ([`crate::product::can`]). The CAN task only moves frames between the controller and
+//! [`super::SlaveApp::on_can_frame`] / [`super::SlaveApp::poll_can`] /
+//! [`super::SlaveApp::can_tx`] ([`super::can_task`]).
+
+use super::objects::{AppData, OutputSource};
+use super::outputs::OutputStage;
+use crate::product::can::{CAN_EMERGENCY_QUEUE, HEARTBEAT_CONSUMERS};
+use crate::product::capacity::{AO_CHANNELS, RX_PDOS, TRANSFER_BUFFER, TX_PDOS};
+use coe_core::canopen::node::{CanApplication, CanNode};
+use coe_core::od::ObjectAccess;
+use coe_core::sdo_server::Emergency;
+use coe_core::{AlState, SdoAbortCode};
+
+/// The module's CANopen node.
+pub type Node =
+    CanNode<RX_PDOS, TX_PDOS, HEARTBEAT_CONSUMERS, CAN_EMERGENCY_QUEUE, TRANSFER_BUFFER>;
+
+/// The application as the CAN node (and, through the node, the mailbox) sees it for one
+/// call: the data, the output stage, whether the DAC task must apply the staged outputs,
+/// and an Emergency of the application to send on both fieldbuses afterwards.
+pub struct CanView<'a> {
+    /// The application data.
+    pub data: &'a mut AppData,
+    /// The DAC hand-over.
+    pub stage: &'a OutputStage,
+    /// Set when the DAC task must apply the staged outputs now.
+    pub apply_outputs: &'a mut bool,
+    /// An application Emergency raised during the call (an output out of range).
+    pub emergency: Option<Emergency>,
+}
+
+impl<'a> CanView<'a> {
+    /// A view for one call.
+    pub fn new(data: &'a mut AppData, stage: &'a OutputStage, apply_outputs: &'a mut bool) -> Self {
+        Self {
+            data,
+            stage,
+            apply_outputs,
+            emergency: None,
+        }
+    }
+
+    /// Stages new output values (`in_op`: the fieldbus that sent them runs process data);
+    /// the DAC task applies them at once.
+    pub fn stage_outputs(&mut self, values: [i16; AO_CHANNELS], in_op: bool) {
+        let (set, emergency) = self.data.set_outputs(values, in_op, self.stage);
+        *self.apply_outputs |= set.staged;
+        if emergency.is_some() {
+            self.emergency = emergency;
+        }
+    }
+}
+
+impl ObjectAccess for CanView<'_> {
+    fn read(&mut self, index: u16, subindex: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        self.data.read(index, subindex, buf)
+    }
+
+    fn write(
+        &mut self,
+        index: u16,
+        subindex: u8,
+        data: &[u8],
+        state: AlState,
+    ) -> Result<(), SdoAbortCode> {
+        self.data.write(index, subindex, data, state)
+    }
+
+    fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
+        self.data.is_rx_mapped(index, subindex)
+    }
+}
+
+impl CanApplication for CanView<'_> {
+    fn can_owns_outputs(&self) -> bool {
+        self.data.source == OutputSource::Can
+    }
+
+    fn apply_outputs(&mut self) {
+        if let Some(values) = self.data.take_ao_written() {
+            self.stage_outputs(values, true);
+        }
+    }
+
+    fn outputs_fault(&mut self) {
+        self.data.outputs.enter_fault(self.stage);
+        *self.apply_outputs = true;
+    }
+
+    fn change_of_state(&self) -> bool {
+        self.data.ai_events
+    }
+
+    fn raise_error(&mut self, bits: u8, code: u16, data: [u8; 5]) -> Emergency {
+        self.data.diag.raise(bits, code, data)
+    }
+
+    fn clear_error(&mut self, bits: u8) -> Option<Emergency> {
+        self.data.diag.clear(bits)
+    }
+
+    fn reset(&mut self, application: bool) {
+        if application {
+            self.data.reset_parameters();
+        } else if self.can_owns_outputs() {
+            self.data.reset_pdo_configuration();
+        }
+    }
+}
