@@ -46,8 +46,6 @@ pub const BIT_RATES_KBIT: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EdsInfo {
-    /// File name written into `[FileInfo]` (e.g. `AIO-8AI2AO.eds`).
-    pub file_name: &'static str,
     /// `FileVersion`.
     pub file_version: u8,
     /// `FileRevision`.
@@ -91,6 +89,22 @@ impl Display for EdsError {
 impl From<fmt::Error> for EdsError {
     fn from(_: fmt::Error) -> Self {
         Self::Write
+    }
+}
+
+/// The file name of a device's description files without extension: the order code with
+/// anything but ASCII letters, digits, `-` and `_` written as `_` (the EDS names itself
+/// `<stem>.eds` in `FileName`; the ESI and SII files take the same stem).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FileStem<'a>(pub &'a str);
+
+impl Display for FileStem<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for c in self.0.chars() {
+            let safe = c.is_ascii_alphanumeric() || c == '-' || c == '_';
+            f.write_char(if safe { c } else { '_' })?;
+        }
+        Ok(())
     }
 }
 
@@ -263,7 +277,7 @@ pub fn write_eds<W: Write>(
     let names = &desc.names;
 
     writeln!(out, "[FileInfo]")?;
-    writeln!(out, "FileName={}", ini_text(info.file_name)?)?;
+    writeln!(out, "FileName={}.eds", FileStem(names.order_code))?;
     writeln!(out, "FileVersion={}", info.file_version)?;
     writeln!(out, "FileRevision={}", info.file_revision)?;
     writeln!(out, "EDSVersion={EDS_VERSION}")?;
@@ -325,6 +339,15 @@ mod tests {
     use super::*;
     use crate::od::{Access, ObjectDictionary, ValueRange};
     use std::string::String;
+
+    #[test]
+    fn file_stems() {
+        assert_eq!(std::format!("{}", FileStem("AIO-8AI2AO")), "AIO-8AI2AO");
+        assert_eq!(
+            std::format!("{}", FileStem("AIO-8AI/2AO v1.0")),
+            "AIO-8AI_2AO_v1_0"
+        );
+    }
 
     #[test]
     fn access_types() {

@@ -3,7 +3,9 @@
 //! (`<order code>.xml`, ETG.2000), validated against the ETG.2000 schema when the schema and
 //! `xmllint` are at hand, and the SII EEPROM image (`<order code>.bin`, the whole EEPROM:
 //! the generated image, then erased bytes 0xFF) for an EEPROM programmer or a master's
-//! EEPROM write.
+//! EEPROM write, and the EDS (`<order code>.eds`, CiA 306) for CANopen tools, checked with
+//! python-canopen's reader when it is installed (`cargo xtask setup` installs it; the system
+//! tests compare every object with the firmware's dictionary).
 
 use crate::util::{display, have, root, Result};
 use coe_core::device::DeviceDescription;
@@ -30,23 +32,13 @@ pub fn run(args: &Args) -> Result {
     let desc = &firmware::product::device::DEVICE;
     let xml = write_xml(desc, &dir)?;
     write_sii(desc, &dir)?;
+    write_eds(desc, &dir)?;
     validate(&xml)
 }
 
-/// The file name of the device's files without extension: its order code, with anything but
-/// letters, digits, `-` and `_` replaced by `_`.
+/// The file name of the device's files without extension ([`coe_core::eds::FileStem`]).
 pub fn file_stem(desc: &DeviceDescription) -> String {
-    desc.names
-        .order_code
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
+    coe_core::eds::FileStem(desc.names.order_code).to_string()
 }
 
 /// Writes `<stem>.xml` into `dir`; returns its path.
@@ -56,6 +48,17 @@ fn write_xml(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
     let path = dir.join(format!("{}.xml", file_stem(desc)));
     std::fs::write(&path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("ESI: {} ({} bytes)", path.display(), xml.len());
+    Ok(path)
+}
+
+/// Writes `<stem>.eds` into `dir`; returns its path.
+pub fn write_eds(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
+    let mut eds = String::new();
+    coe_core::eds::write_eds(desc, &firmware::product::can::EDS_INFO, &mut eds)
+        .map_err(|e| e.to_string())?;
+    let path = dir.join(format!("{}.eds", file_stem(desc)));
+    std::fs::write(&path, &eds).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    println!("EDS: {} ({} bytes)", path.display(), eds.len());
     Ok(path)
 }
 

@@ -31,7 +31,7 @@ pub fn run(args: &Args) -> Result {
             if echo {
                 return Ok(Some(Target::echo()));
             }
-            match sim::firmware_target() {
+            match sim::firmware_target_for(args.sim.node_id) {
                 Ok(t) => Ok(Some(t)),
                 Err(why) => {
                     println!("{why}");

@@ -832,6 +832,11 @@ impl SlaveApp {
     ) -> PdiOutcome {
         let now_us = micros(now_ns);
         let mut out = PdiOutcome::default();
+        if !self.data.running.ethercat {
+            // Without EtherCAT cycles the CAN side ends the sampling cycle (TPDOs and SDO
+            // reads see the newest inputs); with them it reads what their cycle published.
+            self.data.sampler.publish();
+        }
         let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
         call(&mut self.can, &mut view, now_us);
         self.can.poll(&mut view, now_us);

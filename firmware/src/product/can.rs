@@ -79,7 +79,6 @@ pub static COMM_DEFAULTS: CommDefaults<RX_PDOS, TX_PDOS> = CommDefaults {
 
 /// The EDS's own facts.
 pub const EDS_INFO: EdsInfo = EdsInfo {
-    file_name: "AIO-8AI2AO.eds",
     file_version: 1,
     file_revision: 0,
     date: "11-26-2026",

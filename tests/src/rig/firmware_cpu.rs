@@ -11,6 +11,7 @@
 //! | after every event  | PDI task background       | `PdiTask::run` (poll)                        |
 //! | SysTick (1 ms)     | `tick` -> PDI task        | `PdiTask::run` (poll)                        |
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
+//! | CAN frame received, CAN node deadline, PDI task left CAN work | CAN task (same priority as the PDI task) | [`firmware::app::can_task::run`] on the board's CAN bus ([`BusController`]) |
 //!
 //! Power-up follows the firmware's `init`: the DAC is set up first, then `init` waits for
 //! the ESC's EEPROM_LOADED pin, polled every 100 us for at most [`INIT_EEPROM_WAIT_NS`]
@@ -34,13 +35,16 @@
 //! pulses LDAC, so both channels change together at the edge.
 
 use crate::models::adc::AdcSpi;
+use crate::models::can::{PortId, SharedCanBus};
 use crate::models::dac::{DacSpi, LdacPin};
 use crate::models::esc::SyncEdge;
 use crate::models::spi::EscSpi;
 use crate::rig::board::{BoardIo, PdiCpu};
 use ad7689::Ad7689;
+use coe_core::canopen::CanFrame;
 use et1100::{Et1100, SpiPdi};
 use firmware::app::adc_scan::SCAN_CONFIG;
+use firmware::app::can_task::{self, CanController};
 use firmware::app::dac::OutputDac;
 use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
 use firmware::app::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
@@ -67,6 +71,31 @@ pub struct Device {
 /// Frames after power-up whose results are discarded: two carry the CFG, the third may
 /// still hold a conversion under the power-up CFG (as `Ad7689::start` does it).
 const ADC_START_FRAMES: u64 = 3;
+
+/// Transmit buffers of the LPC1754's CAN controller (TFI1..3).
+pub const CAN_TX_BUFFERS: usize = 3;
+
+/// The MCU's CAN controller on the board's bus: received frames wait in the port, and a
+/// frame is taken for transmission while fewer than [`CAN_TX_BUFFERS`] wait to go out.
+pub struct BusController {
+    bus: SharedCanBus,
+    port: PortId,
+}
+
+impl CanController for BusController {
+    fn receive(&mut self) -> Option<CanFrame> {
+        self.bus.borrow_mut().receive(self.port).map(|(_, f)| f)
+    }
+
+    fn transmit(&mut self, frame: &CanFrame) -> bool {
+        let mut bus = self.bus.borrow_mut();
+        if bus.pending(self.port) >= CAN_TX_BUFFERS {
+            return false;
+        }
+        bus.send(self.port, *frame);
+        true
+    }
+}
 
 /// The ESC as the application sees it.
 type Esc = Et1100<SpiPdi<EscSpi>>;
@@ -118,6 +147,7 @@ pub struct FirmwareCpu {
     /// While `init` waits for EEPROM_LOADED: its next look at the pin, and when it gives up.
     init_wait: Option<(u64, u64)>,
     bootloader_requested: bool,
+    can: BusController,
     /// Counters.
     pub stats: FirmwareStats,
 }
@@ -144,6 +174,10 @@ impl FirmwareCpu {
             next_tick_ns: 0,
             init_wait: Some((io.now_ns(), io.now_ns() + INIT_EEPROM_WAIT_NS)),
             bootloader_requested: false,
+            can: BusController {
+                bus: io.can.bus.clone(),
+                port: io.can.port,
+            },
             stats: FirmwareStats::default(),
         };
         let ok = cpu.dac.init().is_ok();
@@ -248,6 +282,25 @@ impl FirmwareCpu {
         // is what `pend_again` asks for.
         self.dac_task(done);
         self.bootloader_requested |= done.enter_bootloader;
+        // The PDI task pends the CAN task when it left CAN work (an Emergency to send).
+        if self.can_due(io.now_ns()) {
+            self.can_task(io);
+        }
+    }
+
+    /// True if the CAN node has frames for the controller or its deadline has come.
+    fn can_due(&self, now_ns: u64) -> bool {
+        let app = self.task.app();
+        app.peek_can_tx().is_some() || app.can_deadline_ns().is_some_and(|t| t <= now_ns)
+    }
+
+    /// One activation of the CAN task.
+    fn can_task(&mut self, io: &BoardIo) {
+        let out = can_task::run(&mut self.can, self.task.app_mut(), &self.stage, io.now_ns());
+        self.dac_task(Done {
+            apply_outputs: out.apply_outputs,
+            ..Done::default()
+        });
     }
 }
 
@@ -286,15 +339,26 @@ impl PdiCpu for FirmwareCpu {
         }
     }
 
-    fn next_timer_ns(&self) -> Option<u64> {
-        match self.init_wait {
-            Some((poll, deadline)) => Some(poll.min(deadline)),
-            None => Some(self.next_cnv_ns.min(self.next_tick_ns)),
+    fn on_can_rx(&mut self, io: &mut BoardIo) {
+        // Frames that arrive while `init` runs wait in the controller for the CAN task.
+        if !self.in_init() {
+            self.can_task(io);
         }
     }
 
-    /// `init`'s pin poll while it waits; afterwards the tick (the PDI task's background
-    /// work) and the CNV timer.
+    fn next_timer_ns(&self) -> Option<u64> {
+        match self.init_wait {
+            Some((poll, deadline)) => Some(poll.min(deadline)),
+            None => {
+                let next = self.next_cnv_ns.min(self.next_tick_ns);
+                let can = self.task.app().can_deadline_ns();
+                Some(can.map_or(next, |t| t.min(next)))
+            }
+        }
+    }
+
+    /// `init`'s pin poll while it waits; afterwards the CAN node's deadline, the tick (the
+    /// PDI task's background work) and the CNV timer.
     fn on_timer(&mut self, io: &mut BoardIo) {
         let now = io.now_ns();
         if let Some((poll, deadline)) = self.init_wait {
@@ -304,6 +368,9 @@ impl PdiCpu for FirmwareCpu {
                 self.init_wait = Some((poll.max(now) + INIT_POLL_NS, deadline));
             }
             return;
+        }
+        if self.can_due(now) {
+            self.can_task(io);
         }
         if now >= self.next_tick_ns {
             self.stats.ticks += 1;

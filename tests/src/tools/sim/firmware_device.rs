@@ -9,10 +9,6 @@ use firmware::app::process_data::ProcessData;
 use firmware::app::AppConfig;
 use firmware::product::device::DEVICE;
 
-/// The module's CANopen node-ID unless configured (WIP: moves to the firmware's product
-/// configuration with the CAN integration).
-pub const DEFAULT_CAN_NODE_ID: u8 = 5;
-
 /// The SII EEPROM image of `desc`: the generated image, the rest of the EEPROM erased
 /// (0xFF) as on a programmed part.
 pub fn sii_image(desc: &DeviceDescription) -> Result<Vec<u8>, coe_core::sii::SiiError> {

@@ -57,7 +57,7 @@ pub const DEFAULT_AMPLITUDE_V: f64 = 4.0;
 pub const DEFAULT_OFFSET_V: f64 = 5.0;
 
 /// The module's CANopen node-ID unless configured.
-pub const DEFAULT_NODE_ID: u8 = firmware_device::DEFAULT_CAN_NODE_ID;
+pub const DEFAULT_NODE_ID: u8 = firmware::product::can::DEFAULT_NODE_ID;
 
 /// What `cargo xtask sim` does.
 #[derive(Clone, Debug, PartialEq)]
@@ -248,7 +248,13 @@ impl Target {
 
 /// The firmware's own slave application on the board, with the generated SII image.
 pub fn firmware_target() -> Result<Target, String> {
-    let device = firmware_device::device()?;
+    firmware_target_for(DEFAULT_NODE_ID)
+}
+
+/// [`firmware_target`] with the CANopen node-ID `node_id`.
+pub fn firmware_target_for(node_id: u8) -> Result<Target, String> {
+    let mut device = firmware_device::device()?;
+    device.config.can_node_id = node_id;
     Ok(Target {
         description: device.description.clone(),
         sii: device.sii.clone(),
