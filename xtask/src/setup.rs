@@ -1,4 +1,5 @@
-//! Idempotent installation of what the project needs: rustup targets, cargo tools, Debian packages.
+//! Idempotent installation of what the project needs: rustup targets, cargo tools, Debian
+//! packages, Python packages.
 
 use crate::util::{exec, have, Result};
 use std::process::Command;
@@ -22,10 +23,16 @@ pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "
 /// (libclang) at every build.
 pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
 
-/// Python packages the system tests use: pysoem (SOEM's Python binding, a wheel with SOEM
-/// inside), the second EtherCAT master of the system tests on a veth pair and of the
-/// firmware update test. Pinned, so the tests drive the SOEM they were written against.
-pub const PYTHON_PACKAGES: [(&str, &str); 1] = [("pysoem", "1.1.13")];
+/// Python packages (PyPI name, version) the system tests use, pinned so each test drives the
+/// software it was written against: pysoem (SOEM's Python binding, a wheel with SOEM inside),
+/// the second EtherCAT master on a veth pair and of the firmware update test; python-canopen,
+/// the CANopen master of the CAN system test (`tests/python/canopen_master.py`); python-can,
+/// whose `socketcand` interface reaches the board's CAN bus.
+pub const PYTHON_PACKAGES: [(&str, &str); 3] = [
+    ("pysoem", "1.1.13"),
+    ("canopen", "2.4.1"),
+    ("python-can", "4.6.1"),
+];
 
 /// Everything: targets, cargo tools, Debian and Python packages.
 pub fn all() -> Result {

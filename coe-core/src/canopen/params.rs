@@ -96,10 +96,11 @@ pub struct PdoDefault {
 }
 
 impl PdoDefault {
-    /// A PDO on `base + node-ID`, valid or not, with this transmission type.
+    /// A PDO on `base + node-ID`, valid or not, with this transmission type (bit 30 set:
+    /// remote requests are not served, as the COB-ID reads).
     pub const fn new(base: u16, valid: bool, transmission_type: u8) -> Self {
         Self {
-            cob_id: base as u32 | if valid { 0 } else { CobId::INVALID },
+            cob_id: base as u32 | CobId::BIT30 | if valid { 0 } else { CobId::INVALID },
             transmission_type,
             inhibit_100us: 0,
             event_timer_ms: 0,
