@@ -12,11 +12,15 @@
 //!   - [`models::dac::DacSpi`]/[`models::dac::LdacPin`] on [`models::dac::Ad5663`],
 //!     [`models::adc::AdcSpi`] on [`models::adc::Ad7689`] with per-channel
 //!     [`models::adc::Signal`] sources.
+//!   - [`models::can::CanBus`]: the CAN bus (arbitration, frame times at the bit rate) with
+//!     the MCU's CAN controller and any other node on ports.
 //! - [`rig`]: what puts the models to work in a test.
 //!   - [`rig::board::VirtualBoard`]: ESC + DAC + ADC + [`rig::clock::Clock`] +
 //!     [`tools::pcap::PcapWriter`], with the firmware plugged in as a [`rig::board::PdiCpu`].
 //!   - [`rig::firmware_cpu::FirmwareCpu`]: the firmware's tasks on the models.
 //!   - [`rig::master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
+//!   - [`rig::can_master::CanMaster`]: a CANopen master in process on the board's CAN bus
+//!     (NMT, SYNC, SDO client).
 //!   - [`rig::sdo_client`]: raw mailbox access as a master does it, and an SDO client on
 //!     it (segmented transfers, which ethercrab 0.7.1 cannot do), on ethercrab or on the
 //!     scripted master.
@@ -31,8 +35,9 @@
 //!     firmware's image is generated from its description, [`tools::sim::firmware_device`]).
 //! - [`tools`]: what `cargo xtask` runs on the board: the simulation ([`tools::sim`], also
 //!   on a network interface, [`tools::iface`]), the PDI bus cost ([`tools::bus_cost`]), the
-//!   thesis loop-back ([`tools::loopback`]), the pcap writer ([`tools::pcap`]) and the format
-//!   of the image co-simulator's bench figures ([`tools::image_figures`]).
+//!   thesis loop-back ([`tools::loopback`]), the pcap writer ([`tools::pcap`]), the format
+//!   of the image co-simulator's bench figures ([`tools::image_figures`]) and the socketcand
+//!   server that brings the CAN bus to python-can ([`tools::socketcand`]).
 //!
 //! Time: nothing here reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
@@ -50,6 +55,7 @@ pub mod models {
 /// The test rig: board, clock, the firmware as the board's CPU, the master side.
 pub mod rig {
     pub mod board;
+    pub mod can_master;
     pub mod clock;
     pub mod firmware_cpu;
     pub mod foe_client;
