@@ -761,6 +761,36 @@ fn application_emergencies_go_out_with_the_inhibit_time() {
 }
 
 #[test]
+fn outbox_sends_lowest_identifier_first_and_equal_ones_in_order() {
+    let mut b = Bench::new();
+    let upload = |index: u16| {
+        let [lo, hi] = index.to_le_bytes();
+        frame(0x605, &[0x40, lo, hi, 0, 0, 0, 0, 0])
+    };
+    // Several rounds, so the queueing numbers pass slots freed in between.
+    for _ in 0..5 {
+        for index in [0x1000u16, 0x1017, 0x1014, 0x1001] {
+            b.node.receive(&upload(index), &mut b.dev, b.now);
+        }
+        b.node.queue_emergency(EmergencyRepr {
+            error_code: 0xFF01,
+            error_register: 0x81,
+            data: [0; 5],
+        });
+        b.node.poll(&mut b.dev, b.now);
+        let out = b.take();
+        let ids: Vec<u16> = out.iter().map(|f| f.id()).collect();
+        assert_eq!(ids, vec![0x85, 0x585, 0x585, 0x585, 0x585]);
+        let indices: Vec<u16> = out[1..]
+            .iter()
+            .map(|f| u16::from_le_bytes([f.data()[1], f.data()[2]]))
+            .collect();
+        assert_eq!(indices, vec![0x1000, 0x1017, 0x1014, 0x1001]);
+        b.now += 20 * MS;
+    }
+}
+
+#[test]
 fn another_transport_sees_the_can_objects() {
     let mut b = Bench::new();
     let mut access = b.node.access(&mut b.dev, 0);
@@ -828,6 +858,12 @@ mod random {
                 prop_assert!(b.node.next_deadline_us().is_none_or(|d| d > b.now));
                 b.take();
             }
+        }
+
+        /// The SDO server's millisecond clock from 32-bit divisions is the 64-bit one's.
+        #[test]
+        fn wrapping_ms_is_the_division(us in any::<u64>()) {
+            prop_assert_eq!(coe_core::canopen::node::wrapping_ms(us), (us / 1000) as u32);
         }
     }
 }

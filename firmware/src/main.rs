@@ -3,15 +3,19 @@
 //! | task            | binds / kind                 | prio | owns                                         |
 //! |-----------------|------------------------------|------|----------------------------------------------|
 //! | `sync0_dac`     | TIMER1 (CAP1.0, pend)        | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch`     |
-//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 2    | ET1100 (legacy SPI), `SlaveApp`, sample consumer |
+//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 2    | ET1100 (legacy SPI), sample consumer; `SlaveApp` with `can` |
+//! | `can`           | CAN (CAN1 receive, pend)     | 2    | CAN1 (P0.0/P0.1); `SlaveApp` with `pdi`      |
 //! | `adc_dma`       | DMA (TC per half ring)       | 1    | - (GPDMA path: counts ring halves)           |
 //! | `sampler`       | TIMER2 (MR1)                 | 1    | ADC front (`adc-irq`: sample producer)       |
-//! | `tick`          | SysTick, every 1 ms          | 1    | the MCU watchdog (fed every 10 ms); requests the PDI task's background work |
+//! | `tick`          | SysTick, every 1 ms          | 1    | the MCU watchdog (fed every 10 ms); requests the PDI and CAN tasks' background work |
 //! | `idle`          | -                            | 0    | `wfi`                                        |
 //!
 //! The tasks share only the lock-free `OutputStage` (`&'static`), the two halves of the
-//! sample ring (in AHB SRAM) and two request flags; no resource needs a lock. Each bus has
-//! one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
+//! sample ring (in AHB SRAM), two request flags and the `PdiSide` (the slave application)
+//! of the PDI and CAN tasks, which run at the same priority and so never preempt each
+//! other (`#[lock_free]`); no resource needs a lock. The CAN task can hold the PDI task for
+//! one activation (at most `can_task::MAX_RX_PER_RUN` frames), never the SYNC0 task
+//! (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
 //! on the host); the task bodies only read pins and pend each other:
 //!
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::on_sync0`: LDAC pulse or
@@ -30,7 +34,12 @@
 //!   boot request in RAM and resets the CPU (`hw::boot_request`); the bootloader stays.
 //! - Every millisecond `tick` requests the background work too: free-run inputs,
 //!   mailbox timeouts, the sample ring drained well before it fills (~4 ms), the start of
-//!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served.
+//!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served. It
+//!   pends the CAN task as well: the node's timers (heartbeat, guarding, inhibit and event
+//!   timers, SYNC window) at 1 ms resolution and frames the PDI side queued (Emergencies).
+//! - A received CAN frame pends the CAN task (`can_task::run`): frames to the node, its
+//!   frames into the free transmit buffers, and the DAC task pended with the apply request
+//!   when an RPDO brought outputs (`OutputSource::Can`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -44,6 +53,7 @@ use {defmt_rtt as _, panic_probe as _};
 mod rtic_app {
     use crate::hw;
     use crate::hw::adc::{AdcFront, AdcSource};
+    use crate::hw::can::Can1;
     use crate::hw::dac::Dac;
     use crate::hw::esc::Esc;
     use crate::hw::gpio::InPin;
@@ -52,6 +62,7 @@ mod rtic_app {
     use crate::hw::wdt::Watchdog;
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
+    use firmware::app::can_task;
     use firmware::app::outputs::{DacLatch, OutputStage};
     use firmware::app::pdi_task::{PdiTask, Wake};
     use firmware::app::process_data::ProcessData;
@@ -75,7 +86,11 @@ mod rtic_app {
     const FEED_TICKS: u32 = hw::wdt::FEED_PERIOD_MS * TICK_HZ / 1_000;
 
     #[shared]
-    struct Shared {}
+    struct Shared {
+        /// The slave application, served by the PDI and the CAN task (same priority).
+        #[lock_free]
+        pdi: &'static mut PdiSide,
+    }
 
     #[local]
     struct Local {
@@ -86,8 +101,9 @@ mod rtic_app {
         esc: Esc,
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
-        pdi: &'static mut PdiSide,
         stage_pdi: &'static OutputStage,
+        can: Option<Can1>,
+        stage_can: &'static OutputStage,
         adc: AdcFront,
         wdt: Watchdog,
     }
@@ -135,7 +151,15 @@ mod rtic_app {
             mut dac,
             adc,
             mut wdt,
+            can,
         } = board;
+        let can = match can {
+            Ok(can) => Some(can),
+            Err(e) => {
+                defmt::error!("CAN1 not started: {}", e);
+                None
+            }
+        };
 
         // Outputs to 0 V first: after an MCU-only reset the DAC still drives the old values.
         if dac.init().is_err() {
@@ -167,7 +191,7 @@ mod rtic_app {
 
         let stage: &'static OutputStage = cx.local.stage;
         (
-            Shared {},
+            Shared { pdi },
             Local {
                 sync0,
                 dac,
@@ -176,8 +200,9 @@ mod rtic_app {
                 esc,
                 esc_irq,
                 esc_eeprom_loaded,
-                pdi,
                 stage_pdi: stage,
+                can,
+                stage_can: stage,
                 adc,
                 wdt,
             },
@@ -220,16 +245,16 @@ mod rtic_app {
 
     /// ESC SPI_IRQ (P0.22 falling edge), pended after SYNC0 / by the tick, or by itself while
     /// the line stays asserted or background work waits behind the DAC task.
-    #[task(binds = EINT3, priority = 2, local = [esc, esc_irq, esc_eeprom_loaded, pdi, stage_pdi])]
+    #[task(binds = EINT3, priority = 2, local = [esc, esc_irq, esc_eeprom_loaded, stage_pdi], shared = [pdi])]
     fn pdi(cx: pdi::Context) {
         let pdi::LocalResources {
             esc,
             esc_irq,
             esc_eeprom_loaded,
-            pdi,
             stage_pdi,
             ..
         } = cx.local;
+        let pdi: &mut PdiSide = cx.shared.pdi;
         let wake = Wake {
             edge: esc_irq.acknowledge(),
             line_asserted: esc_irq.still_asserted(),
@@ -260,6 +285,24 @@ mod rtic_app {
             // From INIT: the outputs already hold their safe values.
             hw::boot_request::enter_bootloader();
         }
+        if pdi.task.app().peek_can_tx().is_some() {
+            rtic::pend(Interrupt::CAN);
+        }
+    }
+
+    /// CAN1 received a frame, or pended by the tick / the PDI task: the node's frames,
+    /// timers and transmissions.
+    #[task(binds = CAN, priority = 2, local = [can, stage_can], shared = [pdi])]
+    fn can(cx: can::Context) {
+        let Some(can) = cx.local.can.as_mut() else {
+            return;
+        };
+        let pdi: &mut PdiSide = cx.shared.pdi;
+        let now = hw::timers::now_ns();
+        let done = can_task::run(can, pdi.task.app_mut(), cx.local.stage_can, now);
+        if done.apply_outputs {
+            request_dac_apply();
+        }
     }
 
     /// AD7689, interrupt path (`adc-irq`): CNV low, previous result to the ring, next frame.
@@ -280,6 +323,7 @@ mod rtic_app {
     #[task(binds = SysTick, priority = 1, local = [wdt, ticks: u32 = 0])]
     fn tick(cx: tick::Context) {
         request_pdi_poll();
+        rtic::pend(Interrupt::CAN);
         *cx.local.ticks += 1;
         if *cx.local.ticks >= FEED_TICKS {
             *cx.local.ticks = 0;

@@ -152,16 +152,19 @@ mod fault {
     pub const OVERRUN: u8 = 1 << 7;
 }
 
-/// Frames waiting for the controller.
+/// Frames waiting for the controller, each with its queueing number (the order among
+/// equal identifiers; no shifting of slots, so no `memmove` on the target).
 #[derive(Debug, Clone, Copy)]
 struct Outbox {
-    frames: [Option<CanFrame>; OUTBOX],
+    frames: [Option<(u32, CanFrame)>; OUTBOX],
+    next: u32,
 }
 
 impl Outbox {
     const fn new() -> Self {
         Self {
             frames: [None; OUTBOX],
+            next: 0,
         }
     }
 
@@ -169,7 +172,8 @@ impl Outbox {
     fn push(&mut self, frame: CanFrame) -> bool {
         match self.frames.iter_mut().find(|f| f.is_none()) {
             Some(slot) => {
-                *slot = Some(frame);
+                *slot = Some((self.next, frame));
+                self.next = self.next.wrapping_add(1);
                 true
             }
             None => false,
@@ -177,29 +181,34 @@ impl Outbox {
     }
 
     /// Where the frame with the lowest identifier (the one that wins arbitration) is; among
-    /// equal identifiers the oldest.
+    /// equal identifiers the oldest (queueing numbers compared by wrapping difference: at
+    /// most [`OUTBOX`] apart).
     fn best(&self) -> Option<usize> {
-        let mut best: Option<(usize, u16)> = None;
+        let mut best: Option<(usize, u16, u32)> = None;
         for (i, f) in self.frames.iter().enumerate() {
-            if let Some(f) = f {
-                if best.is_none_or(|(_, id)| f.id() < id) {
-                    best = Some((i, f.id()));
+            if let Some((seq, f)) = f {
+                let better = best.is_none_or(|(_, id, s)| {
+                    f.id() < id || (f.id() == id && (seq.wrapping_sub(s) as i32) < 0)
+                });
+                if better {
+                    best = Some((i, f.id(), *seq));
                 }
             }
         }
-        best.map(|(i, _)| i)
+        best.map(|(i, _, _)| i)
     }
 
     fn peek(&self) -> Option<CanFrame> {
-        self.frames.get(self.best()?).copied().flatten()
+        self.frames
+            .get(self.best()?)
+            .copied()
+            .flatten()
+            .map(|(_, f)| f)
     }
 
     fn pop(&mut self) -> Option<CanFrame> {
         let i = self.best()?;
-        let frame = self.frames.get_mut(i)?.take();
-        // Keep the order of the rest: shift later frames down.
-        self.frames.get_mut(i..).unwrap_or_default().rotate_left(1);
-        frame
+        self.frames.get_mut(i)?.take().map(|(_, f)| f)
     }
 
     fn len(&self) -> usize {
@@ -230,6 +239,20 @@ struct Runtime<const R: usize, const T: usize, const HB: usize, const Q: usize> 
     rpdo_layout: [Option<Layout>; R],
     faults: u8,
     stats: NodeStats,
+}
+
+/// Milliseconds of `us` modulo 2^32 (the SDO server's wrapping clock), from 32-bit
+/// divisions: a `u64` division would link the software 64-bit divide on a Cortex-M3. The
+/// high word only contributes its remainder; then two 16-bit digits (each partial value
+/// stays below 1000 * 2^16 + 2^16, each digit of the quotient below 2^16).
+pub const fn wrapping_ms(us: u64) -> u32 {
+    let (hi, lo) = ((us >> 32) as u32, us as u32);
+    let rem = hi % 1000;
+    let part = (rem << 16) | (lo >> 16);
+    let q1 = part / 1000;
+    let part = ((part % 1000) << 16) | (lo & 0xFFFF);
+    let q0 = part / 1000;
+    (q1 << 16) | q0
 }
 
 /// Reads mapping parameter `index` through the application.
@@ -754,7 +777,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                     state: access_state,
                     od: self.od,
                     app: &mut access,
-                    now_ms: (now_us / 1000) as u32,
+                    now_ms: wrapping_ms(now_us),
                 };
                 if let Some(reply) = self.sdo.receive(node, frame, ctx) {
                     self.send(reply);

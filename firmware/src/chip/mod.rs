@@ -4,4 +4,5 @@
 //! nothing there knows an LPC17xx register.
 
 pub mod adc_dma;
+pub mod can;
 pub mod gpdma;

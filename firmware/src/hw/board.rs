@@ -25,6 +25,14 @@
 //! | AD7689 SDO              | P0.8  | 2 MISO1   |                                                |
 //! | AD7689 DIN              | P0.9  | 2 MOSI1   |                                                |
 //! | UART0 TXD0 / RXD0       | P0.2/3| 1         | debug / ISP UART (pins only)                   |
+//! | CAN1 RD1 / TD1          | P0.0/1| 1         | to the CAN transceiver (UNCONFIRMED: the thesis board has none; see below) |
+//!
+//! CAN1: UM10360 routes RD1/TD1 to P0.0/P0.1 (function 01) or P0.21/P0.22 (function 11);
+//! on LQFP80 P0.21 is not bonded out and P0.22 is the ESC IRQ, so P0.0/P0.1 it is (they
+//! are also I2C1, which the board does not use: the CAT1025 sits on I2C2). CAN2 would be
+//! P2.7/P2.8 (P0.4/P0.5 are absent on LQFP80). The thesis board has no CAN transceiver:
+//! UNCONFIRMED, a board for CAN needs one (e.g. a 3.3 V TJA1051T/3 or SN65HVD230) on
+//! P0.0/P0.1.
 //!
 //! Reserved, not configured (left at reset: GPIO input with pull-up): **P2.10** (ISP entry
 //! at reset, pull-up/button only, never an IRQ input), P1.19 (CAP1.1, spare for
@@ -32,6 +40,7 @@
 //! when used).
 
 use super::adc::AdcHw;
+use super::can::{Can1, CanError};
 use super::clocks::{self, ClockError, Clocks};
 use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
@@ -100,7 +109,7 @@ pub const ISP: Pin = Pin::new(2, 10);
 pub const ESC_PINS: usize = 7;
 
 /// The pins the firmware configures, with their PINSEL function and pad resistor.
-pub const PIN_MAP: [PinFunction; 18] = [
+pub const PIN_MAP: [PinFunction; 20] = [
     // ET1100 on the legacy SPI (the only pins it has).
     f(0, 15, 3, Pull::None), // SCK
     f(0, 16, 0, Pull::None), // SPI_SEL, GPIO out
@@ -123,6 +132,9 @@ pub const PIN_MAP: [PinFunction; 18] = [
     f(0, 9, 2, Pull::None), // MOSI1 (DIN)
     // UART0 (debug / ISP): TXD0 only here, RXD0 below.
     f(0, 2, 1, Pull::None),
+    // CAN1 to the transceiver.
+    f(0, 0, 1, Pull::Up),   // RD1
+    f(0, 1, 1, Pull::None), // TD1
 ];
 
 /// Pins bonded out on the LQFP80 package, one mask per port P0..P4 (hardware-facts 7):
@@ -237,6 +249,8 @@ pub struct Board {
     pub adc: AdcHw,
     /// The MCU watchdog (feeder task).
     pub wdt: Watchdog,
+    /// CAN1 (CAN task), or why it did not start.
+    pub can: Result<Can1, CanError>,
 }
 
 /// Errors of the board bring-up.
@@ -275,6 +289,12 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     let adc = AdcHw::new(dp.TIMER2, ssp1, dp.GPDMA);
     let sync0 = Sync0Capture::new(dp.TIMER1);
     let wdt = Watchdog::new(dp.WDT);
+    let can = Can1::new(
+        dp.CAN1,
+        &dp.CANAF,
+        super::PCLK_HZ,
+        firmware::product::can::DEFAULT_BIT_RATE,
+    );
 
     let board = Board {
         clocks,
@@ -285,6 +305,7 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
         dac,
         adc,
         wdt,
+        can,
     };
     (board, clock_result.map_err(BoardError::Clock))
 }

@@ -15,6 +15,7 @@
 //! | [`adc`]      | the ADC path chosen at build time (GPDMA or `adc-irq`)                |
 //! | [`gpio_irq`] | ESC IRQ on P0.22 (falling edge, EINT3 vector)                         |
 //! | [`wdt`]      | the MCU watchdog                                                      |
+//! | [`can`]      | CAN1 (P0.0/P0.1) for the CANopen node: bit timing, bypass filter, 3 TX buffers |
 //! | [`esc`]      | the ET1100: the `et1100` driver on the legacy-SPI device              |
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::app::dac`) and its LDAC pin |
 //! | [`cs_device`] | bus + GPIO chip select as `SpiDevice` (ET1100, AD5663)              |
@@ -25,6 +26,7 @@ pub mod adc;
 pub mod adc_dma;
 pub mod board;
 pub mod boot_request;
+pub mod can;
 pub mod clocks;
 pub mod cs_device;
 pub mod dac;
@@ -42,5 +44,5 @@ pub mod wdt;
 /// The CPU clock after [`clocks::init`] (Hz); PCLK of every peripheral used is CCLK/1.
 pub const CCLK_HZ: u32 = clocks::CCLK_HZ;
 
-/// Peripheral clock of SPI, SSP0/1, Timer1/2 (PCLKSEL = 01: CCLK/1).
+/// Peripheral clock of SPI, SSP0/1, Timer1/2, CAN1 (PCLKSEL = 01: CCLK/1).
 pub const PCLK_HZ: u32 = clocks::CCLK_HZ;
