@@ -16,7 +16,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::models::adc::Signal;
 use virtual_board::models::esc::regs;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::board::VirtualBoard;
 use virtual_board::rig::can_master::{CanMaster, SdoError};
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::tools::sim;
@@ -52,11 +52,7 @@ fn tpdo_inputs(can: &CanMaster, board: &Board) -> Vec<i16> {
 #[test]
 fn ethercat_in_op_and_canopen_at_the_same_time() {
     let target = sim::firmware_target().unwrap();
-    let mut cfg = BoardConfig::new(target.sii);
-    cfg.capture = false;
-    let board: Board = Rc::new(RefCell::new(VirtualBoard::new(cfg)));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let board: Board = Rc::new(RefCell::new(target.into_board(|b| b.capture = false)));
     {
         let b = board.borrow();
         let mut adc = b.adc().borrow_mut();

@@ -24,7 +24,6 @@ use std::sync::{mpsc, Arc};
 use std::time::Duration;
 use virtual_board::models::adc::Signal;
 use virtual_board::models::dac::DacUpdate;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::tools::iface::{serve_ports, ServeOptions};
 use virtual_board::tools::loopback::{self, AnalysisOptions};
 use virtual_board::tools::sim;
@@ -88,11 +87,7 @@ fn python_canopen_drives_the_board_over_socketcand() {
     let board = std::thread::spawn(move || -> Result<BoardRecord, String> {
         let target = sim::firmware_target_for(NODE_ID)?;
         let mut server = SocketcandServer::bind(0).map_err(|e| e.to_string())?;
-        let mut cfg = BoardConfig::new(target.sii);
-        cfg.capture = false;
-        let mut board = VirtualBoard::new(cfg);
-        let cpu = (target.make_cpu)(board.io());
-        board.set_cpu(cpu);
+        let mut board = target.into_board(|b| b.capture = false);
         {
             let adc = board.adc();
             let mut adc = adc.borrow_mut();

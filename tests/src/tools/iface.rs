@@ -285,6 +285,8 @@ pub fn serve_ports(
     let mut stats = ServeStats::default();
     let mut buf = vec![0u8; 16 * 1024];
     let mut next_progress = start + opts.progress_every;
+    // Longest step of virtual time between two looks at the connections.
+    let max_step = (opts.tick.as_nanos() as u64).max(1);
     // With both, neither waits long for the other.
     let tick = if sock.is_some() && can.is_some() {
         opts.tick / 4
@@ -305,14 +307,17 @@ pub fn serve_ports(
             progress(&stats);
             next_progress += opts.progress_every;
         }
+        // Behind the wall clock: look at the connections without waiting.
+        let behind = t0 + stats.elapsed.as_nanos() as u64 > board.now_ns() + max_step;
+        let wait = if behind { Duration::ZERO } else { tick };
         let got = match (sock, can.as_deref()) {
-            (Some(sock), _) => sock.recv(&mut buf, tick)?,
+            (Some(sock), _) => sock.recv(&mut buf, wait)?,
             (None, Some(server)) => {
-                server.wait(tick);
+                server.wait(wait);
                 None
             }
             (None, None) => {
-                std::thread::sleep(tick);
+                std::thread::sleep(wait);
                 None
             }
         };
@@ -322,8 +327,7 @@ pub fn serve_ports(
         // unanswered while it catches up.
         let wall = t0 + start.elapsed().as_nanos() as u64;
         if wall > board.now_ns() {
-            let tick = opts.tick.as_nanos() as u64;
-            board.step((wall - board.now_ns()).min(tick.max(1)));
+            board.step((wall - board.now_ns()).min(max_step));
         }
         if let Some(server) = can.as_deref_mut() {
             server.serve(&mut board.can().borrow_mut());

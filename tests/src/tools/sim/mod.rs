@@ -244,6 +244,17 @@ impl Target {
             make_cpu: Box::new(|_| Box::new(responder::EchoResponder::new())),
         }
     }
+
+    /// A board with this target as its CPU, on the board configuration for its SII image
+    /// as `configure` adjusts it.
+    pub fn into_board(self, configure: impl FnOnce(&mut BoardConfig)) -> VirtualBoard {
+        let mut cfg = BoardConfig::new(self.sii);
+        configure(&mut cfg);
+        let mut board = VirtualBoard::new(cfg);
+        let cpu = (self.make_cpu)(board.io());
+        board.set_cpu(cpu);
+        board
+    }
 }
 
 /// The firmware's own slave application on the board, with the generated SII image.
@@ -937,12 +948,11 @@ pub fn run_wall_clock(
         })?),
         None => None,
     };
-    let mut bcfg = BoardConfig::new(target.sii);
-    bcfg.capture = cfg.pcap.is_some();
-    bcfg.can_bit_rate = cfg.can_bit_rate;
-    let mut board = VirtualBoard::new(bcfg);
-    let cpu = (target.make_cpu)(board.io());
-    board.set_cpu(cpu);
+    let description = target.description.clone();
+    let mut board = target.into_board(|b| {
+        b.capture = cfg.pcap.is_some();
+        b.can_bit_rate = cfg.can_bit_rate;
+    });
     board.adc().borrow_mut().inputs[cfg.ai_channel as usize] = Signal::Sine {
         amplitude: cfg.amplitude_v,
         offset: cfg.offset_v,
@@ -955,7 +965,7 @@ pub fn run_wall_clock(
     };
     out(Line::Result(format!(
         "virtual board, PDI side: {}; AI{} = {} V +- {} V at {} Hz; serving{until}",
-        target.description, cfg.ai_channel, cfg.offset_v, cfg.amplitude_v, cfg.freqs_hz[0],
+        description, cfg.ai_channel, cfg.offset_v, cfg.amplitude_v, cfg.freqs_hz[0],
     )));
     if let (Some(sock), Some(name)) = (&sock, cfg.iface.as_deref()) {
         out(Line::Result(format!(
