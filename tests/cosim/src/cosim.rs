@@ -216,8 +216,14 @@ impl Facts {
         let t = &self.traffic;
         let _ = writeln!(
             s,
-            "image: board traffic: {} ET1100 SPI bytes, {} AD5663 frames, {} LDAC pulses, {} AD7689 conversions, {} SYNC0 captures",
-            t.esc_bytes, t.dac_frames, t.ldac_pulses, t.adc_conversions, t.sync0_captures
+            "image: board traffic: {} ET1100 SPI bytes, {} AD5663 frames, {} LDAC pulses, {} AD7689 conversions, {} SYNC0 captures, {} CAN frames sent, {} received",
+            t.esc_bytes,
+            t.dac_frames,
+            t.ldac_pulses,
+            t.adc_conversions,
+            t.sync0_captures,
+            t.can_sent,
+            t.can_received
         );
         let w = &self.samples;
         let _ = writeln!(

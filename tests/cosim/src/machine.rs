@@ -7,13 +7,15 @@
 //! is low and P0.15/P0.17/P0.18 carry SCK/MISO/MOSI (function 3); SSP0 frames reach the
 //! AD5663 only on P1.20/P1.24 (function 3) while SYNC (P2.2) is low; SSP1 frames reach the
 //! AD7689 only on P0.7/P0.8/P0.9 (function 2) while CNV is low; CNV is MAT2.0 only on P0.6
-//! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3. Anything else moves no data
+//! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3; CAN1 reaches the board's CAN
+//! bus only on P0.0/P0.1 (function 1) at the bus's bit rate. Anything else moves no data
 //! and is reported, as is any access to a peripheral whose PCONP bit is off.
 
 use crate::ahb_sram::AhbSram;
 use crate::code::Blocks;
 use crate::image::Image;
 use crate::nvic::{irq, Scs};
+use crate::periph::can::Can;
 use crate::periph::gpdma::{After, Gpdma, Transfer};
 use crate::periph::gpio::{Gpio, GpioInt};
 use crate::periph::pincon::PinConnect;
@@ -78,6 +80,10 @@ pub mod pins {
     pub const ADC_SDO: Pin = (0, 8);
     /// See [`ADC_SCK`].
     pub const ADC_DIN: Pin = (0, 9);
+    /// CAN1 RD1 / TD1 to the transceiver (function 1).
+    pub const CAN_RD: Pin = (0, 0);
+    /// See [`CAN_RD`].
+    pub const CAN_TD: Pin = (0, 1);
 }
 
 /// A peripheral slot of the address map.
@@ -103,6 +109,10 @@ pub enum Region {
     Gpio,
     /// 0x5000_4000.
     Gpdma,
+    /// CAN1, 0x4004_4000.
+    Can1,
+    /// The CAN acceptance filter registers, 0x4003_C000.
+    CanAf,
     /// 0xE000_E000.
     Scs,
     /// A peripheral the co-simulator does not model (its base).
@@ -126,6 +136,8 @@ impl Region {
             0x400F_C000 => Region::Syscon,
             0x2009_C000 => Region::Gpio,
             0x5000_4000 => Region::Gpdma,
+            0x4004_4000 => Region::Can1,
+            0x4003_C000 => Region::CanAf,
             0xE000_E000 => Region::Scs,
             other => Region::Unmodelled(other),
         }
@@ -140,6 +152,7 @@ impl Region {
             Region::Ssp1 => Clocked::Ssp1,
             Region::Gpio | Region::GpioInt => Clocked::Gpio,
             Region::Gpdma => Clocked::Gpdma,
+            Region::Can1 => Clocked::Can1,
             _ => return None,
         })
     }
@@ -189,6 +202,10 @@ pub struct Traffic {
     pub sync0_captures: u64,
     /// LDAC falling edges.
     pub ldac_pulses: u64,
+    /// CAN frames CAN1 sent on the board's bus.
+    pub can_sent: u64,
+    /// CAN frames the bus delivered into CAN1's receive buffer.
+    pub can_received: u64,
 }
 
 /// The chip without the core.
@@ -225,6 +242,9 @@ pub struct Machine {
     timers: [Timer; 4],
     gpdma: Gpdma,
     wdt: Wdt,
+    can1: Can,
+    /// The bus's count of frames CAN1's port sent, as far as CAN1 has been told.
+    can_sent_seen: u64,
     esc_session: Option<SpiSession>,
     dac_frame: Option<Vec<u8>>,
     adc_mosi: Vec<u8>,
@@ -274,6 +294,8 @@ impl Machine {
             timers: Default::default(),
             gpdma: Gpdma::new(),
             wdt: Wdt::new(false),
+            can1: Can::new(),
+            can_sent_seen: 0,
             esc_session: None,
             dac_frame: None,
             adc_mosi: Vec::new(),
@@ -289,6 +311,7 @@ impl Machine {
             iap_calls: 0,
         };
         m.now_ps = m.io.now_ns() * 1000;
+        m.can_sent_seen = m.can_frames_left();
         m.update_cycle_time();
         m.refresh_inputs();
         m
@@ -311,6 +334,9 @@ impl Machine {
         self.timers = Default::default();
         self.gpdma = Gpdma::new();
         self.wdt = Wdt::new(watchdog);
+        // Frames the controller queued before the reset count as gone.
+        self.can1 = Can::new();
+        self.can_sent_seen = self.can_frames_left();
         self.stop = None;
         self.check_preempt = false;
         self.cnv_high = false;
@@ -439,6 +465,7 @@ impl Machine {
             self.timers[3].next_event(),
             self.wdt.next_event(),
             self.scs.systick.next_wrap().map(|c| cycle_ns(c, self)),
+            self.io.can.bus.borrow().next_event_ns(),
         ]
         .into_iter()
         .flatten()
@@ -487,6 +514,7 @@ impl Machine {
         self.ssp0.on_event(t);
         let t = self.tick_for(Region::Ssp1);
         self.ssp1.on_event(t);
+        self.can_exchange();
         self.settle();
     }
 
@@ -517,6 +545,7 @@ impl Machine {
             (irq::SSP1, self.ssp1.irq()),
             (irq::EINT3, self.gpioint.irq()),
             (irq::DMA, self.gpdma.irq()),
+            (irq::CAN, self.can1.irq()),
         ];
         for (n, level) in lines {
             self.scs.set_line(n, level);
@@ -567,7 +596,105 @@ impl Machine {
         self.gpio.set_input(p, n, loaded);
         let level = self.gpioint.irq();
         self.scs.set_line(irq::EINT3, level);
+        self.can_exchange();
         self.check_preempt |= self.scs.any_pending();
+    }
+
+    // ------------------------------------------------------------------ CAN
+
+    /// The frames CAN1's port has sent plus those still queued at it: where a fresh
+    /// controller starts counting.
+    fn can_frames_left(&self) -> u64 {
+        let bus = self.io.can.bus.borrow();
+        bus.sent(self.io.can.port) + bus.pending(self.io.can.port) as u64
+    }
+
+    /// Whether CAN1's frames cross to the bus: powered, pins routed, equal CAN clocks, the
+    /// bus's bit rate (within 0.5 %).
+    fn can_link(&self) -> Result<(), String> {
+        if !self.syscon.powered(Clocked::Can1) {
+            return Err("CAN1 is not powered (PCONP bit 13)".into());
+        }
+        for (p, name) in [(pins::CAN_RD, "RD1"), (pins::CAN_TD, "TD1")] {
+            let f = self.func(p);
+            if f != 1 {
+                return Err(format!(
+                    "P{}.{} is PINSEL function {f}, not 1 ({name}): CAN1 is not on the bus",
+                    p.0, p.1
+                ));
+            }
+        }
+        let pclk = self.syscon.pclk_hz(Clocked::Can1);
+        if self.syscon.pclk_hz(Clocked::Can2) != pclk
+            || self.syscon.pclk_hz(Clocked::CanAcf) != pclk
+        {
+            return Err(
+                "PCLK of CAN1, CAN2 and the acceptance filter differ (UM10360 requires them equal)"
+                    .into(),
+            );
+        }
+        let rate = self.can1.bit_rate(pclk);
+        let bus = u64::from(self.io.can.bus.borrow().bit_rate());
+        if rate.abs_diff(bus) * 200 > bus {
+            return Err(format!(
+                "CAN1 runs at {rate} bit/s (BTR at PCLK {pclk} Hz), the bus at {bus} bit/s: no \
+                 frame is exchanged"
+            ));
+        }
+        Ok(())
+    }
+
+    /// The board's CAN bus up to now: sent frames free their transmit buffers, arrived
+    /// frames enter the receive buffer (through the acceptance filter), requested frames go
+    /// onto the bus; the interrupt line follows.
+    fn can_exchange(&mut self) {
+        let now = self.hw_ns();
+        let port = self.io.can.port;
+        let bus = self.io.can.bus.clone();
+        bus.borrow_mut().advance_to(now);
+        let sent = bus.borrow().sent(port);
+        while self.can_sent_seen < sent {
+            self.can_sent_seen += 1;
+            self.can1.transmitted();
+            self.traffic.can_sent += 1;
+        }
+        let mut arrived = Vec::new();
+        while let Some((_, frame)) = bus.borrow_mut().receive(port) {
+            arrived.push(frame);
+        }
+        if self.can1.operating() {
+            let link = self.can_link();
+            if !arrived.is_empty() {
+                match link.clone().and_then(|()| self.can1.accepts_all()) {
+                    Ok(()) => {
+                        for f in &arrived {
+                            if self.can1.receive(f) {
+                                self.traffic.can_received += 1;
+                            }
+                        }
+                    }
+                    Err(why) => self.report(format!("CAN frame from the bus not received: {why}")),
+                }
+            }
+            match link {
+                Ok(()) => {
+                    for f in self.can1.take_requests() {
+                        bus.borrow_mut().send(port, f);
+                    }
+                }
+                Err(why) if self.can1.has_requests() => {
+                    self.report(format!("CAN1 transmission does not reach the bus: {why}"));
+                }
+                Err(_) => {}
+            }
+        }
+        let v: Vec<String> = self.can1.violations.drain(..).collect();
+        for m in v {
+            self.report(format!("CAN1: {m}"));
+        }
+        self.scs.set_line(irq::CAN, self.can1.irq());
+        self.check_preempt |= self.scs.any_pending();
+        self.reschedule();
     }
 
     /// Output pins after a GPIO write: SPI_SEL, SYNC, LDAC edges to the chips.
@@ -904,7 +1031,8 @@ impl Machine {
             Region::Syscon => &mut self.syscon,
             Region::Gpio => &mut self.gpio,
             Region::Gpdma => &mut self.gpdma,
-            Region::Scs | Region::Unmodelled(_) => return None,
+            Region::Can1 => &mut self.can1,
+            Region::Scs | Region::CanAf | Region::Unmodelled(_) => return None,
         })
     }
 
@@ -913,6 +1041,10 @@ impl Machine {
         let region = Region::of_base(base);
         if region == Region::Scs {
             return self.scs.read(offset, self.cycles);
+        }
+        if region == Region::CanAf {
+            // CANAFMR; the look-up table registers read as zero (table mode is reported).
+            return if offset == 0 { self.can1.afmr() } else { 0 };
         }
         if let Region::Unmodelled(b) = region {
             self.stop = Some(Stop::Fault(format!(
@@ -941,6 +1073,18 @@ impl Machine {
             }
             self.check_preempt = self.scs.any_pending();
             self.reschedule();
+            return;
+        }
+        if region == Region::CanAf {
+            if offset == 0 {
+                self.can1.set_afmr(value);
+            } else {
+                self.report(format!(
+                    "write of {value:#x} to the CAN acceptance filter's look-up table register \
+                     {:#010x}: table mode is not modelled",
+                    base + offset
+                ));
+            }
             return;
         }
         if let Region::Unmodelled(b) = region {
@@ -975,6 +1119,7 @@ impl Machine {
                 }
             }
             Region::Gpio => self.outputs_changed(),
+            Region::Can1 => self.can_exchange(),
             Region::Wdt if self.wdt.take_reset_request() => {
                 self.stop = Some(Stop::Reset(ResetCause::Watchdog));
             }

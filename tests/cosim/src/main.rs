@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
 use std::process::ExitCode;
+use virtual_board::tools::sim;
 use virtual_board::tools::sim::cli::{self, SimArgs};
 
 #[derive(Parser)]
@@ -97,6 +98,13 @@ fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
                     "--echo runs the test responder, not the image: use `cargo xtask sim --echo`"
                         .into(),
                 );
+            }
+            if args.node_id != sim::DEFAULT_NODE_ID {
+                return Err(format!(
+                    "the image's CANopen node-ID is {} (firmware::product::can): --node-id \
+                     applies to the host-compiled application",
+                    sim::DEFAULT_NODE_ID
+                ));
             }
             let image = load_image()?;
             let options = Options {

@@ -38,6 +38,8 @@ pub mod irq {
     pub const SSP1: u32 = 15;
     /// EINT3, shared with the GPIO interrupts.
     pub const EINT3: u32 = 21;
+    /// CAN1, CAN2 and the acceptance filter.
+    pub const CAN: u32 = 25;
     /// General purpose DMA.
     pub const DMA: u32 = 26;
     /// Number of interrupts of the LPC17xx.

@@ -2,6 +2,7 @@
 //! [`Peripheral`]. What crosses between peripherals (interrupt lines, DMA requests, pins,
 //! power and clocks) is routed by [`crate::machine`], not by the models themselves.
 
+pub mod can;
 pub mod gpdma;
 pub mod gpio;
 pub mod pincon;

@@ -46,13 +46,19 @@ pub enum Clocked {
     Gpio,
     /// General purpose DMA.
     Gpdma,
+    /// CAN1.
+    Can1,
+    /// CAN2 (not used; its PCLK must equal CAN1's).
+    Can2,
+    /// The CAN acceptance filter (no power bit of its own; its PCLK must equal CAN1's).
+    CanAcf,
 }
 
 impl Clocked {
     /// PCONP bit (None: always powered).
     pub fn pconp_bit(self) -> Option<u32> {
         Some(match self {
-            Clocked::Wdt => return None,
+            Clocked::Wdt | Clocked::CanAcf => return None,
             Clocked::Timer(0) => 1,
             Clocked::Timer(1) => 2,
             Clocked::Timer(2) => 22,
@@ -62,6 +68,8 @@ impl Clocked {
             Clocked::Gpio => 15,
             Clocked::Ssp0 => 21,
             Clocked::Gpdma => 29,
+            Clocked::Can1 => 13,
+            Clocked::Can2 => 14,
         })
     }
 
@@ -76,6 +84,9 @@ impl Clocked {
             Clocked::Ssp0 => (1, 10),
             Clocked::Timer(2) => (1, 12),
             Clocked::Timer(_) => (1, 14),
+            Clocked::Can1 => (0, 26),
+            Clocked::Can2 => (0, 28),
+            Clocked::CanAcf => (0, 30),
             Clocked::Gpio | Clocked::Gpdma => return None,
         })
     }
@@ -90,6 +101,9 @@ impl Clocked {
             Clocked::Ssp1 => "SSP1".into(),
             Clocked::Gpio => "GPIO".into(),
             Clocked::Gpdma => "GPDMA".into(),
+            Clocked::Can1 => "CAN1".into(),
+            Clocked::Can2 => "CAN2".into(),
+            Clocked::CanAcf => "CAN acceptance filter".into(),
         }
     }
 }
@@ -202,6 +216,8 @@ impl Syscon {
                 0 => cclk / 4,
                 1 => cclk,
                 2 => cclk / 2,
+                // 11 selects CCLK / 6 for CAN1, CAN2 and the acceptance filter.
+                _ if matches!(p, Clocked::Can1 | Clocked::Can2 | Clocked::CanAcf) => cclk / 6,
                 _ => cclk / 8,
             },
         }
