@@ -3,8 +3,9 @@
 //!
 //! - Clock: PCLK_CAN1 = PCLK_CAN2 = PCLK_ACF = CCLK / 1 = 100 MHz (UM10360 requires the
 //!   three equal; [`super::clocks`]); the bus timing comes from
-//!   [`firmware::chip::can::bit_timing`] (125, 250, 500 kbit/s and 1 Mbit/s exactly; 800
-//!   kbit/s has no exact timing at 100 MHz and is refused).
+//!   [`firmware::chip::can::bit_timing`] (10, 20, 50, 125, 250, 500 kbit/s and 1 Mbit/s
+//!   exactly, as the EDS lists them; 800 kbit/s has no exact timing at 100 MHz and is
+//!   refused).
 //! - Acceptance filter in bypass (AFMR.AccBP): every frame of the bus is received, the
 //!   CANopen node picks its own; no look-up table to keep in step with configurable
 //!   COB-IDs. The cost is an interrupt per frame on the bus.

@@ -83,8 +83,29 @@ pub const EDS_INFO: EdsInfo = EdsInfo {
     file_revision: 0,
     date: "11-26-2026",
     created_by: "cargo xtask esi",
-    bit_rates: [false, false, false, true, true, true, true, true],
+    // 10, 20, 50, 125, 250, 500, 1000 kbit/s; not 800 (no exact timing at 100 MHz).
+    bit_rates: [true, true, true, true, true, true, false, true],
     granularity: 8,
 };
 
 const _: () = assert!(cob::is_node_id(DEFAULT_NODE_ID));
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chip::can::bit_timing;
+    use coe_core::eds::BIT_RATES_KBIT;
+
+    /// PCLK of CAN1 (the hardware layer's `PCLK_HZ`, CCLK / 1; that layer is not compiled on
+    /// the host).
+    const CAN_PCLK_HZ: u32 = 100_000_000;
+
+    #[test]
+    fn the_eds_lists_the_bit_rates_the_driver_can_time() {
+        for (kbit, listed) in BIT_RATES_KBIT.iter().zip(EDS_INFO.bit_rates) {
+            let timed = bit_timing(CAN_PCLK_HZ, u32::from(*kbit) * 1000).is_some();
+            assert_eq!(listed, timed, "{kbit} kbit/s");
+        }
+        assert!(bit_timing(CAN_PCLK_HZ, DEFAULT_BIT_RATE).is_some());
+    }
+}

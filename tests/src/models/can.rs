@@ -16,9 +16,6 @@ use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::rc::Rc;
 
-/// CiA 301 bit rates the board supports (bit/s).
-pub const BIT_RATES: [u32; 5] = [125_000, 250_000, 500_000, 800_000, 1_000_000];
-
 /// A bus shared by the board and the tools.
 pub type SharedCanBus = Rc<RefCell<CanBus>>;
 
@@ -69,7 +66,7 @@ pub struct CanBus {
 }
 
 impl CanBus {
-    /// An idle bus at `bit_rate` bit/s (any positive rate; [`BIT_RATES`] are CiA 301's).
+    /// An idle bus at `bit_rate` bit/s (any positive rate).
     pub fn new(bit_rate: u32) -> Self {
         Self {
             bit_rate: bit_rate.max(1),

@@ -55,7 +55,8 @@ pub struct SimArgs {
     /// python-can's `socketcand` interface, channel `can0`, connects to it.
     #[arg(long, value_name = "PORT")]
     pub can_port: Option<u16>,
-    /// CAN bit rate in bit/s (125000, 250000, 500000, 800000 or 1000000).
+    /// CAN bit rate in bit/s (10000, 20000, 50000, 125000, 250000, 500000 or 1000000: the
+    /// module's, as its EDS lists them).
     #[arg(long, value_name = "BPS", default_value_t = crate::rig::board::DEFAULT_CAN_BIT_RATE)]
     pub can_bit_rate: u32,
     /// The module's CANopen node-ID (1..=127).

@@ -20,7 +20,6 @@ pub mod responder;
 pub mod tshark;
 
 use crate::models::adc::Signal;
-use crate::models::can::BIT_RATES;
 use crate::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
 use crate::rig::master::tx_rx_task;
 use crate::tools::iface::{self, RawSocket, ServeOptions, ServeStats};
@@ -83,7 +82,7 @@ pub struct SimConfig {
     pub iface: Option<String>,
     /// Serve the CAN bus through socketcand on this TCP port (wall-clock time).
     pub can_port: Option<u16>,
-    /// CAN bit rate (bit/s, one of [`BIT_RATES`]).
+    /// CAN bit rate (bit/s, one of [`can_bit_rates`]).
     pub can_bit_rate: u32,
     /// The module's CANopen node-ID (1..=127).
     pub node_id: u8,
@@ -192,11 +191,14 @@ impl SimConfig {
                 self.ao_channel
             ));
         }
-        if !BIT_RATES.contains(&self.can_bit_rate) {
+        if !can_bit_rates().any(|r| r == self.can_bit_rate) {
             return err(format!(
-                "--can-bit-rate {}: the CAN controller runs at {}",
+                "--can-bit-rate {}: the module's CAN controller runs at {} bit/s",
                 self.can_bit_rate,
-                BIT_RATES.map(|r| r.to_string()).join(", ")
+                can_bit_rates()
+                    .map(|r| r.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
         }
         if !(1..=127).contains(&self.node_id) {
@@ -223,6 +225,16 @@ impl SimConfig {
     pub fn cycle_ns(&self) -> u64 {
         self.cycle_us as u64 * 1000
     }
+}
+
+/// The CAN bit rates of the module (bit/s): those its EDS lists (the firmware's driver has
+/// an exact bit timing for each).
+pub fn can_bit_rates() -> impl Iterator<Item = u32> {
+    coe_core::eds::BIT_RATES_KBIT
+        .iter()
+        .zip(firmware::product::can::EDS_INFO.bit_rates)
+        .filter(|(_, on)| *on)
+        .map(|(kbit, _)| u32::from(*kbit) * 1000)
 }
 
 /// What runs on the PDI side of the board, with its SII image.
@@ -1060,6 +1072,12 @@ mod tests {
         assert!(bad(&|c| c.amplitude_v = 6.0).contains("0..10 V"));
         assert!(bad(&|c| c.ai_channel = 8).contains("0..=7"));
         assert!(bad(&|c| c.ao_channel = 2).contains("0..=1"));
+        let e = bad(&|c| c.can_bit_rate = 800_000);
+        assert!(
+            e.contains("10000, 20000, 50000, 125000, 250000, 500000, 1000000 bit/s"),
+            "{e}"
+        );
+        assert!(bad(&|c| c.node_id = 0).contains("1..=127"));
         // On an interface --seconds is wall time and may be long.
         let c = SimConfig {
             seconds: Some(3600.0),
