@@ -46,3 +46,137 @@ pub fn run<C: CanController + ?Sized>(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::outputs::{DacPair, StageKind};
+    use crate::app::process_data::ProcessData;
+    use crate::app::AppConfig;
+    use crate::product::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
+    use crate::product::od;
+    use std::boxed::Box;
+    use std::collections::VecDeque;
+    use std::vec;
+    use std::vec::Vec;
+
+    const MS: u64 = 1_000_000;
+
+    /// A controller with a receive queue and `free` transmit buffers.
+    struct FakeController {
+        rx: VecDeque<CanFrame>,
+        tx: Vec<CanFrame>,
+        free: usize,
+    }
+
+    impl CanController for FakeController {
+        fn receive(&mut self) -> Option<CanFrame> {
+            self.rx.pop_front()
+        }
+
+        fn transmit(&mut self, frame: &CanFrame) -> bool {
+            if self.free == 0 {
+                return false;
+            }
+            self.free -= 1;
+            self.tx.push(*frame);
+            true
+        }
+    }
+
+    struct Rig {
+        can: FakeController,
+        app: Box<SlaveApp>,
+        stage: OutputStage,
+        now: u64,
+    }
+
+    impl Rig {
+        fn new(free: usize) -> Self {
+            Self {
+                can: FakeController {
+                    rx: VecDeque::new(),
+                    tx: Vec::new(),
+                    free,
+                },
+                app: Box::new(SlaveApp::new(
+                    &od::OD,
+                    AppConfig::product(),
+                    ProcessData::product_default(),
+                )),
+                stage: OutputStage::new(),
+                now: 0,
+            }
+        }
+
+        /// One activation 1 ms after the last, with `frames` received; what it sent.
+        fn run(&mut self, frames: &[CanFrame]) -> (PdiOutcome, Vec<CanFrame>) {
+            self.now += MS;
+            self.can.rx.extend(frames.iter().copied());
+            let out = run(&mut self.can, &mut self.app, &self.stage, self.now);
+            (out, core::mem::take(&mut self.can.tx))
+        }
+    }
+
+    fn frame(id: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(id, data).unwrap()
+    }
+
+    fn nmt(command: u8) -> CanFrame {
+        frame(0, &[command, NODE])
+    }
+
+    #[test]
+    fn frames_wait_for_a_free_buffer_and_reception_is_bounded() {
+        let mut r = Rig::new(0);
+        let (_, sent) = r.run(&[]);
+        assert!(sent.is_empty());
+        let boot_up = frame(0x700 + u16::from(NODE), &[0]);
+        assert_eq!(r.app.peek_can_tx(), Some(boot_up), "kept for the next run");
+        r.can.free = 3;
+        assert_eq!(r.run(&[]).1, vec![boot_up]);
+        // A flood: at most MAX_RX_PER_RUN frames per activation.
+        let flood = vec![nmt(0x80); MAX_RX_PER_RUN + 4];
+        r.run(&flood);
+        assert_eq!(r.can.rx.len(), 4);
+        r.run(&[]);
+        assert!(r.can.rx.is_empty());
+    }
+
+    #[test]
+    fn rpdos_reach_the_dac_only_when_can_owns_the_outputs() {
+        let mut r = Rig::new(usize::MAX);
+        r.run(&[]);
+        let rpdo = frame(0x300 + u16::from(NODE), &[0, 0x30, 0, 0x10]);
+        // EtherCAT owns the outputs (the default): the RPDO is dropped.
+        r.run(&[nmt(0x01)]);
+        let (out, _) = r.run(&[rpdo]);
+        assert!(!out.apply_outputs);
+        assert_ne!(r.stage.staged().0, StageKind::Outputs);
+        // CAN takes them (SDO in pre-operational), then drives them in operational.
+        r.run(&[nmt(0x80)]);
+        let [lo, hi] = PROCESS_DATA_SOURCE_INDEX.to_le_bytes();
+        let (_, sent) = r.run(&[frame(
+            0x600 + u16::from(NODE),
+            &[0x2F, lo, hi, 0, 1, 0, 0, 0],
+        )]);
+        assert_eq!(
+            sent,
+            vec![frame(
+                0x580 + u16::from(NODE),
+                &[0x60, lo, hi, 0, 0, 0, 0, 0]
+            )]
+        );
+        r.run(&[nmt(0x01)]);
+        let (out, _) = r.run(&[rpdo]);
+        assert!(out.apply_outputs, "the DAC task applies them now");
+        assert_eq!(
+            r.stage.staged(),
+            (StageKind::Outputs, DacPair::from_ao([0x3000, 0x1000]))
+        );
+        // Stopped: the outputs go to their fault values at once.
+        let (out, _) = r.run(&[nmt(0x02)]);
+        assert!(out.apply_outputs);
+        assert_eq!(r.stage.staged().0, StageKind::Fault);
+    }
+}
