@@ -558,6 +558,17 @@ fn sdo_over_can_shares_the_dictionary_and_access_rules() {
     let a = b.sdo([0x40, 0x08, 0x10, 0, 0, 0, 0, 0]);
     assert_eq!(a, [0x41, 0x08, 0x10, 0, 17, 0, 0, 0]);
     assert_eq!(&b.sdo([0x60, 0, 0, 0, 0, 0, 0, 0])[1..], b"Analog ");
+    // Block transfer (ccs 5 upload, 6 download) is not served: abort 0x05040001.
+    let [a0, a1, a2, a3] = 0x0504_0001u32.to_le_bytes();
+    for request in [
+        [0xA4, 0x08, 0x10, 0, 7, 0, 0, 0],
+        [0xC6, 0x17, 0x10, 0, 2, 0, 0, 0],
+    ] {
+        assert_eq!(
+            b.sdo(request),
+            [0x80, request[1], request[2], 0, a0, a1, a2, a3]
+        );
+    }
     // Mappings are writable in pre-operational only.
     b.nmt(0x01, NODE);
     assert_eq!(
