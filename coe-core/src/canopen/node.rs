@@ -294,11 +294,12 @@ const fn mapping_index(kind: PdoKind, i: usize) -> u16 {
 }
 
 impl<const R: usize, const T: usize, const HB: usize, const Q: usize> Runtime<R, T, HB, Q> {
-    fn reset(&mut self, defaults: &CommDefaults<R, T>) {
-        *self = Self {
-            node_id: self.node_id,
+    /// The runtime of a node that has just (re)started communication.
+    fn new(node_id: u8, defaults: &CommDefaults<R, T>) -> Self {
+        Self {
+            node_id,
             nmt: NmtSlave::new(),
-            params: CommParameters::defaults(defaults, self.node_id),
+            params: CommParameters::defaults(defaults, node_id),
             heartbeat: HeartbeatProducer::new(),
             consumer: HeartbeatConsumer::new(),
             guarding: NodeGuarding::new(),
@@ -307,8 +308,17 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize> Runtime<R,
             rpdo: [RpdoRuntime::default(); R],
             tpdo: [TpdoRuntime::default(); T],
             rpdo_layout: [None; R],
+            faults: 0,
+            stats: NodeStats::default(),
+        }
+    }
+
+    /// Back to the defaults; the application's faults and the counters stay.
+    fn reset(&mut self, defaults: &CommDefaults<R, T>) {
+        *self = Self {
             faults: self.faults,
             stats: self.stats,
+            ..Self::new(self.node_id, defaults)
         };
     }
 
@@ -461,21 +471,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         Self {
             od,
             defaults,
-            rt: Runtime {
-                node_id,
-                nmt: NmtSlave::new(),
-                params: CommParameters::defaults(defaults, node_id),
-                heartbeat: HeartbeatProducer::new(),
-                consumer: HeartbeatConsumer::new(),
-                guarding: NodeGuarding::new(),
-                sync: SyncConsumer::new(),
-                emcy: EmcyProducer::new(),
-                rpdo: [RpdoRuntime::default(); R],
-                tpdo: [TpdoRuntime::default(); T],
-                rpdo_layout: [None; R],
-                faults: 0,
-                stats: NodeStats::default(),
-            },
+            rt: Runtime::new(node_id, defaults),
             sdo: CanSdoServer::new(),
             outbox: Outbox::new(),
             overflow_reported: 0,
