@@ -304,7 +304,8 @@ impl VirtualBoard {
             };
             self.run_cpu_until(t);
             if can == Some(t) && sync != Some(t) {
-                self.can_event(t);
+                self.peripherals_to(t);
+                self.service();
             } else if sync == Some(t) {
                 // From the ESC's own time: a continuously running CPU may have moved the
                 // board's clock past the edge already (its peripherals act at their time).
@@ -317,13 +318,7 @@ impl VirtualBoard {
                 self.bus_to(t);
                 self.service();
             } else if let Some(t) = timer {
-                let now = self.esc.borrow().now_ns();
-                let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
-                self.clock.set_ns(t);
-                for e in edges {
-                    self.deliver(e);
-                }
-                self.bus_to(t);
+                self.peripherals_to(t);
                 self.stats.timer_calls += 1;
                 self.cpu.on_timer(&mut self.io);
                 // The ESC raised its IRQ line while time passed (a watchdog, an EEPROM
@@ -337,17 +332,12 @@ impl VirtualBoard {
             }
         }
         self.run_cpu_until(target);
-        let now = self.esc.borrow().now_ns();
-        let edges = self.esc.borrow_mut().advance(target.saturating_sub(now));
-        self.clock.set_ns(target);
-        for e in edges {
-            self.deliver(e);
-        }
-        self.bus_to(target);
+        self.peripherals_to(target);
     }
 
-    /// The CAN bus at `t`: the frames that end there reach the controller.
-    fn can_event(&mut self, t: u64) {
+    /// The ESC, the clock and the CAN bus at `t`, with the SYNC edges and received CAN
+    /// frames on the way handed to the CPU.
+    fn peripherals_to(&mut self, t: u64) {
         let now = self.esc.borrow().now_ns();
         let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
         self.clock.set_ns(t);
@@ -355,7 +345,6 @@ impl VirtualBoard {
             self.deliver(e);
         }
         self.bus_to(t);
-        self.service();
     }
 
     /// Brings the bus to `t` (the CPU may send at this time) and hands the controller the
