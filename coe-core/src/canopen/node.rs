@@ -772,7 +772,9 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                 let ctx = SdoContext {
                     state: access_state,
                     od: self.od,
-                    app: &mut access,
+                    // As `dyn ObjectAccess`, the type a mailbox server can use too: one
+                    // copy of the SDO machine for both transports in an image.
+                    app: &mut access as &mut dyn ObjectAccess,
                     now_ms: wrapping_ms(now_us),
                 };
                 if let Some(reply) = self.sdo.receive(node, frame, ctx) {
