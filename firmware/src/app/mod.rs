@@ -794,15 +794,13 @@ impl SlaveApp {
         stage: &OutputStage,
         now_ns: u64,
     ) -> PdiOutcome {
-        self.can_call(stage, now_ns, |node, view, now_us| {
-            node.receive(frame, view, now_us)
-        })
+        self.can_call(Some(frame), stage, now_ns)
     }
 
     /// The CAN node's timers at `now_ns` (call at [`SlaveApp::can_deadline_ns`] at the
     /// latest).
     pub fn poll_can(&mut self, stage: &OutputStage, now_ns: u64) -> PdiOutcome {
-        self.can_call(stage, now_ns, |_, _, _| {})
+        self.can_call(None, stage, now_ns)
     }
 
     /// The next frame for the CAN controller (highest priority first).
@@ -822,13 +820,14 @@ impl SlaveApp {
             .map(|us| us.saturating_mul(1000))
     }
 
-    /// One call into the CAN node, then its poll, and what follows from it for the outputs
-    /// and the other fieldbus.
+    /// A received frame (if any) into the CAN node, then its poll, and what follows from it
+    /// for the outputs and the other fieldbus. (One body for both callers: in the image it
+    /// exists once.)
     fn can_call(
         &mut self,
+        frame: Option<&CanFrame>,
         stage: &OutputStage,
         now_ns: u64,
-        call: impl FnOnce(&mut Node, &mut CanView<'_>, u64),
     ) -> PdiOutcome {
         let now_us = micros(now_ns);
         let mut out = PdiOutcome::default();
@@ -838,7 +837,9 @@ impl SlaveApp {
             self.data.sampler.publish();
         }
         let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
-        call(&mut self.can, &mut view, now_us);
+        if let Some(frame) = frame {
+            self.can.receive(frame, &mut view, now_us);
+        }
         self.can.poll(&mut view, now_us);
         let operational = self.can.state() == NmtState::Operational;
         view.data.running.can = operational;
