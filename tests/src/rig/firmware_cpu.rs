@@ -197,6 +197,9 @@ impl FirmwareCpu {
         self.task.start(&mut self.esc, ready);
         self.next_cnv_ns = io.now_ns() + self.adc_period_ns;
         self.next_tick_ns = io.now_ns() + TICK_NS;
+        // The CAN node's first activation (its boot-up message) as soon as interrupts run,
+        // so its due deadline is not left behind `init`.
+        self.can_task(io);
     }
 
     /// Whether `init` still runs (interrupts are not taken yet).
