@@ -13,9 +13,10 @@
 //! The tasks share only the lock-free `OutputStage` (`&'static`), the two halves of the
 //! sample ring (in AHB SRAM), two request flags and the `PdiSide` (the slave application)
 //! of the PDI and CAN tasks, which run at the same priority and so never preempt each
-//! other (`#[lock_free]`); no resource needs a lock. The CAN task can hold the PDI task for
-//! one activation (at most `can_task::MAX_RX_PER_RUN` frames), never the SYNC0 task
-//! (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
+//! other (`#[lock_free]`); no resource needs a lock. The CAN task takes one received frame
+//! per activation and pends itself again (`can_task::CanOutcome::run_again`); EINT3's
+//! vector comes before CAN's, so a pending PDI task runs first and waits for at most one
+//! frame's work, never for a burst. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
 //! on the host); the task bodies only read pins and pend each other:
 //!
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::on_sync0`: LDAC pulse or
@@ -37,7 +38,7 @@
 //!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served. It
 //!   pends the CAN task as well: the node's timers (heartbeat, guarding, inhibit and event
 //!   timers, SYNC window) at 1 ms resolution and frames the PDI side queued (Emergencies).
-//! - A received CAN frame pends the CAN task (`can_task::run`): frames to the node, its
+//! - A received CAN frame pends the CAN task (`can_task::run`): one frame to the node, its
 //!   frames into the free transmit buffers, and the DAC task pended with the apply request
 //!   when an RPDO brought outputs (`OutputSource::Can`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -302,6 +303,9 @@ mod rtic_app {
         let done = can_task::run(can, pdi.task.app_mut(), cx.local.stage_can, now);
         if done.apply_outputs {
             request_dac_apply();
+        }
+        if done.run_again {
+            rtic::pend(Interrupt::CAN);
         }
     }
 

@@ -4,7 +4,7 @@
 //! virtual board's bus.
 
 use super::outputs::OutputStage;
-use super::{PdiOutcome, SlaveApp};
+use super::SlaveApp;
 use coe_core::canopen::CanFrame;
 
 /// The CAN controller as the task needs it.
@@ -15,28 +15,33 @@ pub trait CanController {
     fn transmit(&mut self, frame: &CanFrame) -> bool;
 }
 
-/// Most frames taken from the controller in one activation: a bound, so a flooded bus
-/// cannot hold the task (the controller's receive interrupt comes again).
-pub const MAX_RX_PER_RUN: usize = 16;
+/// What one activation leaves to the task body.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CanOutcome {
+    /// Pend the DAC task with the apply request (an RPDO brought outputs, or fault values).
+    pub apply_outputs: bool,
+    /// A frame was taken: pend the CAN task again for the next one. The PDI task runs at
+    /// the same priority and its vector (EINT3) comes before CAN's, so an SM2 event that
+    /// arrives meanwhile is served before the next frame: it waits for at most one frame's
+    /// work, never for a burst.
+    pub run_again: bool,
+}
 
-/// Serves the controller at `now_ns`: received frames, the timers, then transmission as
-/// long as the controller takes frames. What the DAC task must do comes back.
+/// Serves the controller at `now_ns`: one received frame, or the timers when none came,
+/// then transmission as long as the controller takes frames.
 pub fn run<C: CanController + ?Sized>(
     can: &mut C,
     app: &mut SlaveApp,
     stage: &OutputStage,
     now_ns: u64,
-) -> PdiOutcome {
-    let mut out = PdiOutcome::default();
-    let mut received = false;
-    for _ in 0..MAX_RX_PER_RUN {
-        let Some(frame) = can.receive() else { break };
-        received = true;
-        let o = app.on_can_frame(&frame, stage, now_ns);
-        out.apply_outputs |= o.apply_outputs;
-    }
-    if !received {
-        out.apply_outputs |= app.poll_can(stage, now_ns).apply_outputs;
+) -> CanOutcome {
+    let mut out = CanOutcome::default();
+    match can.receive() {
+        Some(frame) => {
+            out.apply_outputs = app.on_can_frame(&frame, stage, now_ns).apply_outputs;
+            out.run_again = true;
+        }
+        None => out.apply_outputs = app.poll_can(stage, now_ns).apply_outputs,
     }
     while let Some(frame) = app.peek_can_tx() {
         if !can.transmit(&frame) {
@@ -109,12 +114,25 @@ mod tests {
             }
         }
 
-        /// One activation 1 ms after the last, with `frames` received; what it sent.
-        fn run(&mut self, frames: &[CanFrame]) -> (PdiOutcome, Vec<CanFrame>) {
+        /// Activations 1 ms after the last, with `frames` received, until the task stops
+        /// asking to run again (as its body pends itself); the outcome of all, what they
+        /// sent.
+        fn run(&mut self, frames: &[CanFrame]) -> (CanOutcome, Vec<CanFrame>) {
             self.now += MS;
             self.can.rx.extend(frames.iter().copied());
-            let out = run(&mut self.can, &mut self.app, &self.stage, self.now);
+            let mut out = CanOutcome::default();
+            for _ in 0..=frames.len() {
+                let o = self.activation();
+                out.apply_outputs |= o.apply_outputs;
+                if !o.run_again {
+                    break;
+                }
+            }
             (out, core::mem::take(&mut self.can.tx))
+        }
+
+        fn activation(&mut self) -> CanOutcome {
+            run(&mut self.can, &mut self.app, &self.stage, self.now)
         }
     }
 
@@ -127,7 +145,7 @@ mod tests {
     }
 
     #[test]
-    fn frames_wait_for_a_free_buffer_and_reception_is_bounded() {
+    fn frames_wait_for_a_free_buffer() {
         let mut r = Rig::new(0);
         let (_, sent) = r.run(&[]);
         assert!(sent.is_empty());
@@ -135,12 +153,31 @@ mod tests {
         assert_eq!(r.app.peek_can_tx(), Some(boot_up), "kept for the next run");
         r.can.free = 3;
         assert_eq!(r.run(&[]).1, vec![boot_up]);
-        // A flood: at most MAX_RX_PER_RUN frames per activation.
-        let flood = vec![nmt(0x80); MAX_RX_PER_RUN + 4];
-        r.run(&flood);
-        assert_eq!(r.can.rx.len(), 4);
+    }
+
+    #[test]
+    fn one_received_frame_per_activation() {
+        let mut r = Rig::new(usize::MAX);
         r.run(&[]);
-        assert!(r.can.rx.is_empty());
+        // A burst: each activation takes one frame and asks to run again, so the PDI task
+        // (same priority, served first when both are pending) waits for one frame's work.
+        r.can.rx.extend(vec![nmt(0x80); 3]);
+        for left in (0..3).rev() {
+            assert!(r.activation().run_again);
+            assert_eq!(r.can.rx.len(), left);
+        }
+        assert_eq!(
+            r.activation(),
+            CanOutcome::default(),
+            "nothing left: the timers ran"
+        );
+        // The node still answers within the same run.
+        let (_, sent) = r.run(&[frame(
+            0x600 + u16::from(NODE),
+            &[0x40, 0, 0x10, 0, 0, 0, 0, 0],
+        )]);
+        assert_eq!(sent.len(), 1);
+        assert_eq!(sent[0].id(), 0x580 + u16::from(NODE));
     }
 
     #[test]

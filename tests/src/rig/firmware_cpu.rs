@@ -106,6 +106,10 @@ pub const TICK_NS: u64 = 1_000_000;
 /// How long the firmware's `init` waits for EEPROM_LOADED.
 pub const INIT_EEPROM_WAIT_NS: u64 = EEPROM_WAIT_MS as u64 * 1_000_000;
 
+/// Most activations of the CAN task in a row: a bound, so a flooded bus cannot stop virtual
+/// time; frames left are served at the next CAN event.
+const MAX_CAN_RUNS: usize = 16;
+
 /// How often `init` looks at the pin while it waits.
 const INIT_POLL_NS: u64 = 100_000;
 
@@ -297,13 +301,19 @@ impl FirmwareCpu {
         app.peek_can_tx().is_some() || app.can_deadline_ns().is_some_and(|t| t <= now_ns)
     }
 
-    /// One activation of the CAN task.
+    /// The CAN task, activated again while it asks to (one received frame each), at most
+    /// [`MAX_CAN_RUNS`] times in a row.
     fn can_task(&mut self, io: &BoardIo) {
-        let out = can_task::run(&mut self.can, self.task.app_mut(), &self.stage, io.now_ns());
-        self.dac_task(Done {
-            apply_outputs: out.apply_outputs,
-            ..Done::default()
-        });
+        for _ in 0..MAX_CAN_RUNS {
+            let out = can_task::run(&mut self.can, self.task.app_mut(), &self.stage, io.now_ns());
+            self.dac_task(Done {
+                apply_outputs: out.apply_outputs,
+                ..Done::default()
+            });
+            if !out.run_again {
+                break;
+            }
+        }
     }
 }
 
