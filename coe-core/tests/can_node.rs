@@ -303,8 +303,14 @@ impl Bench {
         self.take()
     }
 
+    /// The frames to send, taken while `has_tx` says there are (checked against `pop_tx`).
     fn take(&mut self) -> Vec<CanFrame> {
-        std::iter::from_fn(|| self.node.pop_tx()).collect()
+        let mut out = Vec::new();
+        while self.node.has_tx() {
+            out.push(self.node.pop_tx().expect("has_tx: a frame waits"));
+        }
+        assert_eq!(self.node.pop_tx(), None, "has_tx false: nothing waits");
+        out
     }
 
     /// Advances the time to `t`, polling at every deadline on the way; the frames sent.

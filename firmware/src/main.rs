@@ -286,7 +286,7 @@ mod rtic_app {
             // From INIT: the outputs already hold their safe values.
             hw::boot_request::enter_bootloader();
         }
-        if pdi.task.app().peek_can_tx().is_some() {
+        if pdi.task.app().has_can_tx() {
             rtic::pend(Interrupt::CAN);
         }
     }

@@ -158,6 +158,8 @@ mod fault {
 struct Outbox {
     frames: [Option<(u32, CanFrame)>; OUTBOX],
     next: u32,
+    /// Frames queued: the PDI task asks for every activation, without a scan.
+    queued: usize,
 }
 
 impl Outbox {
@@ -165,6 +167,7 @@ impl Outbox {
         Self {
             frames: [None; OUTBOX],
             next: 0,
+            queued: 0,
         }
     }
 
@@ -174,6 +177,7 @@ impl Outbox {
             Some(slot) => {
                 *slot = Some((self.next, frame));
                 self.next = self.next.wrapping_add(1);
+                self.queued += 1;
                 true
             }
             None => false,
@@ -208,15 +212,18 @@ impl Outbox {
 
     fn pop(&mut self) -> Option<CanFrame> {
         let i = self.best()?;
-        self.frames.get_mut(i)?.take().map(|(_, f)| f)
+        let (_, frame) = self.frames.get_mut(i)?.take()?;
+        self.queued -= 1;
+        Some(frame)
     }
 
     fn len(&self) -> usize {
-        self.frames.iter().filter(|f| f.is_some()).count()
+        self.queued
     }
 
     fn clear(&mut self) {
         self.frames = [None; OUTBOX];
+        self.queued = 0;
     }
 }
 
@@ -507,6 +514,11 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
     /// The next frame to send (lowest identifier first).
     pub fn pop_tx(&mut self) -> Option<CanFrame> {
         self.outbox.pop()
+    }
+
+    /// True if frames wait for [`CanNode::pop_tx`] (no search for the best one).
+    pub fn has_tx(&self) -> bool {
+        self.outbox.len() > 0
     }
 
     /// The frame [`CanNode::pop_tx`] would give, left in place (for a controller that may

@@ -813,6 +813,11 @@ impl SlaveApp {
         self.can.peek_tx()
     }
 
+    /// True if the CAN node has frames to send (cheap: the PDI task asks every activation).
+    pub fn has_can_tx(&self) -> bool {
+        self.can.has_tx()
+    }
+
     /// When [`SlaveApp::poll_can`] must run next (ns).
     pub fn can_deadline_ns(&self) -> Option<u64> {
         self.can

@@ -298,7 +298,7 @@ impl FirmwareCpu {
     /// True if the CAN node has frames for the controller or its deadline has come.
     fn can_due(&self, now_ns: u64) -> bool {
         let app = self.task.app();
-        app.peek_can_tx().is_some() || app.can_deadline_ns().is_some_and(|t| t <= now_ns)
+        app.has_can_tx() || app.can_deadline_ns().is_some_and(|t| t <= now_ns)
     }
 
     /// The CAN task, activated again while it asks to (one received frame each), at most
