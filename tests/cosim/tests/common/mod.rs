@@ -72,9 +72,9 @@ pub fn run_script_against_image(
         stop2.store(true, Ordering::Release);
         out
     });
-    let served = sim::run_on_interface(&cfg, target, &stop, &mut |l| {
+    let served = sim::run_wall_clock(&cfg, target, &stop, &mut |l| {
         if let Line::Result(s) = l {
-            if s.contains("waiting for EtherCAT frames") {
+            if s.contains("waiting for frames") {
                 ready.store(true, Ordering::Release);
             }
         }
@@ -88,7 +88,7 @@ pub fn run_script_against_image(
         .with(|c| c.facts())
         .ok_or("the co-simulator did not start")?;
     Ok(ScriptRun {
-        served: served.frames,
+        served: served.ecat.frames,
         script_ok: out.status.success(),
         lines: String::from_utf8_lossy(&out.stdout)
             .lines()
