@@ -112,11 +112,15 @@ pub fn bit_timing(pclk_hz: u32, bit_rate: u32) -> Option<BitTiming> {
     let want = cia_sample_point_permille(bit_rate);
     let mut best: Option<(u32, BitTiming)> = None;
     for quanta in TQ_PER_BIT {
-        let clocks = u64::from(bit_rate) * u64::from(quanta);
-        if u64::from(pclk_hz) % clocks != 0 {
+        // 32-bit arithmetic (no 64-bit division in the image): a product that overflows
+        // is above any PCLK and cannot divide it.
+        let Some(clocks) = bit_rate.checked_mul(quanta) else {
+            continue;
+        };
+        if pclk_hz % clocks != 0 {
             continue;
         }
-        let prescaler = (u64::from(pclk_hz) / clocks) as u32;
+        let prescaler = pclk_hz / clocks;
         if !(1..=1024).contains(&prescaler) {
             continue;
         }
@@ -202,6 +206,8 @@ mod tests {
         // 100 MHz / 800 kbit/s = 125 clocks: only 5 x 25 tq, sampled at 68 %.
         assert_eq!(bit_timing(PCLK, 800_000), None);
         assert_eq!(bit_timing(PCLK, 0), None);
+        // bit rate x tq per bit beyond 32 bits: no timing, no overflow.
+        assert_eq!(bit_timing(PCLK, u32::MAX / 4), None);
     }
 
     #[test]
