@@ -158,8 +158,10 @@ const fn assignment<const N: usize>(defaults: &[u16]) -> [EntryDesc; N] {
     out
 }
 
-static RXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(RX_DEFAULTS[0]);
-static RXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(RX_DEFAULTS[1]);
+/// The entries of both RxPDO mapping objects: their defaults are the same
+/// ([`RX_DEFAULTS`]), so one table serves 0x1600 and 0x1601 (the host tests read the
+/// dictionary's defaults back against the process data's).
+static RXPDO: [EntryDesc; PDO_ENTRIES + 1] = mapping(&RXPDO_DEFAULT);
 static TXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[0]);
 static TXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[1]);
 static TXPDO_3: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[2]);
@@ -337,8 +339,8 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
     CAN.sdo_server(),
     CAN.rpdo(0),
     CAN.rpdo(1),
-    ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &RXPDO_1),
-    ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &RXPDO_2),
+    ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &RXPDO),
+    ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &RXPDO),
     CAN.tpdo(0),
     CAN.tpdo(1),
     CAN.tpdo(2),
