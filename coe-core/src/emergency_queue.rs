@@ -32,6 +32,8 @@ impl<const N: usize> EmergencyQueue<N> {
     }
 
     /// Queues an Emergency; when the queue is full the oldest one is dropped (and counted).
+    // Out of line: the raise/clear paths of both fieldbuses would each carry a copy.
+    #[inline(never)]
     pub fn push(&mut self, emergency: EmergencyRepr) {
         if N == 0 {
             self.dropped = self.dropped.saturating_add(1);

@@ -587,6 +587,8 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
 
     // ------------------------------------------------------------------ sending
 
+    // Out of line: a dozen callers would each carry a copy of the outbox search.
+    #[inline(never)]
     fn send(&mut self, frame: CanFrame) {
         if !self.outbox.push(frame) {
             self.rt.stats.outbox_overflow = self.rt.stats.outbox_overflow.wrapping_add(1);
@@ -851,17 +853,18 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             app.apply_outputs();
         }
         // Then the synchronous TPDOs.
-        self.service_tpdos(app, now_us, true, |r, comm| r.on_sync(comm, counter));
+        self.service_tpdos(app, now_us, true, &mut |r, comm| r.on_sync(comm, counter));
     }
 
     /// Sends the valid synchronous (or event-driven) TPDOs that `due` selects, after change
-    /// detection for the acyclic and event-driven types.
+    /// detection for the acyclic and event-driven types. (`due` as `dyn`: one body for the
+    /// SYNC and the timer callers.)
     fn service_tpdos<A: CanApplication + ?Sized>(
         &mut self,
         app: &mut A,
         now_us: u64,
         synchronous: bool,
-        mut due: impl FnMut(&mut TpdoRuntime, &PdoComm) -> bool,
+        due: &mut dyn FnMut(&mut TpdoRuntime, &PdoComm) -> bool,
     ) {
         for i in 0..T {
             let Some(comm) = self.rt.params.tpdo.get(i).copied() else {
@@ -1058,7 +1061,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                     }
                 }
             }
-            self.service_tpdos(app, now_us, false, |r, comm| r.event_due(comm, now_us));
+            self.service_tpdos(app, now_us, false, &mut |r, comm| r.event_due(comm, now_us));
         }
         let lost = self.rt.stats.outbox_overflow;
         if lost != self.overflow_reported {
