@@ -14,8 +14,10 @@ use crate::cosim::{Facts, Options};
 use crate::image::Image;
 use crate::profile::THREAD;
 use crate::run::image_target;
+use coe_core::canopen::{cob, CanFrame, NmtCommand};
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage};
+use firmware::product::can::DEFAULT_NODE_ID as CAN_NODE;
 use firmware::product::device::DEVICE;
 use firmware::product::od::MODULE_DESCRIPTION_INDEX;
 use firmware::product::sync::MIN_CYCLE_TIME_NS;
@@ -26,6 +28,7 @@ use virtual_board::models::adc::Signal;
 use virtual_board::models::esc::regs;
 use virtual_board::models::esc::SyncSignal;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::can_master::CanMaster;
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::rig::sdo_client::SdoClient;
 use virtual_board::tools::image_figures::{
@@ -129,6 +132,48 @@ pub struct DcRun {
     pub after: Facts,
     /// Phases of the run.
     pub phases: Phases,
+    /// The CAN traffic of the run ([`dc_run_with_can`]; zero without).
+    pub can: CanSeen,
+}
+
+/// CANopen traffic on CAN1 during a DC run: the image's node is started (TPDO2 on every
+/// SYNC) before the EtherCAT master runs, then a master on the board's bus sends a SYNC every
+/// `sync_every` cycles and an SDO upload (0x1018:01) every `sdo_every` cycles, between them.
+#[derive(Debug, Clone, Copy)]
+pub struct CanLoad {
+    /// Cycles from one SYNC to the next.
+    pub sync_every: u64,
+    /// Cycles from one SDO request to the next.
+    pub sdo_every: u64,
+}
+
+/// What the CAN master sent and received during the OP cycles.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CanSeen {
+    /// SYNCs sent.
+    pub syncs: u64,
+    /// TPDO2 frames received.
+    pub tpdos: u64,
+    /// SDO requests sent.
+    pub sdo_requests: u64,
+    /// SDO responses received.
+    pub sdo_responses: u64,
+}
+
+/// The image's CANopen node started on the board's bus (boot-up seen, TPDO2 synchronous,
+/// NMT start), before any EtherCAT traffic.
+fn start_can_node(board: &Board) -> Result<CanMaster, String> {
+    let node = u16::from(CAN_NODE);
+    let can = CanMaster::attach(&board.borrow());
+    let b = &mut *board.borrow_mut();
+    can.wait_for(b, cob::NMT_ERROR_CONTROL + node, 500_000_000)
+        .ok_or("no CAN boot-up message")?;
+    can.download(b, CAN_NODE, 0x1801, 2, &[1])
+        .map_err(|e| format!("TPDO2 transmission type: {e:?}"))?;
+    can.nmt(NmtCommand::StartRemoteNode, CAN_NODE);
+    b.step(5_000_000);
+    can.take();
+    Ok(can)
 }
 
 /// ethercrab's frame storage for one in-process master.
@@ -240,6 +285,17 @@ where
 /// Runs the image from reset to OP with DC SYNC0 at `cycle_ns` and judges `cycles` cycles
 /// ([`DcCheck`]); with `mailbox`, mailbox traffic in PRE-OP first.
 pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Result<DcRun, String> {
+    dc_run_with_can(image, cycle_ns, cycles, mailbox, None)
+}
+
+/// [`dc_run`] with CANopen traffic on CAN1 ([`CanLoad`]) in the OP cycles.
+pub fn dc_run_with_can(
+    image: &Image,
+    cycle_ns: u64,
+    cycles: u64,
+    mailbox: bool,
+    can_load: Option<CanLoad>,
+) -> Result<DcRun, String> {
     let (mut target, handle) = image_target(image.clone(), Options::default())?;
     let board = Rc::new(RefCell::new(VirtualBoard::new({
         let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
@@ -260,6 +316,11 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
             .with(|c| c.facts())
             .ok_or_else(|| "the co-simulator did not start".to_string())
     };
+    let can = match can_load {
+        Some(load) => Some((load, start_can_node(&board)?)),
+        None => None,
+    };
+    let mut can_seen = CanSeen::default();
     let storage: Box<Storage> = Box::new(PduStorage::new());
     let (md, tx, rx) = master(&storage)?;
     let mut phases = Phases::default();
@@ -354,6 +415,21 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
                 ));
             }
             sent.push((t0, a, b));
+            if let Some((load, can)) = &can {
+                if i % load.sync_every == 0 {
+                    can.sync();
+                    can_seen.syncs += 1;
+                }
+                if i % load.sdo_every == load.sdo_every / 2 {
+                    // Expedited upload request of 0x1018:01 (CiA 301 ccs 2).
+                    let request = [0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0];
+                    let id = cob::SDO_RX + u16::from(CAN_NODE);
+                    if let Ok(frame) = CanFrame::new(id, &request) {
+                        can.send(frame);
+                        can_seen.sdo_requests += 1;
+                    }
+                }
+            }
             if i >= WARM_UP_CYCLES {
                 let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
                 let img = sd.inputs_raw();
@@ -374,6 +450,16 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
         master,
         tx_rx_task(board.clone(), tx, rx),
     ));
+    if let Some((_, can)) = &can {
+        let tpdo2 = cob::tpdo(2, CAN_NODE);
+        for (_, frame) in can.take() {
+            if Some(frame.id()) == tpdo2 {
+                can_seen.tpdos += 1;
+            } else if frame.id() == cob::SDO_TX + u16::from(CAN_NODE) {
+                can_seen.sdo_responses += 1;
+            }
+        }
+    }
     let after = facts()?;
     if let Some(f) = &after.fault {
         check.failure = Some(format!("the image faulted: {f}"));
@@ -393,6 +479,7 @@ pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Resul
         before,
         after,
         phases,
+        can: can_seen,
     })
 }
 
