@@ -13,10 +13,13 @@
 //! The tasks share only the lock-free `OutputStage` (`&'static`), the two halves of the
 //! sample ring (in AHB SRAM), two request flags and the `PdiSide` (the slave application)
 //! of the PDI and CAN tasks, which run at the same priority and so never preempt each
-//! other (`#[lock_free]`); no resource needs a lock. The CAN task takes one received frame
-//! per activation and pends itself again (`can_task::CanOutcome::run_again`); EINT3's
-//! vector comes before CAN's, so a pending PDI task runs first and waits for at most one
-//! frame's work, never for a burst. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
+//! other (`#[lock_free]`); no resource needs a lock. The CAN task moves what CAN1 received
+//! into its inbox at every activation, but calls the CANopen node (one frame, or its
+//! timers) only while the CAN window is open (`app::can_window`): while EtherCAT delivers
+//! outputs in regular cycles, in the part of the cycle after the outputs where the call
+//! cannot reach the next cycle's SM2 event before its SYNC0 edge. It takes one frame per
+//! call and pends itself again while frames wait; EINT3's vector comes before CAN's, so a
+//! pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
 //! on the host); the task bodies only read pins and pend each other:
 //!
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::on_sync0`: LDAC pulse or
@@ -38,9 +41,11 @@
 //!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served. It
 //!   pends the CAN task as well: the node's timers (heartbeat, guarding, inhibit and event
 //!   timers, SYNC window) at 1 ms resolution and frames the PDI side queued (Emergencies).
-//! - A received CAN frame pends the CAN task (`can_task::run`): one frame to the node, its
-//!   frames into the free transmit buffers, and the DAC task pended with the apply request
-//!   when an RPDO brought outputs (`OutputSource::Can`).
+//! - A received CAN frame pends the CAN task (`can_task::run`): the frame into the inbox,
+//!   one frame to the node if the window admits it, the node's frames into the free
+//!   transmit buffers, and the DAC task pended with the apply request when an RPDO brought
+//!   outputs (`OutputSource::Can`). After an activation that served a cycle's outputs the
+//!   PDI task pends the CAN task if the window held work back.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -63,7 +68,7 @@ mod rtic_app {
     use crate::hw::wdt::Watchdog;
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
-    use firmware::app::can_task;
+    use firmware::app::can_task::{self, CanInbox};
     use firmware::app::outputs::{DacLatch, OutputStage};
     use firmware::app::pdi_task::{PdiTask, Wake};
     use firmware::app::process_data::ProcessData;
@@ -286,21 +291,25 @@ mod rtic_app {
             // From INIT: the outputs already hold their safe values.
             hw::boot_request::enter_bootloader();
         }
-        if pdi.task.app().has_can_tx() {
+        // CAN frames to send, or CAN work the window held back until these outputs.
+        let app = pdi.task.app();
+        if app.has_can_tx() || app.can_work_waiting(now) {
             rtic::pend(Interrupt::CAN);
         }
     }
 
-    /// CAN1 received a frame, or pended by the tick / the PDI task: the node's frames,
-    /// timers and transmissions.
-    #[task(binds = CAN, priority = 2, local = [can, stage_can], shared = [pdi])]
+    /// CAN1 received a frame, or pended by the tick / the PDI task: received frames into
+    /// the inbox, the node's frames and timers when the CAN window admits them, and
+    /// transmissions.
+    #[task(binds = CAN, priority = 2, local = [can, stage_can, inbox: CanInbox = CanInbox::new()], shared = [pdi])]
     fn can(cx: can::Context) {
         let Some(can) = cx.local.can.as_mut() else {
             return;
         };
         let pdi: &mut PdiSide = cx.shared.pdi;
         let now = hw::timers::now_ns();
-        let done = can_task::run(can, pdi.task.app_mut(), cx.local.stage_can, now);
+        let app = pdi.task.app_mut();
+        let done = can_task::run(can, cx.local.inbox, app, cx.local.stage_can, now);
         if done.apply_outputs {
             request_dac_apply();
         }

@@ -1,11 +1,21 @@
-//! One activation of the CAN task: the frames the controller received go to the
-//! application, its timers run, and its frames go into the controller's free transmit
-//! buffers. The same logic runs behind the LPC1754's CAN1 (`crate::hw::can`) and the
-//! virtual board's bus.
+//! One activation of the CAN task: the frames the controller received go into the
+//! task's inbox, one of them (or the node's timers when none waits) to the application if
+//! the CAN window is open ([`super::can_window`]: after an EtherCAT cycle's outputs), and
+//! the node's frames into the controller's free transmit buffers. The same logic runs
+//! behind the LPC1754's CAN1 (`crate::hw::can`) and the virtual board's bus.
 
 use super::outputs::OutputStage;
 use super::SlaveApp;
 use coe_core::canopen::CanFrame;
+use heapless::Deque;
+
+/// Received frames the inbox holds while the window is closed: at 1 Mbit/s about 0.8 ms
+/// of back-to-back frames, several EtherCAT cycles at the advertised minimum.
+pub const INBOX_FRAMES: usize = 16;
+
+/// Frames one activation takes from the controller: its receive buffer holds two; more
+/// arriving meanwhile raise the receive interrupt again.
+pub const RX_PER_ACTIVATION: usize = 4;
 
 /// The CAN controller as the task needs it.
 pub trait CanController {
@@ -15,33 +25,82 @@ pub trait CanController {
     fn transmit(&mut self, frame: &CanFrame) -> bool;
 }
 
+/// Received frames waiting for the node, and those lost because it was full.
+#[derive(Debug, Default)]
+pub struct CanInbox {
+    frames: Deque<CanFrame, INBOX_FRAMES>,
+    overruns: u32,
+}
+
+impl CanInbox {
+    /// An empty inbox.
+    pub const fn new() -> Self {
+        Self {
+            frames: Deque::new(),
+            overruns: 0,
+        }
+    }
+
+    /// Moves what the controller received in (at most [`RX_PER_ACTIVATION`] frames),
+    /// counting the frames that find it full.
+    pub fn fill<C: CanController + ?Sized>(&mut self, can: &mut C) {
+        for _ in 0..RX_PER_ACTIVATION {
+            let Some(frame) = can.receive() else {
+                return;
+            };
+            if self.frames.push_back(frame).is_err() {
+                self.overruns = self.overruns.wrapping_add(1);
+            }
+        }
+    }
+
+    /// Frames waiting.
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// True if no frame waits.
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Frames lost because the inbox was full.
+    pub const fn overruns(&self) -> u32 {
+        self.overruns
+    }
+}
+
 /// What one activation leaves to the task body.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CanOutcome {
     /// Pend the DAC task with the apply request (an RPDO brought outputs, or fault values).
     pub apply_outputs: bool,
-    /// A frame was taken: pend the CAN task again for the next one. The PDI task runs at
-    /// the same priority and its vector (EINT3) comes before CAN's, so an SM2 event that
-    /// arrives meanwhile is served before the next frame: it waits for at most one frame's
-    /// work, never for a burst.
+    /// A frame went to the node and more wait: pend the CAN task again for the next one.
+    /// The PDI task runs at the same priority and its vector (EINT3) comes before CAN's,
+    /// so an SM2 event that arrives meanwhile is served before the next frame.
     pub run_again: bool,
 }
 
-/// Serves the controller at `now_ns`: one received frame, or the timers when none came,
-/// then transmission as long as the controller takes frames.
+/// Serves the controller at `now_ns`: its frames into the inbox; if the window admits a
+/// node call, one frame from the inbox, or the timers when none waits; then transmission
+/// as long as the controller takes frames (short: it holds no SM2 event for long).
 pub fn run<C: CanController + ?Sized>(
     can: &mut C,
+    inbox: &mut CanInbox,
     app: &mut SlaveApp,
     stage: &OutputStage,
     now_ns: u64,
 ) -> CanOutcome {
     let mut out = CanOutcome::default();
-    match can.receive() {
-        Some(frame) => {
-            out.apply_outputs = app.on_can_frame(&frame, stage, now_ns).apply_outputs;
-            out.run_again = true;
+    inbox.fill(can);
+    if app.admit_can_call(now_ns) {
+        match inbox.frames.pop_front() {
+            Some(frame) => {
+                out.apply_outputs = app.on_can_frame(&frame, stage, now_ns).apply_outputs;
+                out.run_again = !inbox.is_empty();
+            }
+            None => out.apply_outputs = app.poll_can(stage, now_ns).apply_outputs,
         }
-        None => out.apply_outputs = app.poll_can(stage, now_ns).apply_outputs,
     }
     while let Some(frame) = app.peek_can_tx() {
         if !can.transmit(&frame) {
@@ -58,8 +117,10 @@ mod tests {
     use crate::app::outputs::{DacPair, StageKind};
     use crate::app::process_data::ProcessData;
     use crate::app::AppConfig;
+    use crate::fake_esc::FakeEsc;
     use crate::product::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
     use crate::product::od;
+    use et1100::AlEvents;
     use std::boxed::Box;
     use std::collections::VecDeque;
     use std::vec;
@@ -91,6 +152,7 @@ mod tests {
 
     struct Rig {
         can: FakeController,
+        inbox: CanInbox,
         app: Box<SlaveApp>,
         stage: OutputStage,
         now: u64,
@@ -104,6 +166,7 @@ mod tests {
                     tx: Vec::new(),
                     free,
                 },
+                inbox: CanInbox::new(),
                 app: Box::new(SlaveApp::new(
                     &od::OD,
                     AppConfig::product(),
@@ -132,7 +195,13 @@ mod tests {
         }
 
         fn activation(&mut self) -> CanOutcome {
-            run(&mut self.can, &mut self.app, &self.stage, self.now)
+            run(
+                &mut self.can,
+                &mut self.inbox,
+                &mut self.app,
+                &self.stage,
+                self.now,
+            )
         }
     }
 
@@ -159,12 +228,14 @@ mod tests {
     fn one_received_frame_per_activation() {
         let mut r = Rig::new(usize::MAX);
         r.run(&[]);
-        // A burst: each activation takes one frame and asks to run again, so the PDI task
-        // (same priority, served first when both are pending) waits for one frame's work.
+        // A burst: the first activation moves it into the inbox, each gives the node one
+        // frame and asks to run again while more wait, so the PDI task (same priority,
+        // served first when both are pending) waits for one frame's work.
         r.can.rx.extend(vec![nmt(0x80); 3]);
         for left in (0..3).rev() {
-            assert!(r.activation().run_again);
-            assert_eq!(r.can.rx.len(), left);
+            assert_eq!(r.activation().run_again, left > 0);
+            assert!(r.can.rx.is_empty());
+            assert_eq!(r.inbox.len(), left);
         }
         assert_eq!(
             r.activation(),
@@ -215,5 +286,81 @@ mod tests {
         let (out, _) = r.run(&[nmt(0x02)]);
         assert!(out.apply_outputs);
         assert_eq!(r.stage.staged().0, StageKind::Fault);
+    }
+
+    /// The PDI task's SM2 events at `times` (ns), as in a cycle's outputs.
+    fn output_events(app: &mut SlaveApp, times: &[u64]) {
+        let mut esc = FakeEsc::new();
+        for &t in times {
+            esc.raise(AlEvents::SM2);
+            assert!(
+                app.on_pdi_irq(&mut esc.driver(), &OutputStage::new(), t)
+                    .unwrap()
+                    .sm2_event
+            );
+        }
+    }
+
+    const US: u64 = 1_000;
+
+    impl Rig {
+        /// A rig after the boot-up whose application served outputs at `base`, 100 us and
+        /// 200 us later (EtherCAT cycles of 100 us); `base`.
+        fn in_100_us_cycles() -> (Self, u64) {
+            let mut r = Self::new(usize::MAX);
+            r.run(&[]);
+            let base = r.now;
+            output_events(&mut r.app, &[base, base + 100 * US, base + 200 * US]);
+            (r, base)
+        }
+    }
+
+    fn upload_0x1000() -> CanFrame {
+        frame(0x600 + u16::from(NODE), &[0x40, 0, 0x10, 0, 0, 0, 0, 0])
+    }
+
+    /// While EtherCAT cycles run, frames that arrive after the first half of a cycle wait
+    /// in the inbox (the node's calls could reach the next SYNC0) and all are served once
+    /// the next cycle's outputs open the window.
+    #[test]
+    fn frames_wait_for_the_window_and_none_is_lost() {
+        let (mut r, base) = Rig::in_100_us_cycles();
+        r.now = base + 270 * US;
+        r.can.rx.extend(vec![upload_0x1000(); 3]);
+        assert_eq!(r.activation(), CanOutcome::default());
+        assert_eq!(r.inbox.len(), 3, "taken from the controller, not served");
+        assert!(r.can.tx.is_empty());
+        assert!(r.app.can_waiting() && !r.app.can_work_waiting(r.now));
+        output_events(&mut r.app, &[base + 300 * US]);
+        r.now = base + 310 * US;
+        assert!(
+            r.app.can_work_waiting(r.now),
+            "the PDI task pends the CAN task"
+        );
+        let mut activations = 1;
+        while r.activation().run_again {
+            activations += 1;
+        }
+        assert_eq!(activations, 3, "one frame per activation");
+        assert_eq!(r.can.tx.len(), 3, "every request answered");
+        assert!(r.can.tx.iter().all(|f| f.id() == 0x580 + u16::from(NODE)));
+        assert!(!r.app.can_waiting());
+        assert_eq!(r.inbox.overruns(), 0);
+    }
+
+    #[test]
+    fn a_full_inbox_counts_the_frames_it_loses() {
+        let (mut r, base) = Rig::in_100_us_cycles();
+        r.now = base + 280 * US;
+        let extra = 5;
+        r.can.rx.extend(vec![nmt(0x80); INBOX_FRAMES + extra]);
+        let mut activations = 0;
+        while !r.can.rx.is_empty() {
+            r.activation();
+            activations += 1;
+            assert!(activations <= INBOX_FRAMES, "the controller is drained");
+        }
+        assert_eq!(r.inbox.len(), INBOX_FRAMES);
+        assert_eq!(r.inbox.overruns(), extra as u32);
     }
 }

@@ -43,6 +43,7 @@ pub mod adc_dma;
 pub mod adc_scan;
 pub mod can;
 pub mod can_task;
+pub mod can_window;
 pub mod confirm;
 pub mod dac;
 pub mod diagnostics;
@@ -66,6 +67,7 @@ use crate::product::capacity::MAX_IMAGE;
 use crate::product::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use crate::product::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
 use can::{CanView, Node};
+use can_window::CanWindow;
 use coe_core::canopen::{CanFrame, NmtState};
 use coe_core::device::{MemoryWindow, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
@@ -139,6 +141,8 @@ pub struct SlaveApp {
     esm: Esm,
     mailbox: AppLink,
     can: Node,
+    /// When the CAN task may call the node (after the outputs of an EtherCAT cycle).
+    can_window: CanWindow,
     data: AppData,
     config: AppConfig,
     mask: Option<AlEvents>,
@@ -171,6 +175,7 @@ impl SlaveApp {
                 .with_bootstrap(config.bootstrap.is_some()),
             mailbox: AppLink::for_dictionary(od),
             can: Node::new(config.can_node_id, od, &COMM_DEFAULTS),
+            can_window: CanWindow::new(),
             data: AppData::new(od, pd),
             config,
             mask: None,
@@ -257,6 +262,7 @@ impl SlaveApp {
         if events.contains(AlEvents::SM2) {
             self.outputs(esc, stage, now_ns, &mut out)?;
             out.sm2_event = true;
+            self.can_window.on_output_event(now_ns);
         }
         let activation = events.contains(AlEvents::SM_ACTIVATION);
         if activation {
@@ -816,6 +822,22 @@ impl SlaveApp {
     /// True if the CAN node has frames to send (cheap: the PDI task asks every activation).
     pub fn has_can_tx(&self) -> bool {
         self.can.has_tx()
+    }
+
+    /// Whether a call of the CAN node may start at `now_ns` ([`CanWindow`]); a refusal
+    /// is remembered as CAN work that waits.
+    pub fn admit_can_call(&mut self, now_ns: u64) -> bool {
+        self.can_window.admit(now_ns)
+    }
+
+    /// CAN work was refused and the window is open now: pend the CAN task.
+    pub fn can_work_waiting(&self, now_ns: u64) -> bool {
+        self.can_window.work_waiting(now_ns)
+    }
+
+    /// CAN work was refused and waits for the window (whoever opens it pends the CAN task).
+    pub fn can_waiting(&self) -> bool {
+        self.can_window.waiting()
     }
 
     /// When [`SlaveApp::poll_can`] must run next (ns).

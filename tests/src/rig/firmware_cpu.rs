@@ -44,7 +44,7 @@ use ad7689::Ad7689;
 use coe_core::canopen::CanFrame;
 use et1100::{Et1100, SpiPdi};
 use firmware::app::adc_scan::SCAN_CONFIG;
-use firmware::app::can_task::{self, CanController};
+use firmware::app::can_task::{self, CanController, CanInbox};
 use firmware::app::dac::OutputDac;
 use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
 use firmware::app::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
@@ -152,6 +152,8 @@ pub struct FirmwareCpu {
     init_wait: Option<(u64, u64)>,
     bootloader_requested: bool,
     can: BusController,
+    /// The CAN task's received frames while its window is closed.
+    can_inbox: CanInbox,
     /// Counters.
     pub stats: FirmwareStats,
 }
@@ -182,6 +184,7 @@ impl FirmwareCpu {
                 bus: io.can.bus.clone(),
                 port: io.can.port,
             },
+            can_inbox: CanInbox::new(),
             stats: FirmwareStats::default(),
         };
         let ok = cpu.dac.init().is_ok();
@@ -295,17 +298,26 @@ impl FirmwareCpu {
         }
     }
 
-    /// True if the CAN node has frames for the controller or its deadline has come.
+    /// True if the CAN node has frames for the controller, its deadline has come, or the
+    /// CAN window has opened on work it held back.
     fn can_due(&self, now_ns: u64) -> bool {
         let app = self.task.app();
-        app.has_can_tx() || app.can_deadline_ns().is_some_and(|t| t <= now_ns)
+        app.has_can_tx()
+            || app.can_work_waiting(now_ns)
+            || (!app.can_waiting() && app.can_deadline_ns().is_some_and(|t| t <= now_ns))
     }
 
     /// The CAN task, activated again while it asks to (one received frame each), at most
     /// [`MAX_CAN_RUNS`] times in a row.
     fn can_task(&mut self, io: &BoardIo) {
         for _ in 0..MAX_CAN_RUNS {
-            let out = can_task::run(&mut self.can, self.task.app_mut(), &self.stage, io.now_ns());
+            let out = can_task::run(
+                &mut self.can,
+                &mut self.can_inbox,
+                self.task.app_mut(),
+                &self.stage,
+                io.now_ns(),
+            );
             self.dac_task(Done {
                 apply_outputs: out.apply_outputs,
                 ..Done::default()
@@ -364,7 +376,9 @@ impl PdiCpu for FirmwareCpu {
             Some((poll, deadline)) => Some(poll.min(deadline)),
             None => {
                 let next = self.next_cnv_ns.min(self.next_tick_ns);
-                let can = self.task.app().can_deadline_ns();
+                // Work the CAN window held back waits for the PDI task or the tick.
+                let app = self.task.app();
+                let can = app.can_deadline_ns().filter(|_| !app.can_waiting());
                 Some(can.map_or(next, |t| t.min(next)))
             }
         }
