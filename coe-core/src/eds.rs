@@ -178,7 +178,7 @@ fn write_value<W: Write>(
             if node_relative {
                 write!(out, "$NODEID+")?;
             }
-            write_number(out, entry.data_type, value)?;
+            write_number(out, entry.data_type(), value)?;
             writeln!(out)?;
             Ok(())
         }
@@ -198,7 +198,7 @@ fn write_entry<W: Write>(
     }
     writeln!(out, "ParameterName={}", ini_text(entry.name)?)?;
     writeln!(out, "ObjectType=0x7")?;
-    writeln!(out, "DataType=0x{:04X}", entry.data_type.code())?;
+    writeln!(out, "DataType=0x{:04X}", entry.data_type().code())?;
     writeln!(out, "AccessType={}", access_type(entry))?;
     let relative = is_node_relative(object.index, entry.subindex);
     write_value(out, "DefaultValue", entry, &entry.default(), relative)?;

@@ -177,7 +177,7 @@ fn uniform_elements(object: &ObjectDesc) -> Option<&'static [EntryDesc]> {
 
 /// The ESI name of an entry's type.
 fn type_name(entry: &EntryDesc) -> EsiTypeName {
-    entry.data_type.esi_name(entry.bit_len)
+    entry.data_type().esi_name(entry.bit_len)
 }
 
 /// `#x` and upper-case hex digits, zero-padded to `width` (the schema's HexDecValue).
@@ -229,7 +229,7 @@ impl ValueText {
             Value::None => None,
             Value::Str(s)
                 if matches!(
-                    entry.data_type,
+                    entry.data_type(),
                     DataType::VisibleString | DataType::UnicodeString
                 ) =>
             {
@@ -240,7 +240,7 @@ impl ValueText {
             Value::Int(_) | Value::Uint(_) | Value::Real(_) => {
                 let mut buf = [0u8; 8];
                 value
-                    .encode(entry.data_type, entry.bit_len, &mut buf)
+                    .encode(entry.data_type(), entry.bit_len, &mut buf)
                     .map(|len| Self::Number(buf, len))
             }
         }

@@ -39,6 +39,15 @@ macro_rules! open_enum {
             Unknown($ty)
         }
 
+        impl $name {
+            /// The value for a code (a `const` version of `From`; one copy in the program).
+            #[inline(never)]
+            pub const fn from_raw(value: $ty) -> Self {
+                $( if value == $value { return $name::$variant; } )*
+                $name::Unknown(value)
+            }
+        }
+
         impl ::core::convert::From<$ty> for $name {
             fn from(value: $ty) -> Self {
                 match value {

@@ -508,7 +508,7 @@ fn entry_name_and_type(
     entry: PdoEntry,
 ) -> Result<(u8, u8), SiiError> {
     match desc.mapped_entry(entry) {
-        Some(e) => Ok((strings.index(e.name)?, e.data_type.code() as u8)),
+        Some(e) => Ok((strings.index(e.name)?, e.data_type().code() as u8)),
         None => Ok((0, entry.index as u8)),
     }
 }

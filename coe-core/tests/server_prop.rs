@@ -155,11 +155,11 @@ proptest! {
             for entry in object.entries {
                 if !entry.access.writable_in(AlState::PreOp)
                     || !entry.access.readable_in(AlState::PreOp)
-                    || entry.data_type.is_variable_length()
+                    || entry.data_type().is_variable_length()
                 {
                     continue;
                 }
-                let (lo, hi) = int_limits(entry.data_type, entry.bit_len).unwrap();
+                let (lo, hi) = int_limits(entry.data_type(), entry.bit_len).unwrap();
                 let lo = match entry.min() { Value::Int(v) => lo.max(v.into()), _ => lo };
                 let hi = match entry.max() { Value::Int(v) => hi.min(v.into()), _ => hi };
                 // Sub 0 of the dynamic list must stay within its highest subindex.
@@ -183,7 +183,7 @@ proptest! {
                 let up = b.ask(&sdo(0x40, object.index, entry.subindex, [0; 4]));
                 let got = if up[2] & 0x02 != 0 { up[6..6 + n].to_vec() } else { up[10..].to_vec() };
                 prop_assert_eq!(&got[..], bytes);
-                prop_assert_eq!(decode_int(entry.data_type, entry.bit_len, &got), Some(value));
+                prop_assert_eq!(decode_int(entry.data_type(), entry.bit_len, &got), Some(value));
             }
         }
     }

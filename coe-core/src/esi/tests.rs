@@ -432,7 +432,7 @@ fn xml_bool(s: &str) -> bool {
 
 /// ETG.2000 names of the basic types this test uses.
 fn expected_type(e: &EntryDesc) -> String {
-    match e.data_type {
+    match e.data_type() {
         DataType::Boolean => "BOOL".into(),
         DataType::Unsigned8 => "USINT".into(),
         DataType::Unsigned16 => "UINT".into(),
@@ -471,7 +471,7 @@ fn expected_bytes(e: &EntryDesc, v: &Value) -> Option<Vec<u8>> {
         Value::None => None,
         Value::Int(x) => Some(x.to_le_bytes()[..len].to_vec()),
         Value::Uint(x) => Some(x.to_le_bytes()[..len].to_vec()),
-        Value::Real(x) if e.data_type == DataType::Real32 => {
+        Value::Real(x) if e.data_type() == DataType::Real32 => {
             Some((x as f32).to_le_bytes().to_vec())
         }
         Value::Real(x) => Some(x.to_le_bytes().to_vec()),
@@ -524,7 +524,7 @@ fn check_info(info: Option<Node<'_, '_>>, e: &EntryDesc, what: &str) {
         info.and_then(|i| opt_child(i, name))
             .map(|n| text(n).to_string())
     };
-    match (e.data_type, e.default()) {
+    match (e.data_type(), e.default()) {
         (DataType::VisibleString, Value::Str(s)) => {
             assert_eq!(
                 find("DefaultString").as_deref(),

@@ -41,11 +41,12 @@ use core::fmt;
 /// One entry (subindex) of an object: type, length, access, limits and the name the SDO
 /// Information service and the ESI file show.
 ///
-/// The layout is kept small because the firmware's dictionary lives in a 32 KB flash: the
-/// default is stored in a 4-byte-aligned packed form (carrying the unit flag in its spare
-/// byte) and minimum/maximum sit behind one optional reference (most entries have none),
-/// so an entry takes 36 bytes on a 32-bit target instead of 72. Read them through [`EntryDesc::default`], [`EntryDesc::min`],
-/// [`EntryDesc::max`] and [`EntryDesc::unit`].
+/// The layout is kept small because the firmware's dictionary lives in its flash budget:
+/// the default is stored in a 4-byte-aligned packed form (carrying the unit flag in its
+/// spare byte), minimum/maximum sit behind one optional reference (most entries have none)
+/// and the data type is its one-byte code, so an entry takes 32 bytes on a 32-bit target
+/// instead of 72. Read them through [`EntryDesc::data_type`], [`EntryDesc::default`],
+/// [`EntryDesc::min`], [`EntryDesc::max`] and [`EntryDesc::unit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EntryDesc {
@@ -53,8 +54,9 @@ pub struct EntryDesc {
     pub subindex: u8,
     /// Entry name.
     pub name: &'static str,
-    /// Data type.
-    pub data_type: DataType,
+    /// Data type code ([`EntryDesc::data_type`]): one byte holds every type an entry can
+    /// have (ETG.1000.6's codes above 0xFF are array types an entry cannot describe).
+    type_code: u8,
     /// Length in bits; for strings and OCTET_STRING the maximum length (8 bits per byte).
     /// A DOMAIN may give 0: its length is whatever the application reads or accepts.
     pub bit_len: u16,
@@ -68,10 +70,10 @@ pub struct EntryDesc {
     range: Option<&'static ValueRange>,
 }
 
-// The firmware's dictionary sits in a 32 KB flash: an entry stays at 36 bytes on a 32-bit
-// target (checked when building for one).
+// The firmware's dictionary sits in its flash budget: an entry stays at 32 bytes on a
+// 32-bit target (checked when building for one).
 #[cfg(target_pointer_width = "32")]
-const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 36);
+const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 32);
 
 /// The minimum and maximum of an entry (ESI `MinValue`/`MaxValue`, SDO Information value
 /// info 0x20/0x40); writes outside them are refused. Given by reference so that entries
@@ -170,10 +172,13 @@ impl EntryDesc {
             Some(bits) => bits,
             None => 0,
         };
+        let code = data_type.code();
         Self {
             subindex,
             name,
-            data_type,
+            // A code above 0xFF (no entry type) reads back as unknown type 0: refused by
+            // the dictionary's validation like any type without a length.
+            type_code: if code <= 0xFF { code as u8 } else { 0 },
             bit_len,
             access,
             unit: 0,
@@ -193,6 +198,11 @@ impl EntryDesc {
     pub const fn count(count: u8) -> Self {
         Self::new(0, "SubIndex 000", DataType::Unsigned8, Access::RO)
             .with_default(Value::Int(count as i64))
+    }
+
+    /// Data type.
+    pub const fn data_type(&self) -> DataType {
+        DataType::from_raw(self.type_code as u16)
     }
 
     /// Replaces the bit length (strings, OCTET_STRING, DOMAIN).
@@ -279,7 +289,7 @@ impl EntryDesc {
     /// (0x06090031 ValueTooHigh / 0x06090032 ValueTooLow).
     pub fn check_range(&self, bytes: &[u8]) -> Result<(), SdoAbortCode> {
         match self.range {
-            Some(r) => value::check_range(self.data_type, self.bit_len, &r.min, &r.max, bytes),
+            Some(r) => value::check_range(self.data_type(), self.bit_len, &r.min, &r.max, bytes),
             None => Ok(()),
         }
     }
@@ -326,7 +336,7 @@ impl ObjectDesc {
     /// A VAR: `entries` holds the single entry (subindex 0).
     pub const fn var(index: u16, name: &'static str, entries: &'static [EntryDesc]) -> Self {
         let data_type = match entries {
-            [first, ..] => first.data_type,
+            [first, ..] => first.data_type(),
             [] => DataType::Unknown(0),
         };
         Self {
@@ -341,7 +351,7 @@ impl ObjectDesc {
     /// An ARRAY: sub 0 then elements of one type; the object's type is the element type.
     pub const fn array(index: u16, name: &'static str, entries: &'static [EntryDesc]) -> Self {
         let data_type = match entries {
-            [_, element, ..] => element.data_type,
+            [_, element, ..] => element.data_type(),
             _ => DataType::Unknown(0),
         };
         Self {
@@ -502,7 +512,7 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
         }
         (_, [first, ..]) => {
             if first.subindex != 0
-                || !matches!(first.data_type, DataType::Unsigned8)
+                || !matches!(first.data_type(), DataType::Unsigned8)
                 || first.bit_len != 8
             {
                 return Err(OdError::new(
@@ -539,7 +549,7 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
         if matches!(object.code, ObjectCode::Array) && entry.subindex != 0 {
             match element {
                 Some(first) => {
-                    if first.data_type.code() != entry.data_type.code()
+                    if first.data_type().code() != entry.data_type().code()
                         || first.bit_len != entry.bit_len
                     {
                         return Err(OdError::new(
@@ -559,7 +569,7 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
 }
 
 const fn validate_entry(entry: &EntryDesc) -> Result<(), OdErrorKind> {
-    let t = entry.data_type;
+    let t = entry.data_type();
     if entry.name.is_empty() {
         return Err(OdErrorKind::EmptyName);
     }
@@ -638,7 +648,7 @@ const fn validate_entry(entry: &EntryDesc) -> Result<(), OdErrorKind> {
 
 /// True if `value` is of a kind that suits the entry and fits its range/length.
 const fn value_fits(entry: &EntryDesc, value: &Value) -> bool {
-    let t = entry.data_type;
+    let t = entry.data_type();
     match *value {
         Value::None => true,
         Value::Int(_) | Value::Uint(_) => {

@@ -28,7 +28,7 @@ pub struct OdStore<const N: usize> {
 }
 
 const fn slot_len(entry: &EntryDesc) -> usize {
-    if entry.data_type.is_variable_length() {
+    if entry.data_type().is_variable_length() {
         2 + entry.byte_len()
     } else {
         entry.byte_len()
@@ -75,15 +75,17 @@ impl<const N: usize> OdStore<N> {
                 let len = slot_len(entry);
                 if let Some(slot) = self.data.get_mut(offset..offset + len) {
                     slot.fill(0);
-                    if entry.data_type.is_variable_length() {
+                    if entry.data_type().is_variable_length() {
                         let (head, body) = slot.split_at_mut(2);
                         let n = entry
                             .default()
-                            .encode(entry.data_type, entry.bit_len, body)
+                            .encode(entry.data_type(), entry.bit_len, body)
                             .unwrap_or(0);
                         head.copy_from_slice(&(n as u16).to_le_bytes());
                     } else {
-                        let _ = entry.default().encode(entry.data_type, entry.bit_len, slot);
+                        let _ = entry
+                            .default()
+                            .encode(entry.data_type(), entry.bit_len, slot);
                     }
                 }
                 offset += len;
@@ -107,7 +109,7 @@ impl<const N: usize> OdStore<N> {
     /// The stored value (for strings: the bytes currently held).
     pub fn get(&self, index: u16, subindex: u8) -> Option<&[u8]> {
         let (entry, offset) = self.slot(index, subindex)?;
-        if entry.data_type.is_variable_length() {
+        if entry.data_type().is_variable_length() {
             let head = self.data.get(offset..offset + 2)?;
             let used = usize::from(u16::from_le_bytes([*head.first()?, *head.get(1)?]));
             self.data
@@ -125,7 +127,7 @@ impl<const N: usize> OdStore<N> {
             .slot(index, subindex)
             .ok_or(SdoAbortCode::ObjectDoesNotExist)?;
         let len = entry.byte_len();
-        if entry.data_type.is_variable_length() {
+        if entry.data_type().is_variable_length() {
             if value.len() > len {
                 return Err(SdoAbortCode::LengthTooHigh);
             }

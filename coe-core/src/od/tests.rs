@@ -323,3 +323,25 @@ fn default_and_range_read_back_unchanged() {
     assert_ne!(a, base.with_default(Value::Int(-2)));
     assert_eq!(a.value_info(), ValueInfo::UNIT_TYPE | ValueInfo::DEFAULT);
 }
+
+/// An entry keeps its data type as a one-byte code: every type code up to 0xFF reads back as
+/// given; a code above (ETG.1000.6's array types, which cannot describe an entry) reads back
+/// as unknown type 0 and the dictionary refuses it.
+#[test]
+fn entry_data_types_read_back() {
+    for code in 0..=0xFFu16 {
+        let t = DataType::from(code);
+        assert_eq!(
+            EntryDesc::new(0, "x", t, Access::RO).data_type(),
+            t,
+            "{code:#x}"
+        );
+        assert_eq!(DataType::from_raw(code), t);
+    }
+    const WIDE: EntryDesc = EntryDesc::new(0, "x", DataType::Unknown(0x0260), Access::RO);
+    assert_eq!(WIDE.data_type(), DataType::Unknown(0));
+    assert_eq!(
+        check!(&[ObjectDesc::var(1, "a", &[WIDE])]),
+        Err(OdErrorKind::UnsupportedType)
+    );
+}

@@ -90,7 +90,7 @@ pub(crate) fn check_start(object: &ObjectDesc, start: u8) -> Result<(), SdoAbort
     if object
         .entries
         .iter()
-        .any(|e| e.data_type.is_variable_length() || e.byte_len() > MAX_ENTRY)
+        .any(|e| e.data_type().is_variable_length() || e.byte_len() > MAX_ENTRY)
     {
         return Err(SdoAbortCode::CompleteAccessVariableLength);
     }

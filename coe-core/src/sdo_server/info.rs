@@ -164,15 +164,15 @@ fn list_members(
 fn push_value(w: &mut FragmentWriter<'_>, entry: &EntryDesc, value: &Value) {
     let len = entry.byte_len();
     match *value {
-        Value::Str(s) if entry.data_type == DataType::UnicodeString => {
-            let n = value.encoded_len(entry.data_type, entry.bit_len).min(len) / 2;
+        Value::Str(s) if entry.data_type() == DataType::UnicodeString => {
+            let n = value.encoded_len(entry.data_type(), entry.bit_len).min(len) / 2;
             for c in s.bytes().take(n) {
                 w.push_u16(u16::from(c));
             }
             w.push_zeros(len - n * 2);
         }
         Value::Str(_) | Value::Bytes(_) => {
-            let n = value.encoded_len(entry.data_type, entry.bit_len).min(len);
+            let n = value.encoded_len(entry.data_type(), entry.bit_len).min(len);
             let bytes = match *value {
                 Value::Str(s) => s.as_bytes(),
                 Value::Bytes(b) => b,
@@ -184,7 +184,7 @@ fn push_value(w: &mut FragmentWriter<'_>, entry: &EntryDesc, value: &Value) {
         _ => {
             let mut buf = [0u8; 8];
             let n = value
-                .encode(entry.data_type, entry.bit_len, &mut buf)
+                .encode(entry.data_type(), entry.bit_len, &mut buf)
                 .unwrap_or(0)
                 .min(len);
             w.push(buf.get(..n).unwrap_or_default());
@@ -239,7 +239,7 @@ fn generate(
                 index,
                 sub_index: subindex,
                 value_info: ValueInfo(value_info.0 & entry.value_info()),
-                data_type: entry.data_type,
+                data_type: entry.data_type(),
                 bit_length: entry.bit_len,
                 access: entry.access,
                 unit_type: entry.unit().unwrap_or(0),

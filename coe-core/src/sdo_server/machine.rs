@@ -120,7 +120,7 @@ pub struct SdoMachine<const BUF: usize> {
 /// bits of BOOLEAN/BITn.
 fn check_value(entry: &EntryDesc, data: &[u8]) -> Result<(), SdoAbortCode> {
     let cap = entry.byte_len();
-    if entry.data_type.is_variable_length() {
+    if entry.data_type().is_variable_length() {
         if entry.bit_len != 0 && data.len() > cap {
             return Err(SdoAbortCode::LengthTooHigh);
         }
@@ -592,11 +592,11 @@ fn check_download<A: ObjectAccess + ?Sized>(
     let cap = entry.byte_len();
     let size = match declared {
         Some(size) => size,
-        None if entry.data_type.is_variable_length() => 4.min(cap.max(1)),
+        None if entry.data_type().is_variable_length() => 4.min(cap.max(1)),
         None if cap <= 4 => cap,
         None => return Err(SdoAbortCode::LengthMismatch),
     };
-    if entry.data_type.is_variable_length() {
+    if entry.data_type().is_variable_length() {
         if entry.bit_len != 0 && size > cap {
             return Err(SdoAbortCode::LengthTooHigh);
         }

@@ -256,7 +256,7 @@ fn every_category_reads_back_to_the_description() {
                 match d.mapped_entry(*e) {
                     Some(od_entry) => {
                         assert_eq!(sii.string(*name), od_entry.name);
-                        assert_eq!(u16::from(*data_type), od_entry.data_type.code());
+                        assert_eq!(u16::from(*data_type), od_entry.data_type().code());
                     }
                     None => assert_eq!((*name, u16::from(*data_type)), (0, e.index)),
                 }

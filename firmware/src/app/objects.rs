@@ -178,9 +178,9 @@ impl AppData {
         let len = entry.byte_len();
         let written = entry
             .default()
-            .encode(entry.data_type, entry.bit_len, buf)
+            .encode(entry.data_type(), entry.bit_len, buf)
             .ok_or(SdoAbortCode::OutOfMemory)?;
-        if written == 0 && !entry.data_type.is_variable_length() {
+        if written == 0 && !entry.data_type().is_variable_length() {
             // No default given: zero.
             let out = buf.get_mut(..len).ok_or(SdoAbortCode::OutOfMemory)?;
             out.fill(0);

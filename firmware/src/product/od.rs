@@ -446,14 +446,14 @@ mod tests {
     fn io_objects_are_integer16_and_mappable_the_right_way() {
         let ai = OD.find(0x6401).unwrap();
         assert_eq!(ai.max_subindex(), 8);
-        assert!(ai.entries[1..].iter().all(|e| e.data_type == I16
+        assert!(ai.entries[1..].iter().all(|e| e.data_type() == I16
             && e.access.is_tx_mappable()
             && !e.access.is_rx_mappable()));
         let ao = OD.find(0x6411).unwrap();
         assert_eq!(ao.max_subindex(), 2);
         assert!(ao.entries[1..]
             .iter()
-            .all(|e| e.data_type == I16 && e.access.is_rx_mappable()));
+            .all(|e| e.data_type() == I16 && e.access.is_rx_mappable()));
     }
 
     #[test]
