@@ -18,9 +18,15 @@
 //! always open. The period is the shorter of the last two output intervals, so one lost
 //! frame does not widen the window into the next cycle.
 
+use crate::product::sync::MIN_CYCLE_TIME_NS;
+
 /// Longest node call the window leaves room for (ns): the image's longest measured CAN
 /// activation (NMT start, 8 466 cycles at 100 MHz) with margin.
 pub const CALL_RESERVE_NS: u32 = 100_000;
+
+/// Output events closer than this to the last one belong to its cycle: half the shortest
+/// DC cycle the module accepts.
+pub const SAME_CYCLE_NS: u32 = MIN_CYCLE_TIME_NS / 2;
 
 /// Periods without an output event after which EtherCAT cycles count as stopped.
 pub const STOPPED_PERIODS: u32 = 4;
@@ -46,7 +52,12 @@ impl CanWindow {
     /// An EtherCAT cycle's outputs (SM2 event) were served at `now_ns`. (On the SM2 path:
     /// only the time is kept, the window is worked out when the CAN side asks.)
     pub fn on_output_event(&mut self, now_ns: u64) {
-        self.times = [self.times[1], self.times[2], now_ns];
+        // A second SM2 event of the same cycle (the line still asserted, a repeated
+        // read) is no new cycle: a tiny period would count as cycles stopped and open
+        // the window.
+        if now_ns.saturating_sub(self.times[2]) >= u64::from(SAME_CYCLE_NS) {
+            self.times = [self.times[1], self.times[2], now_ns];
+        }
     }
 
     /// The cycle period the window follows: the shorter of the last two intervals (0: not
@@ -154,6 +165,17 @@ mod tests {
         w.on_output_event(700 * US);
         w.on_output_event(900 * US);
         assert_eq!(u64::from(w.period_ns()), 200 * US);
+    }
+
+    #[test]
+    fn a_second_event_in_the_same_cycle_is_not_a_cycle() {
+        let mut w = cycles(100 * US, 3);
+        w.on_output_event(300 * US + 15 * US);
+        assert_eq!(u64::from(w.period_ns()), 100 * US);
+        assert!(
+            !w.is_open(300 * US + 60 * US),
+            "not taken for stopped cycles"
+        );
     }
 
     #[test]
