@@ -310,7 +310,12 @@ mod tests {
             let mut r = Self::new(usize::MAX);
             r.run(&[]);
             let base = r.now;
-            output_events(&mut r.app, &[base, base + 100 * US, base + 200 * US]);
+            for k in 0..3 {
+                // The CAN task looks between the cycles (its tick at the latest).
+                r.now = base + k * 100 * US;
+                output_events(&mut r.app, &[r.now]);
+                r.activation();
+            }
             (r, base)
         }
     }

@@ -15,8 +15,9 @@
 //! Received frames wait in the task's inbox meanwhile ([`super::can_task::CanInbox`]);
 //! the PDI task pends the CAN task when the window opens and work waits. Without output
 //! events (no EtherCAT cycles, or [`STOPPED_PERIODS`] periods without one) the window is
-//! always open. The period is the shorter of the last two output intervals, so one lost
-//! frame does not widen the window into the next cycle.
+//! always open. The SM2 path only notes the time and counts; the CAN side measures the
+//! period as the mean interval since it last looked and uses the shorter of its last two
+//! measurements, so one lost frame does not widen the window into the next cycle.
 
 use crate::product::sync::MIN_CYCLE_TIME_NS;
 
@@ -24,8 +25,8 @@ use crate::product::sync::MIN_CYCLE_TIME_NS;
 /// activation (NMT start, 8 466 cycles at 100 MHz) with margin.
 pub const CALL_RESERVE_NS: u32 = 100_000;
 
-/// Output events closer than this to the last one belong to its cycle: half the shortest
-/// DC cycle the module accepts.
+/// A mean interval below this (half the shortest DC cycle the module accepts) is no
+/// period: a second SM2 event of a cycle (the line still asserted, a repeated read).
 pub const SAME_CYCLE_NS: u32 = MIN_CYCLE_TIME_NS / 2;
 
 /// Periods without an output event after which EtherCAT cycles count as stopped.
@@ -34,8 +35,14 @@ pub const STOPPED_PERIODS: u32 = 4;
 /// The output events seen and whether CAN work waits for the window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CanWindow {
-    /// Times of the last three output events (ns), oldest first; 0 until seen.
-    times: [u64; 3],
+    /// Time of the last output event (ns), 0 until seen.
+    last_ns: u64,
+    /// Output events seen (wrapping).
+    events: u32,
+    /// The last event and count the CAN side has taken into the period.
+    seen: (u64, u32),
+    /// The last two periods the CAN side measured (ns), oldest first; 0 until known.
+    periods: [u32; 2],
     /// A node call was refused: the PDI task pends the CAN task when the window opens.
     waiting: bool,
 }
@@ -44,30 +51,42 @@ impl CanWindow {
     /// No output event seen: always open.
     pub const fn new() -> Self {
         Self {
-            times: [0; 3],
+            last_ns: 0,
+            events: 0,
+            seen: (0, 0),
+            periods: [0; 2],
             waiting: false,
         }
     }
 
-    /// An EtherCAT cycle's outputs (SM2 event) were served at `now_ns`. (On the SM2 path:
-    /// only the time is kept, the window is worked out when the CAN side asks.)
+    /// An EtherCAT cycle's outputs (SM2 event) were served at `now_ns`. On the SM2 path,
+    /// so only the time and a count are kept: the CAN side works the period out.
     pub fn on_output_event(&mut self, now_ns: u64) {
-        // A second SM2 event of the same cycle (the line still asserted, a repeated
-        // read) is no new cycle: a tiny period would count as cycles stopped and open
-        // the window.
-        if now_ns.saturating_sub(self.times[2]) >= u64::from(SAME_CYCLE_NS) {
-            self.times = [self.times[1], self.times[2], now_ns];
-        }
+        self.last_ns = now_ns;
+        self.events = self.events.wrapping_add(1);
     }
 
-    /// The cycle period the window follows: the shorter of the last two intervals (0: not
-    /// known yet).
+    /// The cycle period the window follows: the shorter of the last two the CAN side
+    /// measured (0: not known yet).
     pub fn period_ns(&self) -> u32 {
-        let [t0, t1, t2] = self.times;
-        if t0 == 0 {
-            return 0;
+        self.periods[0].min(self.periods[1])
+    }
+
+    /// Takes the output events since the last look into the period: their mean interval.
+    /// A second SM2 event of a cycle makes it shorter (a smaller window), a lost frame
+    /// longer by its share, and the shorter of two measurements is used.
+    fn measure(&mut self) {
+        let (seen_ns, seen_events) = self.seen;
+        let n = self.events.wrapping_sub(seen_events);
+        if n == 0 {
+            return;
         }
-        span(t0, t1).min(span(t1, t2))
+        let mean = span(seen_ns, self.last_ns) / n;
+        // A tiny period would count as cycles stopped and open the window.
+        if seen_ns != 0 && mean >= SAME_CYCLE_NS {
+            self.periods = [self.periods[1], mean];
+        }
+        self.seen = (self.last_ns, self.events);
     }
 
     /// Whether a node call may start at `now_ns`. (Out of line: one copy for the PDI and
@@ -75,7 +94,7 @@ impl CanWindow {
     #[inline(never)]
     pub fn is_open(&self, now_ns: u64) -> bool {
         let period = self.period_ns();
-        let since = span(self.times[2], now_ns);
+        let since = span(self.last_ns, now_ns);
         period == 0
             || since / STOPPED_PERIODS >= period
             || since < (period / 2).max(period.saturating_sub(CALL_RESERVE_NS))
@@ -83,6 +102,7 @@ impl CanWindow {
 
     /// [`CanWindow::is_open`], remembering a refusal as work that waits.
     pub fn admit(&mut self, now_ns: u64) -> bool {
+        self.measure();
         let open = self.is_open(now_ns);
         self.waiting = !open;
         open
@@ -110,11 +130,17 @@ mod tests {
 
     const US: u64 = 1_000;
 
+    /// An output event the CAN side looks at before the next.
+    fn event(w: &mut CanWindow, t: u64) {
+        w.on_output_event(t);
+        w.measure();
+    }
+
     /// Output events every `period` from `period` on, `n` of them.
     fn cycles(period: u64, n: u64) -> CanWindow {
         let mut w = CanWindow::new();
         for k in 1..=n {
-            w.on_output_event(k * period);
+            event(&mut w, k * period);
         }
         w
     }
@@ -158,24 +184,31 @@ mod tests {
     fn a_lost_frame_does_not_widen_the_window() {
         let mut w = cycles(100 * US, 3);
         // The frame at 400 us is lost; the next comes at 500 us.
-        w.on_output_event(500 * US);
+        event(&mut w, 500 * US);
         assert_eq!(u64::from(w.period_ns()), 100 * US);
         assert!(!w.is_open(500 * US + 60 * US));
         // A cycle time changed for good is followed after two events.
-        w.on_output_event(700 * US);
-        w.on_output_event(900 * US);
+        event(&mut w, 700 * US);
+        event(&mut w, 900 * US);
         assert_eq!(u64::from(w.period_ns()), 200 * US);
     }
 
     #[test]
     fn a_second_event_in_the_same_cycle_is_not_a_cycle() {
         let mut w = cycles(100 * US, 3);
-        w.on_output_event(300 * US + 15 * US);
+        event(&mut w, 300 * US + 15 * US);
         assert_eq!(u64::from(w.period_ns()), 100 * US);
         assert!(
-            !w.is_open(300 * US + 60 * US),
+            !w.is_open(315 * US + 60 * US),
             "not taken for stopped cycles"
         );
+        // The CAN side looking once per several cycles measures their mean (from the
+        // second event of the cycle: a little shorter, the safe side).
+        for k in 4..=9 {
+            w.on_output_event(k * 100 * US);
+        }
+        w.measure();
+        assert_eq!(u64::from(w.period_ns()), (900 - 315) * US / 6);
     }
 
     #[test]
