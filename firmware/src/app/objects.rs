@@ -132,7 +132,7 @@ impl AppData {
                 self.diag
                     .raise(ERR_MANUFACTURER, EMCY_AO_OUT_OF_RANGE, [mask, 0, 0, 0, 0]),
             )
-        } else if values.iter().all(|v| *v >= 0) {
+        } else if !set.out_of_range {
             self.diag.clear(ERR_MANUFACTURER)
         } else {
             None
