@@ -356,34 +356,15 @@ impl<const N: usize> PdoAssignment<N> {
         mappings: &[PdoMapping<M>],
         max_bits: u32,
     ) -> Result<(), SdoAbortCode> {
-        let mut total = 0u32;
-        for pdo in self.pdos() {
-            total += self.mapping_bits(*pdo, mappings)?;
-        }
-        if total > max_bits {
-            return Err(SdoAbortCode::PdoLengthExceeded);
-        }
-        Ok(())
-    }
-
-    fn mapping_bits<const M: usize>(
-        &self,
-        pdo: u16,
-        mappings: &[PdoMapping<M>],
-    ) -> Result<u32, SdoAbortCode> {
-        let direction = self.direction();
-        mappings
-            .iter()
-            .find(|m| m.index() == pdo && m.direction() == direction)
-            .map(|m| m.bit_len())
-            .ok_or(SdoAbortCode::ValueRangeExceeded)
+        validate_assigned(self.direction(), self.pdos(), mappings, max_bits)
     }
 
     /// Total length in bits of the assigned PDOs (unknown PDOs count 0).
     pub fn bit_len<const M: usize>(&self, mappings: &[PdoMapping<M>]) -> u32 {
+        let direction = self.direction();
         self.pdos()
             .iter()
-            .map(|p| self.mapping_bits(*p, mappings).unwrap_or(0))
+            .map(|p| mapping_bits(direction, *p, mappings).unwrap_or(0))
             .sum()
     }
 
@@ -433,12 +414,43 @@ impl<const N: usize> PdoAssignment<N> {
         if self.count != 0 {
             return Err(SdoAbortCode::SubindexZeroMustBeZero);
         }
-        self.mapping_bits(pdo, mappings)?;
+        mapping_bits(self.direction(), pdo, mappings)?;
         if let Some(p) = self.pdos.get_mut(slot) {
             *p = pdo;
         }
         Ok(())
     }
+}
+
+// The checks of an assignment do not depend on its capacity: one copy in a program with
+// assignments of several sizes.
+fn validate_assigned<const M: usize>(
+    direction: Option<PdoDirection>,
+    pdos: &[u16],
+    mappings: &[PdoMapping<M>],
+    max_bits: u32,
+) -> Result<(), SdoAbortCode> {
+    let mut total = 0u32;
+    for pdo in pdos {
+        total += mapping_bits(direction, *pdo, mappings)?;
+    }
+    if total > max_bits {
+        return Err(SdoAbortCode::PdoLengthExceeded);
+    }
+    Ok(())
+}
+
+/// The length of mapping `pdo` if `mappings` holds it in `direction` (else 0x06090030).
+fn mapping_bits<const M: usize>(
+    direction: Option<PdoDirection>,
+    pdo: u16,
+    mappings: &[PdoMapping<M>],
+) -> Result<u32, SdoAbortCode> {
+    mappings
+        .iter()
+        .find(|m| m.index() == pdo && m.direction() == direction)
+        .map(|m| m.bit_len())
+        .ok_or(SdoAbortCode::ValueRangeExceeded)
 }
 
 /// One mapped object's place in the process image.
@@ -515,26 +527,12 @@ impl<const N: usize> ImageLayout<N> {
 
     /// Lays out the entries of `mapping` after what is there.
     fn append<const M: usize>(&mut self, mapping: &PdoMapping<M>) -> Result<(), SdoAbortCode> {
-        for entry in mapping.entries() {
-            if !entry.is_gap() {
-                if entry.bit_len > 64 {
-                    return Err(SdoAbortCode::CannotBeMapped);
-                }
-                let field = self
-                    .fields
-                    .get_mut(self.count)
-                    .ok_or(SdoAbortCode::PdoLengthExceeded)?;
-                *field = ImageField {
-                    index: entry.index,
-                    subindex: entry.subindex,
-                    bit_len: entry.bit_len,
-                    bit_offset: self.bit_len,
-                };
-                self.count += 1;
-            }
-            self.bit_len += u32::from(entry.bit_len);
-        }
-        Ok(())
+        append_fields(
+            &mut self.fields,
+            &mut self.count,
+            &mut self.bit_len,
+            mapping.entries(),
+        )
     }
 
     /// The mapped objects in image order.
@@ -592,6 +590,35 @@ impl<const N: usize> ImageLayout<N> {
         }
         Ok(())
     }
+}
+
+// Laying out entries does not depend on the layout's capacity: one copy in a program with
+// layouts of several sizes (EtherCAT's images, CAN's single PDOs).
+fn append_fields(
+    fields: &mut [ImageField],
+    count: &mut usize,
+    bit_len: &mut u32,
+    entries: &[PdoEntry],
+) -> Result<(), SdoAbortCode> {
+    for entry in entries {
+        if !entry.is_gap() {
+            if entry.bit_len > 64 {
+                return Err(SdoAbortCode::CannotBeMapped);
+            }
+            let field = fields
+                .get_mut(*count)
+                .ok_or(SdoAbortCode::PdoLengthExceeded)?;
+            *field = ImageField {
+                index: entry.index,
+                subindex: entry.subindex,
+                bit_len: entry.bit_len,
+                bit_offset: *bit_len,
+            };
+            *count += 1;
+        }
+        *bit_len += u32::from(entry.bit_len);
+    }
+    Ok(())
 }
 
 /// Writes the low `bit_len` bits of the little-endian `value` into `image` starting at
