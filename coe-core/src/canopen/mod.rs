@@ -27,6 +27,7 @@ pub mod frame;
 pub mod nmt;
 pub mod node;
 pub mod objects;
+mod param_bytes;
 pub mod params;
 pub mod pdo;
 pub mod sdo;

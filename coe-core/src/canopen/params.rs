@@ -23,6 +23,7 @@ use super::cob;
 use super::emcy::EmcyParams;
 use super::error_control::ConsumerEntry;
 use super::frame::CobId;
+use super::param_bytes::{put_le, take_le};
 use super::pdo::{MappingInfo, PdoComm, PdoKind};
 use super::sync::SyncParams;
 use crate::abort::SdoAbortCode;
@@ -181,32 +182,6 @@ pub struct CommParameters<const R: usize, const T: usize, const HB: usize> {
     pub tpdo: [PdoComm; T],
 }
 
-fn put(buf: &mut [u8], bytes: &[u8]) -> Result<usize, SdoAbortCode> {
-    buf.get_mut(..bytes.len())
-        .ok_or(SdoAbortCode::OutOfMemory)?
-        .copy_from_slice(bytes);
-    Ok(bytes.len())
-}
-
-fn le<const N: usize>(data: &[u8]) -> Result<[u8; N], SdoAbortCode> {
-    <[u8; N]>::try_from(data).map_err(|_| {
-        if data.len() < N {
-            SdoAbortCode::LengthTooLow
-        } else {
-            SdoAbortCode::LengthTooHigh
-        }
-    })
-}
-
-/// Only sub 0 exists (VAR).
-fn var(sub: u8) -> Result<(), SdoAbortCode> {
-    if sub == 0 {
-        Ok(())
-    } else {
-        Err(SdoAbortCode::SubindexDoesNotExist)
-    }
-}
-
 impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
     /// The defaults for node `node`.
     pub fn defaults(d: &CommDefaults<R, T>, node: u8) -> Self {
@@ -294,6 +269,43 @@ impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
         }
     }
 
+    /// The value of `index:sub` (node `node` for 0x1200) and its length in bytes: one place
+    /// that knows which entries exist and how long they are, for uploads and downloads.
+    fn value(&self, node: u8, index: u16, sub: u8) -> Result<(u32, usize), SdoAbortCode> {
+        if let Some((kind, i)) = Self::pdo_of(index) {
+            return self
+                .pdo(kind, i)
+                .ok_or(SdoAbortCode::ObjectDoesNotExist)?
+                .value(kind, sub);
+        }
+        let (value, len) = match (index, sub) {
+            (COB_ID_SYNC, 0) => (self.sync.cob_id.0, 4),
+            (COMMUNICATION_CYCLE_PERIOD, 0) => (self.sync.period_us, 4),
+            (GUARD_TIME, 0) => (self.guard_time_ms.into(), 2),
+            (LIFE_TIME_FACTOR, 0) => (self.life_factor.into(), 1),
+            (COB_ID_EMCY, 0) => (self.emcy.cob_id.0, 4),
+            (INHIBIT_TIME_EMCY, 0) => (self.emcy.inhibit_100us.into(), 2),
+            (PRODUCER_HEARTBEAT_TIME, 0) => (self.heartbeat_ms.into(), 2),
+            (SYNC_COUNTER_OVERFLOW, 0) => (self.sync.overflow.into(), 1),
+            (CONSUMER_HEARTBEAT_TIME, 0) => (HB as u32, 1),
+            (CONSUMER_HEARTBEAT_TIME, _) => {
+                let e = self
+                    .consumers
+                    .get(usize::from(sub) - 1)
+                    .ok_or(SdoAbortCode::SubindexDoesNotExist)?;
+                (e.to_u32(), 4)
+            }
+            (ERROR_BEHAVIOUR, 0) => (1, 1),
+            (ERROR_BEHAVIOUR, 1) => (self.error_behaviour.into(), 1),
+            (SDO_SERVER_PARAMETER, 0) => (2, 1),
+            (SDO_SERVER_PARAMETER, 1) => ((cob::SDO_RX + u16::from(node)).into(), 4),
+            (SDO_SERVER_PARAMETER, 2) => ((cob::SDO_TX + u16::from(node)).into(), 4),
+            _ if Self::serves(index) => return Err(SdoAbortCode::SubindexDoesNotExist),
+            _ => return Err(SdoAbortCode::ObjectDoesNotExist),
+        };
+        Ok((value, len))
+    }
+
     /// SDO upload of `index:sub` (node `node` for 0x1200).
     pub fn read(
         &self,
@@ -302,50 +314,8 @@ impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
         sub: u8,
         buf: &mut [u8],
     ) -> Result<usize, SdoAbortCode> {
-        if let Some((kind, i)) = Self::pdo_of(index) {
-            return self
-                .pdo(kind, i)
-                .ok_or(SdoAbortCode::ObjectDoesNotExist)?
-                .read_sub(kind, sub, buf);
-        }
-        match index {
-            COB_ID_SYNC => var(sub).and_then(|()| put(buf, &self.sync.cob_id.0.to_le_bytes())),
-            COMMUNICATION_CYCLE_PERIOD => {
-                var(sub).and_then(|()| put(buf, &self.sync.period_us.to_le_bytes()))
-            }
-            GUARD_TIME => var(sub).and_then(|()| put(buf, &self.guard_time_ms.to_le_bytes())),
-            LIFE_TIME_FACTOR => var(sub).and_then(|()| put(buf, &[self.life_factor])),
-            COB_ID_EMCY => var(sub).and_then(|()| put(buf, &self.emcy.cob_id.0.to_le_bytes())),
-            INHIBIT_TIME_EMCY => {
-                var(sub).and_then(|()| put(buf, &self.emcy.inhibit_100us.to_le_bytes()))
-            }
-            PRODUCER_HEARTBEAT_TIME => {
-                var(sub).and_then(|()| put(buf, &self.heartbeat_ms.to_le_bytes()))
-            }
-            SYNC_COUNTER_OVERFLOW => var(sub).and_then(|()| put(buf, &[self.sync.overflow])),
-            CONSUMER_HEARTBEAT_TIME => match sub {
-                0 => put(buf, &[HB as u8]),
-                _ => {
-                    let e = self
-                        .consumers
-                        .get(usize::from(sub) - 1)
-                        .ok_or(SdoAbortCode::SubindexDoesNotExist)?;
-                    put(buf, &e.to_u32().to_le_bytes())
-                }
-            },
-            ERROR_BEHAVIOUR => match sub {
-                0 => put(buf, &[1]),
-                1 => put(buf, &[self.error_behaviour]),
-                _ => Err(SdoAbortCode::SubindexDoesNotExist),
-            },
-            SDO_SERVER_PARAMETER => match sub {
-                0 => put(buf, &[2]),
-                1 => put(buf, &u32::from(cob::SDO_RX + u16::from(node)).to_le_bytes()),
-                2 => put(buf, &u32::from(cob::SDO_TX + u16::from(node)).to_le_bytes()),
-                _ => Err(SdoAbortCode::SubindexDoesNotExist),
-            },
-            _ => Err(SdoAbortCode::ObjectDoesNotExist),
-        }
+        let (value, len) = self.value(node, index, sub)?;
+        put_le(buf, value, len)
     }
 
     /// SDO download of `index:sub`; `mapping` gives the current mapping of a PDO (for the
@@ -370,95 +340,81 @@ impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
                 PdoKind::Tpdo => Changed::Tpdo(i),
             });
         }
-        let sub0_fixed = |sub: u8| {
-            if sub == 0 {
-                Err(SdoAbortCode::WriteOfReadOnly)
-            } else {
-                Ok(())
-            }
+        let (_, len) = self.value(0, index, sub)?;
+        let read_only = match index {
+            CONSUMER_HEARTBEAT_TIME | ERROR_BEHAVIOUR => sub == 0,
+            SDO_SERVER_PARAMETER => true,
+            _ => false,
         };
+        if read_only {
+            return Err(SdoAbortCode::WriteOfReadOnly);
+        }
+        // `value` has `len` bytes: the narrowing casts below keep all of it.
+        let value = take_le(data, len)?;
         match index {
             COB_ID_SYNC => {
-                var(sub)?;
-                self.sync.set_cob_id(u32::from_le_bytes(le(data)?))?;
+                self.sync.set_cob_id(value)?;
                 Ok(Changed::Sync)
             }
             COMMUNICATION_CYCLE_PERIOD => {
-                var(sub)?;
-                self.sync.period_us = u32::from_le_bytes(le(data)?);
+                self.sync.period_us = value;
                 Ok(Changed::Sync)
             }
             GUARD_TIME => {
-                var(sub)?;
-                self.guard_time_ms = u16::from_le_bytes(le(data)?);
+                self.guard_time_ms = value as u16;
                 Ok(Changed::Nothing)
             }
             LIFE_TIME_FACTOR => {
-                var(sub)?;
-                let [v] = le(data)?;
-                self.life_factor = v;
+                self.life_factor = value as u8;
                 Ok(Changed::Nothing)
             }
             COB_ID_EMCY => {
-                var(sub)?;
-                self.emcy.set_cob_id(u32::from_le_bytes(le(data)?))?;
+                self.emcy.set_cob_id(value)?;
                 Ok(Changed::Nothing)
             }
             INHIBIT_TIME_EMCY => {
-                var(sub)?;
-                self.emcy.inhibit_100us = u16::from_le_bytes(le(data)?);
+                self.emcy.inhibit_100us = value as u16;
                 Ok(Changed::Nothing)
             }
             PRODUCER_HEARTBEAT_TIME => {
-                var(sub)?;
-                self.heartbeat_ms = u16::from_le_bytes(le(data)?);
+                self.heartbeat_ms = value as u16;
                 Ok(Changed::Heartbeat)
             }
             SYNC_COUNTER_OVERFLOW => {
-                var(sub)?;
-                let [v] = le(data)?;
-                self.sync.set_overflow(v)?;
+                self.sync.set_overflow(value as u8)?;
                 Ok(Changed::Sync)
             }
-            CONSUMER_HEARTBEAT_TIME => {
-                sub0_fixed(sub)?;
-                let i = usize::from(sub) - 1;
-                if i >= HB {
-                    return Err(SdoAbortCode::SubindexDoesNotExist);
-                }
-                let entry = ConsumerEntry::from_u32(u32::from_le_bytes(le(data)?));
-                if entry.node > 127 {
-                    return Err(SdoAbortCode::ValueRangeExceeded);
-                }
-                let clash = self.consumers.iter().enumerate().any(|(j, e)| {
-                    j != i && e.is_active() && entry.is_active() && e.node == entry.node
-                });
-                if clash {
-                    return Err(SdoAbortCode::ParameterIncompatible);
-                }
-                if let Some(slot) = self.consumers.get_mut(i) {
-                    *slot = entry;
-                }
-                Ok(Changed::Consumer(i))
-            }
+            CONSUMER_HEARTBEAT_TIME => self.set_consumer(usize::from(sub) - 1, value),
             ERROR_BEHAVIOUR => {
-                sub0_fixed(sub)?;
-                if sub != 1 {
-                    return Err(SdoAbortCode::SubindexDoesNotExist);
-                }
-                let [v] = le(data)?;
-                if v > error_behaviour::STOPPED {
+                if value > u32::from(error_behaviour::STOPPED) {
                     return Err(SdoAbortCode::ValueRangeExceeded);
                 }
-                self.error_behaviour = v;
+                self.error_behaviour = value as u8;
                 Ok(Changed::Nothing)
             }
-            SDO_SERVER_PARAMETER => match sub {
-                0..=2 => Err(SdoAbortCode::WriteOfReadOnly),
-                _ => Err(SdoAbortCode::SubindexDoesNotExist),
-            },
             _ => Err(SdoAbortCode::ObjectDoesNotExist),
         }
+    }
+
+    /// 0x1016 entry `i` (0-based, known to exist): a node-ID above 127 is 0x06090030, a
+    /// second active entry for one node 0x06040043.
+    fn set_consumer(&mut self, i: usize, raw: u32) -> Result<Changed, SdoAbortCode> {
+        let entry = ConsumerEntry::from_u32(raw);
+        if entry.node > 127 {
+            return Err(SdoAbortCode::ValueRangeExceeded);
+        }
+        let clash = self
+            .consumers
+            .iter()
+            .enumerate()
+            .any(|(j, e)| j != i && e.is_active() && entry.is_active() && e.node == entry.node);
+        if clash {
+            return Err(SdoAbortCode::ParameterIncompatible);
+        }
+        if let Some(slot) = self.consumers.get_mut(i) {
+            *slot = entry;
+        }
+        Ok(Changed::Consumer(i))
     }
 }
 

@@ -19,6 +19,7 @@
 //!   only while the PDO is not valid; sub 5 event timer (ms) any time (RPDO: deadline).
 
 use super::frame::{is_restricted_id, CobId};
+use super::param_bytes::{put_le, take_le};
 use crate::abort::SdoAbortCode;
 
 /// The most bits a CAN PDO carries (8 data bytes).
@@ -113,24 +114,6 @@ pub struct PdoComm {
     pub sync_start: u8,
 }
 
-/// Little-endian value of `N` bytes, or the length abort.
-fn le<const N: usize>(data: &[u8]) -> Result<[u8; N], SdoAbortCode> {
-    <[u8; N]>::try_from(data).map_err(|_| {
-        if data.len() < N {
-            SdoAbortCode::LengthTooLow
-        } else {
-            SdoAbortCode::LengthTooHigh
-        }
-    })
-}
-
-fn put(buf: &mut [u8], bytes: &[u8]) -> Result<usize, SdoAbortCode> {
-    buf.get_mut(..bytes.len())
-        .ok_or(SdoAbortCode::OutOfMemory)?
-        .copy_from_slice(bytes);
-    Ok(bytes.len())
-}
-
 impl PdoComm {
     /// A PDO with this COB-ID and transmission type, no inhibit time, no event timer.
     pub const fn new(cob_id: CobId, transmission_type: u8) -> Self {
@@ -165,26 +148,33 @@ impl PdoComm {
         }
     }
 
-    /// SDO upload of `sub` into `buf`; returns the length.
-    pub fn read_sub(&self, kind: PdoKind, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+    /// The value of `sub` for `kind` and its length in bytes.
+    pub fn value(&self, kind: PdoKind, sub: u8) -> Result<(u32, usize), SdoAbortCode> {
         if !Self::has_sub(kind, sub) {
             return Err(SdoAbortCode::SubindexDoesNotExist);
         }
-        match sub {
-            0 => put(
-                buf,
-                &[match kind {
+        Ok(match sub {
+            0 => (
+                match kind {
                     PdoKind::Rpdo => RPDO_HIGHEST_SUB,
                     PdoKind::Tpdo => TPDO_HIGHEST_SUB,
-                }],
+                }
+                .into(),
+                1,
             ),
             // Remote-requested PDOs are not served: bit 30 always reads 1.
-            1 => put(buf, &(self.cob_id.0 | CobId::BIT30).to_le_bytes()),
-            2 => put(buf, &[self.transmission_type]),
-            3 => put(buf, &self.inhibit_100us.to_le_bytes()),
-            5 => put(buf, &self.event_timer_ms.to_le_bytes()),
-            _ => put(buf, &[self.sync_start]),
-        }
+            1 => (self.cob_id.0 | CobId::BIT30, 4),
+            2 => (self.transmission_type.into(), 1),
+            3 => (self.inhibit_100us.into(), 2),
+            5 => (self.event_timer_ms.into(), 2),
+            _ => (self.sync_start.into(), 1),
+        })
+    }
+
+    /// SDO upload of `sub` into `buf`; returns the length.
+    pub fn read_sub(&self, kind: PdoKind, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        let (value, len) = self.value(kind, sub)?;
+        put_le(buf, value, len)
     }
 
     /// SDO download of `sub` with the rules of the module documentation; `mapping` is the
@@ -196,13 +186,15 @@ impl PdoComm {
         data: &[u8],
         mapping: MappingInfo,
     ) -> Result<(), SdoAbortCode> {
-        if !Self::has_sub(kind, sub) {
-            return Err(SdoAbortCode::SubindexDoesNotExist);
+        let (_, len) = self.value(kind, sub)?;
+        if sub == 0 {
+            return Err(SdoAbortCode::WriteOfReadOnly);
         }
+        // `value` has `len` bytes: the narrowing casts below keep all of it.
+        let value = take_le(data, len)?;
         match sub {
-            0 => Err(SdoAbortCode::WriteOfReadOnly),
             1 => {
-                let new = CobId(u32::from_le_bytes(le(data)?) & !CobId::BIT30);
+                let new = CobId(value & !CobId::BIT30);
                 if new.is_extended() {
                     return Err(SdoAbortCode::ValueRangeExceeded);
                 }
@@ -216,35 +208,27 @@ impl PdoComm {
                     mapping.check_can()?;
                 }
                 self.cob_id = new;
-                Ok(())
             }
             2 => {
-                let [t] = le(data)?;
+                let t = value as u8;
                 Transmission::of(t).ok_or(SdoAbortCode::ValueRangeExceeded)?;
                 self.transmission_type = t;
-                Ok(())
             }
             3 => {
-                let v = u16::from_le_bytes(le(data)?);
                 if self.is_valid() {
                     return Err(SdoAbortCode::ValueRangeExceeded);
                 }
-                self.inhibit_100us = v;
-                Ok(())
+                self.inhibit_100us = value as u16;
             }
-            5 => {
-                self.event_timer_ms = u16::from_le_bytes(le(data)?);
-                Ok(())
-            }
+            5 => self.event_timer_ms = value as u16,
             _ => {
-                let [v] = le(data)?;
-                if self.is_valid() || v > 240 {
+                if self.is_valid() || value > 240 {
                     return Err(SdoAbortCode::ValueRangeExceeded);
                 }
-                self.sync_start = v;
-                Ok(())
+                self.sync_start = value as u8;
             }
         }
+        Ok(())
     }
 }
 
