@@ -1090,12 +1090,13 @@ const fn find_object(od: &'static ObjectDictionary, index: u16) -> Option<&'stat
     None
 }
 
-const fn find_entry(object: &'static ObjectDesc, subindex: u8) -> Option<&'static EntryDesc> {
+/// The entry `object:subindex` with the object's own default ([`ObjectDesc::resolve`]).
+const fn find_entry(object: &'static ObjectDesc, subindex: u8) -> Option<EntryDesc> {
     let entries: &'static [EntryDesc] = object.entries;
     let mut i = 0;
     while i < entries.len() {
         if entries[i].subindex == subindex {
-            return Some(&entries[i]);
+            return Some(object.resolve(&entries[i]));
         }
         i += 1;
     }

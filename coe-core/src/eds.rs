@@ -200,6 +200,7 @@ fn write_entry<W: Write>(
     writeln!(out, "ObjectType=0x7")?;
     writeln!(out, "DataType=0x{:04X}", entry.data_type().code())?;
     writeln!(out, "AccessType={}", access_type(entry))?;
+    let entry = &object.resolve(entry);
     let relative = is_node_relative(object.index, entry.subindex);
     write_value(out, "DefaultValue", entry, &entry.default(), relative)?;
     write_value(out, "LowLimit", entry, &entry.min(), false)?;

@@ -429,7 +429,7 @@ impl<W: Write> Xml<'_, W> {
             .od
             .entry(DEVICE_TYPE_INDEX, 0)
             .ok()
-            .and_then(|(_, e)| e.default().as_i128())
+            .and_then(|(o, e)| o.resolve(e).default().as_i128())
             .and_then(|v| u32::try_from(v).ok());
         if let Some(device_type) = device_type {
             self.leaf("ProfileNo", device_type & 0xFFFF)?;
@@ -519,6 +519,7 @@ impl<W: Write> Xml<'_, W> {
         self.name("Name", object.name)?;
         match (object.code, object.entries) {
             (ObjectCode::Var, [entry]) => {
+                let entry = &object.resolve(entry);
                 self.leaf("Type", type_name(entry))?;
                 self.leaf("BitSize", entry.bit_len)?;
                 if has_info(entry) {
@@ -533,6 +534,7 @@ impl<W: Write> Xml<'_, W> {
                 self.leaf("BitSize", object_bits(object))?;
                 self.open("Info")?;
                 for entry in entries {
+                    let entry = &object.resolve(entry);
                     self.open("SubItem")?;
                     self.leaf_text("Name", entry.name)?;
                     self.open("Info")?;

@@ -16,7 +16,7 @@ use super::params::{
     TPDO_COMMUNICATION,
 };
 use super::pdo::{RPDO_HIGHEST_SUB, TPDO_HIGHEST_SUB};
-use crate::od::{Access, DataType, EntryDesc, ObjectDesc, Value};
+use crate::od::{Access, DataType, EntryDefault, EntryDesc, ObjectDesc, Value};
 
 const U8: DataType = DataType::Unsigned8;
 const U16: DataType = DataType::Unsigned16;
@@ -72,30 +72,40 @@ const fn highest(sub: u8) -> EntryDesc {
     EntryDesc::new(0, "Highest sub-index supported", U8, Access::RO).with_default(uint(sub as u64))
 }
 
-const fn rpdo_entries(d: &PdoDefault) -> [EntryDesc; 4] {
+/// The entries of every RPDO communication parameter; the PDO's own defaults are
+/// [`rpdo_own_defaults`].
+const RPDO_ENTRIES: [EntryDesc; 4] = [
+    highest(RPDO_HIGHEST_SUB),
+    EntryDesc::new(1, "COB-ID used by RPDO", U32, Access::RW),
+    EntryDesc::new(2, "Transmission type", U8, Access::RW),
+    EntryDesc::new(5, "Event timer", U16, Access::RW),
+];
+
+const fn rpdo_own_defaults(d: &PdoDefault) -> [EntryDefault; 3] {
     [
-        highest(RPDO_HIGHEST_SUB),
-        EntryDesc::new(1, "COB-ID used by RPDO", U32, Access::RW)
-            .with_default(uint(d.cob_id as u64)),
-        EntryDesc::new(2, "Transmission type", U8, Access::RW)
-            .with_default(uint(d.transmission_type as u64)),
-        EntryDesc::new(5, "Event timer", U16, Access::RW)
-            .with_default(uint(d.event_timer_ms as u64)),
+        EntryDefault::new(1, d.cob_id),
+        EntryDefault::new(2, d.transmission_type as u32),
+        EntryDefault::new(5, d.event_timer_ms as u32),
     ]
 }
 
-const fn tpdo_entries(d: &PdoDefault) -> [EntryDesc; 6] {
+/// The entries of every TPDO communication parameter; the PDO's own defaults are
+/// [`tpdo_own_defaults`].
+const TPDO_ENTRIES: [EntryDesc; 6] = [
+    highest(TPDO_HIGHEST_SUB),
+    EntryDesc::new(1, "COB-ID used by TPDO", U32, Access::RW),
+    EntryDesc::new(2, "Transmission type", U8, Access::RW),
+    EntryDesc::new(3, "Inhibit time", U16, Access::RW),
+    EntryDesc::new(5, "Event timer", U16, Access::RW),
+    EntryDesc::new(6, "SYNC start value", U8, Access::RW).with_default(uint(0)),
+];
+
+const fn tpdo_own_defaults(d: &PdoDefault) -> [EntryDefault; 4] {
     [
-        highest(TPDO_HIGHEST_SUB),
-        EntryDesc::new(1, "COB-ID used by TPDO", U32, Access::RW)
-            .with_default(uint(d.cob_id as u64)),
-        EntryDesc::new(2, "Transmission type", U8, Access::RW)
-            .with_default(uint(d.transmission_type as u64)),
-        EntryDesc::new(3, "Inhibit time", U16, Access::RW)
-            .with_default(uint(d.inhibit_100us as u64)),
-        EntryDesc::new(5, "Event timer", U16, Access::RW)
-            .with_default(uint(d.event_timer_ms as u64)),
-        EntryDesc::new(6, "SYNC start value", U8, Access::RW).with_default(uint(0)),
+        EntryDefault::new(1, d.cob_id),
+        EntryDefault::new(2, d.transmission_type as u32),
+        EntryDefault::new(3, d.inhibit_100us as u32),
+        EntryDefault::new(5, d.event_timer_ms as u32),
     ]
 }
 
@@ -114,8 +124,10 @@ pub struct CommObjects<const R: usize, const T: usize, const HB1: usize> {
     sync_overflow: [EntryDesc; 1],
     error_behaviour: [EntryDesc; 2],
     sdo_server: [EntryDesc; 3],
-    rpdo: [[EntryDesc; 4]; R],
-    tpdo: [[EntryDesc; 6]; T],
+    rpdo: [EntryDesc; 4],
+    rpdo_defaults: [[EntryDefault; 3]; R],
+    tpdo: [EntryDesc; 6],
+    tpdo_defaults: [[EntryDefault; 4]; T],
 }
 
 impl<const R: usize, const T: usize, const HB1: usize> CommObjects<R, T, HB1> {
@@ -132,16 +144,16 @@ impl<const R: usize, const T: usize, const HB1: usize> CommObjects<R, T, HB1> {
             consumers[i] = EntryDesc::new(i as u8, name, U32, Access::RW).with_default(uint(0));
             i += 1;
         }
-        let mut rpdo = [[highest(RPDO_HIGHEST_SUB); 4]; R];
+        let mut rpdo_defaults = [[EntryDefault::new(0, 0); 3]; R];
         let mut i = 0;
         while i < R {
-            rpdo[i] = rpdo_entries(&d.rpdo[i]);
+            rpdo_defaults[i] = rpdo_own_defaults(&d.rpdo[i]);
             i += 1;
         }
-        let mut tpdo = [[highest(TPDO_HIGHEST_SUB); 6]; T];
+        let mut tpdo_defaults = [[EntryDefault::new(0, 0); 4]; T];
         let mut i = 0;
         while i < T {
-            tpdo[i] = tpdo_entries(&d.tpdo[i]);
+            tpdo_defaults[i] = tpdo_own_defaults(&d.tpdo[i]);
             i += 1;
         }
         Self {
@@ -176,8 +188,10 @@ impl<const R: usize, const T: usize, const HB1: usize> CommObjects<R, T, HB1> {
                 EntryDesc::new(2, "COB-ID server to client", U32, Access::RO)
                     .with_default(uint(cob::SDO_TX as u64)),
             ],
-            rpdo,
-            tpdo,
+            rpdo: RPDO_ENTRIES,
+            rpdo_defaults,
+            tpdo: TPDO_ENTRIES,
+            tpdo_defaults,
         }
     }
 
@@ -252,8 +266,9 @@ impl<const R: usize, const T: usize, const HB1: usize> CommObjects<R, T, HB1> {
             RPDO_COMMUNICATION + i as u16,
             RPDO_NAMES[i],
             PDO_COMM_PAR,
-            &self.rpdo[i],
+            &self.rpdo,
         )
+        .with_defaults(&self.rpdo_defaults[i])
     }
     /// 0x1800 + `i`.
     pub const fn tpdo(&'static self, i: usize) -> ObjectDesc {
@@ -261,8 +276,9 @@ impl<const R: usize, const T: usize, const HB1: usize> CommObjects<R, T, HB1> {
             TPDO_COMMUNICATION + i as u16,
             TPDO_NAMES[i],
             PDO_COMM_PAR,
-            &self.tpdo[i],
+            &self.tpdo,
         )
+        .with_defaults(&self.tpdo_defaults[i])
     }
 }
 

@@ -328,8 +328,31 @@ pub struct ObjectDesc {
     /// type of a VAR, the element type of an ARRAY, the record type of a RECORD (e.g.
     /// 0x0023 IDENTITY, 0x0021 PDO_MAPPING).
     pub data_type: DataType,
-    /// Entries sorted by subindex; an ARRAY/RECORD starts with sub 0 (UNSIGNED8).
+    /// Entries sorted by subindex; an ARRAY/RECORD starts with sub 0 (UNSIGNED8). Objects
+    /// of one structure (the PDO mappings, 0x1C32/0x1C33, ...) share one table and differ
+    /// in [`ObjectDesc::defaults`].
     pub entries: &'static [EntryDesc],
+    /// The object's own defaults, which replace the table's: read an entry's default
+    /// through [`ObjectDesc::resolve`].
+    pub defaults: &'static [EntryDefault],
+}
+
+/// An object's own default of one of its entries (an unsigned number: PDO mappings,
+/// COB-IDs, times), for entry tables shared by objects of one structure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EntryDefault {
+    /// Subindex.
+    pub subindex: u8,
+    /// Default value ([`Value::Uint`]).
+    pub value: u32,
+}
+
+impl EntryDefault {
+    /// The default `value` of sub `subindex`.
+    pub const fn new(subindex: u8, value: u32) -> Self {
+        Self { subindex, value }
+    }
 }
 
 impl ObjectDesc {
@@ -345,6 +368,7 @@ impl ObjectDesc {
             code: ObjectCode::Var,
             data_type,
             entries,
+            defaults: &[],
         }
     }
 
@@ -360,6 +384,7 @@ impl ObjectDesc {
             code: ObjectCode::Array,
             data_type,
             entries,
+            defaults: &[],
         }
     }
 
@@ -376,7 +401,28 @@ impl ObjectDesc {
             code: ObjectCode::Record,
             data_type,
             entries,
+            defaults: &[],
         }
+    }
+
+    /// The object with its own defaults for entries of a shared table.
+    pub const fn with_defaults(mut self, defaults: &'static [EntryDefault]) -> Self {
+        self.defaults = defaults;
+        self
+    }
+
+    /// `entry` (one of this object's) as this object has it: with the object's own default
+    /// where [`ObjectDesc::defaults`] gives one. Everything that reads defaults (SDO
+    /// Information, the ESI, SII and EDS generators, the stores) reads them through here.
+    pub const fn resolve(&self, entry: &EntryDesc) -> EntryDesc {
+        let mut rest = self.defaults;
+        while let [own, tail @ ..] = rest {
+            if own.subindex == entry.subindex {
+                return entry.with_default(Value::Uint(own.value as u64));
+            }
+            rest = tail;
+        }
+        *entry
     }
 
     /// The highest subindex (the "MaxSubindex" of the object description): the last entry's
@@ -386,6 +432,18 @@ impl ObjectDesc {
             [.., last] => last.subindex,
             [] => 0,
         }
+    }
+
+    /// The entry with this subindex (a linear search usable in `const` code).
+    const fn entry_desc(&self, subindex: u8) -> Option<&'static EntryDesc> {
+        let mut rest = self.entries;
+        while let [entry, tail @ ..] = rest {
+            if entry.subindex == subindex {
+                return Some(entry);
+            }
+            rest = tail;
+        }
+        None
     }
 
     /// The entry with this subindex.
@@ -543,7 +601,7 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
                 ));
             }
         }
-        if let Err(kind) = validate_entry(entry) {
+        if let Err(kind) = validate_entry(&object.resolve(entry)) {
             return Err(OdError::new(kind, index, entry.subindex));
         }
         if matches!(object.code, ObjectCode::Array) && entry.subindex != 0 {
@@ -564,6 +622,17 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
         }
         previous = Some(entry.subindex);
         rest = tail;
+    }
+    let mut own = object.defaults;
+    while let [default, tail @ ..] = own {
+        if object.entry_desc(default.subindex).is_none() {
+            return Err(OdError::new(
+                OdErrorKind::DefaultOfNoEntry,
+                index,
+                default.subindex,
+            ));
+        }
+        own = tail;
     }
     Ok(())
 }
@@ -710,6 +779,8 @@ pub enum OdErrorKind {
     DefaultOutOfRange,
     /// A REAL32/REAL64 entry, but coe-core is built without its `real` feature.
     RealNotEnabled,
+    /// An object's own default names a subindex the object does not have.
+    DefaultOfNoEntry,
 }
 
 impl OdErrorKind {
@@ -736,6 +807,7 @@ impl OdErrorKind {
                 "REAL32/REAL64 entry, but coe-core is built without the `real` feature"
             }
             Self::DefaultOutOfRange => "default value outside min..max",
+            Self::DefaultOfNoEntry => "an object's own default names no entry of it",
         }
     }
 }

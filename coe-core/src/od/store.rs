@@ -72,6 +72,7 @@ impl<const N: usize> OdStore<N> {
         let mut offset = 0;
         for object in self.od.iter() {
             for entry in object.entries {
+                let entry = &object.resolve(entry);
                 let len = slot_len(entry);
                 if let Some(slot) = self.data.get_mut(offset..offset + len) {
                     slot.fill(0);

@@ -345,3 +345,62 @@ fn entry_data_types_read_back() {
         Err(OdErrorKind::UnsupportedType)
     );
 }
+
+/// Two objects of one structure: one entry table, each object's defaults its own.
+static SHARED_ENTRIES: [EntryDesc; 3] = [
+    EntryDesc::count(2),
+    EntryDesc::new(1, "COB-ID", DataType::Unsigned32, Access::RW),
+    EntryDesc::new(2, "Type", DataType::Unsigned8, Access::RW).with_default(Value::Uint(255)),
+];
+static SHARED: ObjectDictionary = ObjectDictionary::new(&[
+    ObjectDesc::record(0x1800, "TPDO 1", DataType::Unknown(0x20), &SHARED_ENTRIES)
+        .with_defaults(&[EntryDefault::new(1, 0x181)]),
+    ObjectDesc::record(0x1801, "TPDO 2", DataType::Unknown(0x20), &SHARED_ENTRIES)
+        .with_defaults(&[EntryDefault::new(1, 0x281), EntryDefault::new(2, 1)]),
+]);
+const _: () = if let Err(e) = SHARED.validate() {
+    panic!("{}", e.message())
+};
+
+#[test]
+fn objects_sharing_entries_keep_their_own_defaults() {
+    let default = |index, sub| {
+        let (object, entry) = SHARED.entry(index, sub).unwrap();
+        let entry = object.resolve(entry);
+        (
+            entry.default(),
+            entry.value_info() & ValueInfo::DEFAULT != 0,
+        )
+    };
+    assert_eq!(default(0x1800, 1), (Value::Uint(0x181), true));
+    assert_eq!(default(0x1800, 2), (Value::Uint(255), true), "the table's");
+    assert_eq!(default(0x1801, 1), (Value::Uint(0x281), true));
+    assert_eq!(default(0x1801, 2), (Value::Uint(1), true));
+    // Without its own default an entry has none if the table has none.
+    let bare = ObjectDesc::record(0x1802, "TPDO 3", DataType::Unknown(0x20), &SHARED_ENTRIES);
+    assert_eq!(bare.resolve(&SHARED_ENTRIES[1]).default(), Value::None);
+    // A store starts from each object's own defaults.
+    let store: OdStore<16> = OdStore::new(SHARED).unwrap_or_else(|_| panic!());
+    assert_eq!(store.get(0x1800, 1), Some(&0x181u32.to_le_bytes()[..]));
+    assert_eq!(store.get(0x1801, 2), Some(&[1][..]));
+    assert_eq!(store.get(0x1800, 2), Some(&[255][..]));
+}
+
+#[test]
+fn an_own_default_must_name_an_entry() {
+    assert_eq!(
+        check!(&[
+            ObjectDesc::record(2, "a", DataType::Unknown(0x20), &SHARED_ENTRIES)
+                .with_defaults(&[EntryDefault::new(3, 1)])
+        ]),
+        Err(OdErrorKind::DefaultOfNoEntry)
+    );
+    assert_eq!(
+        check!(&[
+            ObjectDesc::record(2, "a", DataType::Unknown(0x20), &SHARED_ENTRIES)
+                .with_defaults(&[EntryDefault::new(2, 256)])
+        ]),
+        Err(OdErrorKind::ValueDoesNotFitType),
+        "an own default is checked against its entry like the table's"
+    );
+}

@@ -234,7 +234,8 @@ fn generate(
             subindex,
             value_info,
         } => {
-            let (_, entry) = od.entry(index, subindex)?;
+            let (object, entry) = od.entry(index, subindex)?;
+            let entry = &object.resolve(entry);
             EntryDescriptionHead {
                 index,
                 sub_index: subindex,

@@ -174,7 +174,8 @@ impl AppData {
     }
 
     fn read_default(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        let (_, entry) = self.od.entry(index, sub)?;
+        let (object, entry) = self.od.entry(index, sub)?;
+        let entry = object.resolve(entry);
         let len = entry.byte_len();
         let written = entry
             .default()

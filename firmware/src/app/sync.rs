@@ -942,7 +942,11 @@ mod tests {
                 );
                 // The defaults are the values the monitor starts with.
                 let mut default = [0u8; 8];
-                let len = e.default().encode(e.data_type(), e.bit_len, &mut default);
+                let len =
+                    object
+                        .resolve(e)
+                        .default()
+                        .encode(e.data_type(), e.bit_len, &mut default);
                 if let Some(len) = len.filter(|n| *n > 0) {
                     assert_eq!(default[..len], buf[..len], "{index:#x}:{:#x}", e.subindex);
                 }

@@ -26,7 +26,9 @@ use super::sync::{
     OUTPUT_DELAY_NS, SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS,
 };
 use coe_core::canopen::objects::CommObjects;
-use coe_core::od::{Access, DataType, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange};
+use coe_core::od::{
+    Access, DataType, EntryDefault, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange,
+};
 use coe_core::pdo::PdoEntry;
 
 const BOOL: DataType = DataType::Boolean;
@@ -132,16 +134,24 @@ const fn entries<const N: usize>(
     out
 }
 
-/// A PDO mapping object's entries: sub 0 and `ENTRIES` u32 slots, writable in PREOP.
-const fn mapping(defaults: &[PdoEntry]) -> [EntryDesc; PDO_ENTRIES + 1] {
-    let mut words = [0u32; PDO_ENTRIES];
-    let mut i = 0;
-    while i < defaults.len() && i < PDO_ENTRIES {
-        words[i] = defaults[i].to_u32();
+/// The entries of every PDO mapping object (0x1600.., 0x1A00..): sub 0 and
+/// [`PDO_ENTRIES`] u32 slots, writable in PREOP; each object's default mapping is its own
+/// ([`mapping_defaults`]).
+static MAPPING: [EntryDesc; PDO_ENTRIES + 1] = {
+    let mut out = entries(0, &SUB_NAMES, U32, RWP, &[]);
+    out[0] = out[0].with_access(RWP);
+    out
+};
+
+/// A mapping object's own defaults: sub 0 the number of entries (`N - 1`), subs 1.. the
+/// entries.
+const fn mapping_defaults<const N: usize>(mapped: &[PdoEntry]) -> [EntryDefault; N] {
+    let mut out = [EntryDefault::new(0, (N - 1) as u32); N];
+    let mut i = 1;
+    while i < N {
+        out[i] = EntryDefault::new(i as u8, mapped[i - 1].to_u32());
         i += 1;
     }
-    let mut out = entries(i as u8, &SUB_NAMES, U32, RWP, words.split_at(i).0);
-    out[0] = out[0].with_access(RWP);
     out
 }
 
@@ -158,13 +168,12 @@ const fn assignment<const N: usize>(defaults: &[u16]) -> [EntryDesc; N] {
     out
 }
 
-/// The entries of both RxPDO mapping objects: their defaults are the same
-/// ([`RX_DEFAULTS`]), so one table serves 0x1600 and 0x1601 (the host tests read the
-/// dictionary's defaults back against the process data's).
-static RXPDO: [EntryDesc; PDO_ENTRIES + 1] = mapping(&RXPDO_DEFAULT);
-static TXPDO_1: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[0]);
-static TXPDO_2: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[1]);
-static TXPDO_3: [EntryDesc; PDO_ENTRIES + 1] = mapping(TX_DEFAULTS[2]);
+/// The default mappings: both RxPDO mapping objects have the same ([`RX_DEFAULTS`]; the
+/// host tests read the dictionary's defaults back against the process data's).
+static RXPDO_DEFAULTS: [EntryDefault; AO_CHANNELS + 1] = mapping_defaults(&RXPDO_DEFAULT);
+static TXPDO_1_DEFAULTS: [EntryDefault; AI_CHANNELS + 1] = mapping_defaults(TX_DEFAULTS[0]);
+static TXPDO_2_DEFAULTS: [EntryDefault; TXPDO_AI_1_4.len() + 1] = mapping_defaults(TX_DEFAULTS[1]);
+static TXPDO_3_DEFAULTS: [EntryDefault; TXPDO_AI_5_8.len() + 1] = mapping_defaults(TX_DEFAULTS[2]);
 
 /// The CAN communication objects (0x1005.., 0x1400.., 0x1800..) with the product's
 /// defaults ([`super::can::COMM_DEFAULTS`]).
@@ -188,44 +197,49 @@ static SM_TYPES: [EntryDesc; 5] = {
 
 /// 0x1C32 (outputs) / 0x1C33 (inputs), ETG.1020 "SM synchronisation": the subindices the
 /// application's sync monitor serves (`crate::app::sync::SyncMonitor`, which a test holds
-/// to this description), with the figures of [`super::sync`] as defaults.
+/// to this description), with the figures of [`super::sync`] as defaults; the sync mode,
+/// calc and copy time and delay time are each object's own ([`SYNC_OUTPUT_DEFAULTS`],
+/// [`SYNC_INPUT_DEFAULTS`]).
 /// 0x0E..=0x12 (RxPDO toggle failed, cycle and SM sync distances) are optional in ETG.1020 and
 /// not measured here, so they are absent (a gap before 0x20; sub 0 stays 0x20).
-const fn sync_parameters(inputs: bool) -> [EntryDesc; 15] {
-    let (mode, calc_copy, delay) = if inputs {
-        (SYNC_MODE_SM2_INPUTS, INPUT_CALC_COPY_NS, 0)
-    } else {
-        (SYNC_MODE_SM, OUTPUT_CALC_COPY_NS, OUTPUT_DELAY_NS)
-    };
-    [
-        EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
-        EntryDesc::new(1, "Sync mode", U16, RWP).with_default(Value::Uint(mode as u64)),
-        EntryDesc::new(2, "Cycle time", U32, RWP).with_default(Value::Uint(0)),
-        EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
-        EntryDesc::new(4, "Sync modes supported", U16, RO)
-            .with_default(Value::Uint(SUPPORTED_MODES as u64)),
-        EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(MIN_CYCLE_TIME_NS)),
-        EntryDesc::new(6, "Calc and copy time", U32, RO).with_default(ns(calc_copy)),
-        EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
-        EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
-            min: Value::Uint(0),
-            max: Value::Uint(2),
-        }),
-        EntryDesc::new(9, "Delay time", U32, RO).with_default(ns(delay)),
-        EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
-        EntryDesc::new(0x0B, "SM event missed", U16, RO),
-        EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
-        EntryDesc::new(0x0D, "Shift time too short", U16, RO),
-        EntryDesc::new(0x20, "Sync error", BOOL, RO),
-    ]
-}
+static SYNC_PARAMETERS: [EntryDesc; 15] = [
+    EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
+    EntryDesc::new(1, "Sync mode", U16, RWP),
+    EntryDesc::new(2, "Cycle time", U32, RWP).with_default(Value::Uint(0)),
+    EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
+    EntryDesc::new(4, "Sync modes supported", U16, RO)
+        .with_default(Value::Uint(SUPPORTED_MODES as u64)),
+    EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(MIN_CYCLE_TIME_NS)),
+    EntryDesc::new(6, "Calc and copy time", U32, RO),
+    EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
+    EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
+        min: Value::Uint(0),
+        max: Value::Uint(2),
+    }),
+    EntryDesc::new(9, "Delay time", U32, RO),
+    EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
+    EntryDesc::new(0x0B, "SM event missed", U16, RO),
+    EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
+    EntryDesc::new(0x0D, "Shift time too short", U16, RO),
+    EntryDesc::new(0x20, "Sync error", BOOL, RO),
+];
+
+/// 0x1C32's own defaults: SM-synchronous, the output path's calc and copy and delay times.
+static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = [
+    EntryDefault::new(1, SYNC_MODE_SM as u32),
+    EntryDefault::new(6, OUTPUT_CALC_COPY_NS),
+    EntryDefault::new(9, OUTPUT_DELAY_NS),
+];
+/// 0x1C33's own defaults: synchronous with SM2, the input path's calc and copy time.
+static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = [
+    EntryDefault::new(1, SYNC_MODE_SM2_INPUTS as u32),
+    EntryDefault::new(6, INPUT_CALC_COPY_NS),
+    EntryDefault::new(9, 0),
+];
 
 const fn ns(value: u32) -> Value {
     Value::Uint(value as u64)
 }
-
-static SYNC_OUTPUTS: [EntryDesc; 15] = sync_parameters(false);
-static SYNC_INPUTS: [EntryDesc; 15] = sync_parameters(true);
 
 const AI_NAMES: [&str; AI_CHANNELS] = [
     "AI 1", "AI 2", "AI 3", "AI 4", "AI 5", "AI 6", "AI 7", "AI 8",
@@ -339,14 +353,19 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
     CAN.sdo_server(),
     CAN.rpdo(0),
     CAN.rpdo(1),
-    ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &RXPDO),
-    ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &RXPDO),
+    ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &MAPPING)
+        .with_defaults(&RXPDO_DEFAULTS),
+    ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &MAPPING)
+        .with_defaults(&RXPDO_DEFAULTS),
     CAN.tpdo(0),
     CAN.tpdo(1),
     CAN.tpdo(2),
-    ObjectDesc::record(TX_MAPPINGS[0], "TxPDO 1", DataType::PdoMapping, &TXPDO_1),
-    ObjectDesc::record(TX_MAPPINGS[1], "TxPDO 2", DataType::PdoMapping, &TXPDO_2),
-    ObjectDesc::record(TX_MAPPINGS[2], "TxPDO 3", DataType::PdoMapping, &TXPDO_3),
+    ObjectDesc::record(TX_MAPPINGS[0], "TxPDO 1", DataType::PdoMapping, &MAPPING)
+        .with_defaults(&TXPDO_1_DEFAULTS),
+    ObjectDesc::record(TX_MAPPINGS[1], "TxPDO 2", DataType::PdoMapping, &MAPPING)
+        .with_defaults(&TXPDO_2_DEFAULTS),
+    ObjectDesc::record(TX_MAPPINGS[2], "TxPDO 3", DataType::PdoMapping, &MAPPING)
+        .with_defaults(&TXPDO_3_DEFAULTS),
     ObjectDesc::array(0x1C00, "Sync manager type", &SM_TYPES),
     ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGN),
     ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGN),
@@ -355,14 +374,16 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         0x1C32,
         "SM output parameter",
         DataType::Unknown(0x0042),
-        &SYNC_OUTPUTS,
-    ),
+        &SYNC_PARAMETERS,
+    )
+    .with_defaults(&SYNC_OUTPUT_DEFAULTS),
     ObjectDesc::record(
         0x1C33,
         "SM input parameter",
         DataType::Unknown(0x0042),
-        &SYNC_INPUTS,
-    ),
+        &SYNC_PARAMETERS,
+    )
+    .with_defaults(&SYNC_INPUT_DEFAULTS),
     ObjectDesc::record(
         SETTINGS_INDEX,
         "Analog input settings",

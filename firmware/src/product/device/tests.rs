@@ -7,7 +7,8 @@ use coe_core::pdo::{PdoDirection, PdoEntry};
 use std::vec::Vec;
 
 fn default_of(od: &ObjectDictionary, index: u16, sub: u8) -> Value {
-    od.entry(index, sub).expect("entry exists").1.default()
+    let (object, entry) = od.entry(index, sub).expect("entry exists");
+    object.resolve(entry).default()
 }
 
 #[test]
