@@ -396,34 +396,50 @@ impl<const N: usize> PdoAssignment<N> {
         mappings: &[PdoMapping<M>],
         max_bits: u32,
     ) -> Result<(), SdoAbortCode> {
-        if subindex == 0 {
-            let n = sub0_value(data)?;
-            if usize::from(n) > N {
-                return Err(SdoAbortCode::ValueTooHigh);
-            }
-            let candidate = Self { count: n, ..*self };
-            candidate.validate(mappings, max_bits)?;
-            self.count = n;
-            return Ok(());
-        }
-        let slot = usize::from(subindex) - 1;
-        if slot >= N {
-            return Err(SdoAbortCode::SubindexDoesNotExist);
-        }
-        let pdo = u16_value(data)?;
-        if self.count != 0 {
-            return Err(SdoAbortCode::SubindexZeroMustBeZero);
-        }
-        mapping_bits(self.direction(), pdo, mappings)?;
-        if let Some(p) = self.pdos.get_mut(slot) {
-            *p = pdo;
-        }
-        Ok(())
+        write_assignment_sub(
+            self.direction(),
+            &mut self.count,
+            &mut self.pdos,
+            subindex,
+            data,
+            mappings,
+            max_bits,
+        )
     }
 }
 
-// The checks of an assignment do not depend on its capacity: one copy in a program with
-// assignments of several sizes.
+// The checks and downloads of an assignment do not depend on its capacity: one copy in a
+// program with assignments of several sizes.
+fn write_assignment_sub<const M: usize>(
+    direction: Option<PdoDirection>,
+    count: &mut u8,
+    pdos: &mut [u16],
+    subindex: u8,
+    data: &[u8],
+    mappings: &[PdoMapping<M>],
+    max_bits: u32,
+) -> Result<(), SdoAbortCode> {
+    if subindex == 0 {
+        let n = sub0_value(data)?;
+        let assigned = pdos
+            .get(..usize::from(n))
+            .ok_or(SdoAbortCode::ValueTooHigh)?;
+        validate_assigned(direction, assigned, mappings, max_bits)?;
+        *count = n;
+        return Ok(());
+    }
+    let slot = pdos
+        .get_mut(usize::from(subindex) - 1)
+        .ok_or(SdoAbortCode::SubindexDoesNotExist)?;
+    let pdo = u16_value(data)?;
+    if *count != 0 {
+        return Err(SdoAbortCode::SubindexZeroMustBeZero);
+    }
+    mapping_bits(direction, pdo, mappings)?;
+    *slot = pdo;
+    Ok(())
+}
+
 fn validate_assigned<const M: usize>(
     direction: Option<PdoDirection>,
     pdos: &[u16],
