@@ -108,7 +108,7 @@ mod rtic_app {
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
         stage_pdi: &'static OutputStage,
-        can: Option<Can1>,
+        can: Can1,
         stage_can: &'static OutputStage,
         adc: AdcFront,
         wdt: Watchdog,
@@ -159,13 +159,6 @@ mod rtic_app {
             mut wdt,
             can,
         } = board;
-        let can = match can {
-            Ok(can) => Some(can),
-            Err(e) => {
-                defmt::error!("CAN1 not started: {}", e);
-                None
-            }
-        };
 
         // Outputs to 0 V first: after an MCU-only reset the DAC still drives the old values.
         if dac.init().is_err() {
@@ -303,9 +296,7 @@ mod rtic_app {
     /// transmissions.
     #[task(binds = CAN, priority = 2, local = [can, stage_can, inbox: CanInbox = CanInbox::new()], shared = [pdi])]
     fn can(cx: can::Context) {
-        let Some(can) = cx.local.can.as_mut() else {
-            return;
-        };
+        let can = cx.local.can;
         let pdi: &mut PdiSide = cx.shared.pdi;
         let now = hw::timers::now_ns();
         let app = pdi.task.app_mut();

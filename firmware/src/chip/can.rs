@@ -105,48 +105,75 @@ pub const fn cia_sample_point_permille(bit_rate: u32) -> u32 {
 /// point at most 2.5 % from CiA 301's recommendation, and of those the most tq per bit
 /// (the finest resynchronisation), then the nearest sample point. `None` if no exact timing
 /// reaches it (e.g. 800 kbit/s from a 100 MHz PCLK, whose only 25-tq bit samples at 68 %).
-pub fn bit_timing(pclk_hz: u32, bit_rate: u32) -> Option<BitTiming> {
+pub const fn bit_timing(pclk_hz: u32, bit_rate: u32) -> Option<BitTiming> {
     if bit_rate == 0 {
         return None;
     }
     let want = cia_sample_point_permille(bit_rate);
     let mut best: Option<(u32, BitTiming)> = None;
-    for quanta in TQ_PER_BIT {
-        // 32-bit arithmetic (no 64-bit division in the image): a product that overflows
-        // is above any PCLK and cannot divide it.
-        let Some(clocks) = bit_rate.checked_mul(quanta) else {
-            continue;
-        };
-        if pclk_hz % clocks != 0 {
-            continue;
+    let mut quanta = *TQ_PER_BIT.start();
+    while quanta <= *TQ_PER_BIT.end() {
+        if let Some((error, t)) = timing_with(pclk_hz, bit_rate, quanta, want) {
+            let better = match best {
+                None => true,
+                Some((e, b)) => quanta > b.quanta() || (quanta == b.quanta() && error < e),
+            };
+            if better {
+                best = Some((error, t));
+            }
         }
-        let prescaler = pclk_hz / clocks;
-        if !(1..=1024).contains(&prescaler) {
-            continue;
-        }
-        // Sample point = (1 + tseg1) / quanta, nearest the wanted one.
-        let tseg1 = ((want * quanta + 500) / 1000)
-            .saturating_sub(1)
-            .clamp(1, 16);
-        let tseg2 = quanta - 1 - tseg1;
-        if !(1..=8).contains(&tseg2) {
-            continue;
-        }
-        let t = BitTiming {
-            prescaler,
-            tseg1,
-            tseg2,
-            sjw: tseg2.min(4),
-        };
-        let error = t.sample_point_permille().abs_diff(want);
-        if error > 25 {
-            continue;
-        }
-        if best.is_none_or(|(e, b)| quanta > b.quanta() || (quanta == b.quanta() && error < e)) {
-            best = Some((error, t));
-        }
+        quanta += 1;
     }
-    best.map(|(_, t)| t)
+    match best {
+        Some((_, t)) => Some(t),
+        None => None,
+    }
+}
+
+/// The timing of `quanta` tq per bit and its sample point's distance from `want` (per
+/// mille), if it is exact and within 2.5 %.
+const fn timing_with(
+    pclk_hz: u32,
+    bit_rate: u32,
+    quanta: u32,
+    want: u32,
+) -> Option<(u32, BitTiming)> {
+    // 32-bit arithmetic (no 64-bit division in the image): a product that overflows is
+    // above any PCLK and cannot divide it.
+    let Some(clocks) = bit_rate.checked_mul(quanta) else {
+        return None;
+    };
+    if pclk_hz % clocks != 0 {
+        return None;
+    }
+    let prescaler = pclk_hz / clocks;
+    if prescaler < 1 || prescaler > 1024 {
+        return None;
+    }
+    // Sample point = (1 + tseg1) / quanta, nearest the wanted one.
+    let tseg1 = ((want * quanta + 500) / 1000).saturating_sub(1);
+    let tseg1 = if tseg1 < 1 {
+        1
+    } else if tseg1 > 16 {
+        16
+    } else {
+        tseg1
+    };
+    let tseg2 = quanta - 1 - tseg1;
+    if tseg2 < 1 || tseg2 > 8 {
+        return None;
+    }
+    let t = BitTiming {
+        prescaler,
+        tseg1,
+        tseg2,
+        sjw: if tseg2 < 4 { tseg2 } else { 4 },
+    };
+    let error = t.sample_point_permille().abs_diff(want);
+    if error > 25 {
+        return None;
+    }
+    Some((error, t))
 }
 
 /// A received frame from CANRFS, CANRID, CANRDA, CANRDB; `None` for a 29-bit frame (this

@@ -40,7 +40,7 @@
 //! when used).
 
 use super::adc::AdcHw;
-use super::can::{Can1, CanError};
+use super::can::Can1;
 use super::clocks::{self, ClockError, Clocks};
 use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
@@ -54,6 +54,8 @@ use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
 use embedded_hal::delay::DelayNs;
 use firmware::app::pdi_task::EEPROM_WAIT_MS;
+use firmware::chip::can::{bit_timing, BitTiming};
+use firmware::product::can::DEFAULT_BIT_RATE;
 use lpc17xx_pac as pac;
 
 /// PINMODE (2 bits per pin): the pad's resistor.
@@ -250,7 +252,7 @@ pub struct Board {
     /// The MCU watchdog (feeder task).
     pub wdt: Watchdog,
     /// CAN1 (CAN task), or why it did not start.
-    pub can: Result<Can1, CanError>,
+    pub can: Can1,
 }
 
 /// Errors of the board bring-up.
@@ -289,12 +291,7 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     let adc = AdcHw::new(dp.TIMER2, ssp1, dp.GPDMA);
     let sync0 = Sync0Capture::new(dp.TIMER1);
     let wdt = Watchdog::new(dp.WDT);
-    let can = Can1::new(
-        dp.CAN1,
-        &dp.CANAF,
-        super::PCLK_HZ,
-        firmware::product::can::DEFAULT_BIT_RATE,
-    );
+    let can = Can1::new(dp.CAN1, &dp.CANAF, CAN_TIMING);
 
     let board = Board {
         clocks,
@@ -366,3 +363,10 @@ pub fn wait_esc_eeprom_loaded(pin: &InPin, time: &Sync0Capture) -> bool {
     }
     pin.is_high()
 }
+
+/// CAN1's bus timing at the product's bit rate, found when building: a rate the CAN clock
+/// cannot time exactly does not build.
+const CAN_TIMING: BitTiming = match bit_timing(super::PCLK_HZ, DEFAULT_BIT_RATE) {
+    Some(t) => t,
+    None => panic!("no exact CAN bit timing for the default bit rate at PCLK"),
+};

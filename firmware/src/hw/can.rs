@@ -4,8 +4,8 @@
 //! - Clock: PCLK_CAN1 = PCLK_CAN2 = PCLK_ACF = CCLK / 1 = 100 MHz (UM10360 requires the
 //!   three equal; [`super::clocks`]); the bus timing comes from
 //!   [`firmware::chip::can::bit_timing`] (10, 20, 50, 125, 250, 500 kbit/s and 1 Mbit/s
-//!   exactly, as the EDS lists them; 800 kbit/s has no exact timing at 100 MHz and is
-//!   refused).
+//!   exactly, as the EDS lists them; 800 kbit/s has no exact timing at 100 MHz), worked
+//!   out when the firmware is built ([`super::board`]), so a rate without one does not build.
 //! - Acceptance filter in bypass (AFMR.AccBP): every frame of the bus is received, the
 //!   CANopen node picks its own; no look-up table to keep in step with configurable
 //!   COB-IDs. The cost is an interrupt per frame on the bus.
@@ -21,20 +21,13 @@
 use coe_core::canopen::CanFrame;
 use firmware::app::can_task::CanController;
 use firmware::chip::can::{
-    bit_timing, frame_from_rx, tx_words, AFMR_ACCBP, CMR_CDO, CMR_RRB, CMR_STB, CMR_TR, GSR_BS,
+    frame_from_rx, tx_words, BitTiming, AFMR_ACCBP, CMR_CDO, CMR_RRB, CMR_STB, CMR_TR, GSR_BS,
     GSR_DOS, GSR_RBS, IER_RIE, MOD_RM, SR_TBS,
 };
 use lpc17xx_pac as pac;
 
 /// Frames [`Can1::receive`] looks at for one of base format.
 const RX_LOOKS: usize = 4;
-
-/// Why CAN1 was not started.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum CanError {
-    /// No exact bit timing for this rate at the CAN clock.
-    BitRate(u32),
-}
 
 /// Counters of the controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, defmt::Format)]
@@ -53,16 +46,11 @@ pub struct Can1 {
 }
 
 impl Can1 {
-    /// Starts CAN1 at `bit_rate` (powered and clocked by [`super::clocks`], pins by
-    /// [`super::board`]): reset mode, bus timing, acceptance filter bypass, receive
-    /// interrupt, operating mode.
-    pub fn new(
-        can: pac::CAN1,
-        af: &pac::CANAF,
-        pclk_hz: u32,
-        bit_rate: u32,
-    ) -> Result<Self, CanError> {
-        let timing = bit_timing(pclk_hz, bit_rate).ok_or(CanError::BitRate(bit_rate))?;
+    /// Starts CAN1 with `timing` (powered and clocked by [`super::clocks`], pins by
+    /// [`super::board`], the timing found at build time by
+    /// [`firmware::chip::can::bit_timing`]): reset mode, bus
+    /// timing, acceptance filter bypass, receive interrupt, operating mode.
+    pub fn new(can: pac::CAN1, af: &pac::CANAF, timing: BitTiming) -> Self {
         // SAFETY (all raw writes): UM10360 chapter 16 register values; BTR only in reset mode.
         can.mod_.write(|w| unsafe { w.bits(MOD_RM) });
         can.ier.write(|w| unsafe { w.bits(0) });
@@ -70,10 +58,10 @@ impl Can1 {
         af.afmr.write(|w| unsafe { w.bits(AFMR_ACCBP) });
         can.ier.write(|w| unsafe { w.bits(IER_RIE) });
         can.mod_.write(|w| unsafe { w.bits(0) });
-        Ok(Self {
+        Self {
             can,
             stats: CanStats::default(),
-        })
+        }
     }
 
     fn command(&mut self, bits: u32) {
