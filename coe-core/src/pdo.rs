@@ -409,7 +409,8 @@ impl<const N: usize> PdoAssignment<N> {
 }
 
 // The checks and downloads of an assignment do not depend on its capacity: one copy in a
-// program with assignments of several sizes.
+// program with assignments of several sizes (not inlined into each size's methods; cold
+// code, run when a master configures the process data).
 fn write_assignment_sub<const M: usize>(
     direction: Option<PdoDirection>,
     count: &mut u8,
@@ -440,6 +441,7 @@ fn write_assignment_sub<const M: usize>(
     Ok(())
 }
 
+#[inline(never)]
 fn validate_assigned<const M: usize>(
     direction: Option<PdoDirection>,
     pdos: &[u16],
@@ -522,8 +524,18 @@ impl<const N: usize> ImageLayout<N> {
         assignment: &PdoAssignment<A>,
         mappings: &[PdoMapping<M>],
     ) -> Result<Self, SdoAbortCode> {
+        Self::of_pdos(assignment.pdos(), mappings)
+    }
+
+    // Not inlined into `build`: one copy for assignments of every capacity (cold code, run
+    // when the process data is set up).
+    #[inline(never)]
+    fn of_pdos<const M: usize>(
+        pdos: &[u16],
+        mappings: &[PdoMapping<M>],
+    ) -> Result<Self, SdoAbortCode> {
         let mut layout = Self::new();
-        for pdo in assignment.pdos() {
+        for pdo in pdos {
             let mapping = mappings
                 .iter()
                 .find(|m| m.index() == *pdo)
