@@ -1092,15 +1092,10 @@ const fn find_object(od: &'static ObjectDictionary, index: u16) -> Option<&'stat
 
 /// The entry `object:subindex` with the object's own default ([`ObjectDesc::resolve`]).
 const fn find_entry(object: &'static ObjectDesc, subindex: u8) -> Option<EntryDesc> {
-    let entries: &'static [EntryDesc] = object.entries;
-    let mut i = 0;
-    while i < entries.len() {
-        if entries[i].subindex == subindex {
-            return Some(object.resolve(&entries[i]));
-        }
-        i += 1;
+    match object.entry_desc(subindex) {
+        Some(entry) => Some(object.resolve(entry)),
+        None => None,
     }
-    None
 }
 
 /// The numeric default of `object:subindex` if it fits a u32.

@@ -435,7 +435,7 @@ impl ObjectDesc {
     }
 
     /// The entry with this subindex (a linear search usable in `const` code).
-    const fn entry_desc(&self, subindex: u8) -> Option<&'static EntryDesc> {
+    pub(crate) const fn entry_desc(&self, subindex: u8) -> Option<&'static EntryDesc> {
         let mut rest = self.entries;
         while let [entry, tail @ ..] = rest {
             if entry.subindex == subindex {
