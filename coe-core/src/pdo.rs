@@ -409,8 +409,8 @@ impl<const N: usize> PdoAssignment<N> {
 }
 
 // The checks and downloads of an assignment do not depend on its capacity: one copy in a
-// program with assignments of several sizes (not inlined into each size's methods; cold
-// code, run when a master configures the process data).
+// program with assignments of several sizes (cold code, run when a master configures the
+// process data).
 fn write_assignment_sub<const M: usize>(
     direction: Option<PdoDirection>,
     count: &mut u8,
