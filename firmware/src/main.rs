@@ -51,8 +51,10 @@
 #[cfg(target_os = "none")]
 mod hw;
 
+#[cfg(all(target_os = "none", feature = "rtt"))]
+use defmt_rtt as _;
 #[cfg(target_os = "none")]
-use {defmt_rtt as _, panic_probe as _};
+use panic_probe as _;
 
 #[cfg(target_os = "none")]
 #[rtic::app(device = lpc17xx_pac)]
