@@ -661,6 +661,42 @@ fn synchronous_tpdos_carry_the_inputs() {
     assert_eq!(emcy_of(&out[0]).0, emcy_code::SYNC_LENGTH);
 }
 
+/// A caller with a deadline runs the PDO work in steps of one layout or one TPDO each:
+/// an NMT start reads one RPDO layout per step, a SYNC queues its TPDOs, each sent in two
+/// steps (its layout, then its data), lowest first; a stop drops what is left.
+#[test]
+fn pdo_work_runs_in_bounded_steps() {
+    let mut b = Bench::new();
+    b.download(0x1801, 2, &[1]).unwrap();
+    b.download(0x1802, 2, &[1]).unwrap();
+    let now = b.now;
+    let step = |b: &mut Bench| b.node.step(&mut b.dev, now);
+    b.node
+        .receive(&frame(0x000, &[0x01, NODE]), &mut b.dev, now);
+    assert_eq!(b.node.state(), NmtState::Operational);
+    // One RPDO layout read per step (two RPDOs).
+    assert!(b.node.has_steps());
+    assert!(step(&mut b) && step(&mut b));
+    assert!(!b.node.has_steps() && !step(&mut b));
+    b.take();
+    b.node.receive(&frame(0x080, &[]), &mut b.dev, now);
+    assert!(b.take().is_empty(), "the SYNC only queues the TPDOs");
+    let ai = |v: &[i16]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    assert!(step(&mut b) && b.take().is_empty(), "TPDO 2's layout");
+    assert!(step(&mut b));
+    assert_eq!(b.take(), vec![frame(0x285, &ai(&[100, 200, 300, 400]))]);
+    assert!(step(&mut b) && step(&mut b));
+    assert_eq!(b.take(), vec![frame(0x385, &ai(&[500, 600, 700, 800]))]);
+    assert!(!b.node.has_steps());
+    // Stopped between the steps: nothing goes out.
+    b.node.receive(&frame(0x080, &[]), &mut b.dev, now);
+    assert!(step(&mut b));
+    b.node
+        .receive(&frame(0x000, &[0x02, NODE]), &mut b.dev, now);
+    assert!(!step(&mut b) && !b.node.has_steps());
+    assert!(b.take().iter().all(|f| f.id() != 0x285 && f.id() != 0x385));
+}
+
 #[test]
 fn event_driven_tpdos_with_timer_inhibit_and_change_of_state() {
     let mut b = Bench::new();

@@ -244,6 +244,12 @@ struct Runtime<const R: usize, const T: usize, const HB: usize, const Q: usize> 
     /// RPDO layouts, read when the node enters operational or a PDO becomes valid there
     /// (its mapping cannot change while it is valid and CAN drives the outputs).
     rpdo_layout: [Option<Layout>; R],
+    /// PDO work left in steps ([`CanNode::step`]): RPDO layouts to read (bit i: RPDO i)
+    /// and TPDOs to send (bit i: TPDO i, its layout read in a step of its own first).
+    rpdo_steps: u32,
+    tpdo_steps: u32,
+    /// The layout of a TPDO between its two steps.
+    tpdo_layout: [Option<Layout>; T],
     faults: u8,
     stats: NodeStats,
 }
@@ -260,6 +266,15 @@ pub const fn wrapping_ms(us: u64) -> u32 {
     let part = ((part % 1000) << 16) | (lo & 0xFFFF);
     let q0 = part / 1000;
     (q1 << 16) | q0
+}
+
+/// The lowest `n` bits set (one per PDO).
+const fn bits(n: usize) -> u32 {
+    if n >= 32 {
+        u32::MAX
+    } else {
+        (1 << n) - 1
+    }
 }
 
 /// Reads mapping parameter `index` through the application.
@@ -315,6 +330,9 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize> Runtime<R,
             rpdo: [RpdoRuntime::default(); R],
             tpdo: [TpdoRuntime::default(); T],
             rpdo_layout: [None; R],
+            rpdo_steps: 0,
+            tpdo_steps: 0,
+            tpdo_layout: [None; T],
             faults: 0,
             stats: NodeStats::default(),
         }
@@ -361,6 +379,11 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize> Runtime<R,
                 }
             }
             Changed::Tpdo(i) => {
+                // A transmission queued under the old parameters is dropped.
+                self.tpdo_steps &= !(1 << i);
+                if let Some(l) = self.tpdo_layout.get_mut(i) {
+                    *l = None;
+                }
                 if let (Some(rt), Some(comm), true) =
                     (self.tpdo.get_mut(i), self.params.tpdo.get(i), operational)
                 {
@@ -475,6 +498,8 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         od: &'static ObjectDictionary,
         defaults: &'static CommDefaults<R, T>,
     ) -> Self {
+        // The PDO steps are bit sets of 32.
+        const { assert!(R <= 32 && T <= 32) };
         Self {
             od,
             defaults,
@@ -682,9 +707,10 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                     }
                 }
                 if to == NmtState::Operational {
-                    for i in 0..R {
-                        self.rt.load_rpdo_layout(app, i);
-                    }
+                    // One layout per step: the node is operational meanwhile, and its
+                    // callers finish the steps before the next frame.
+                    self.rt.rpdo_layout = [None; R];
+                    self.rt.rpdo_steps = bits(R);
                     for (r, c) in self.rt.tpdo.iter_mut().zip(self.rt.params.tpdo.iter()) {
                         r.start(c, now_us);
                     }
@@ -853,16 +879,15 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             app.apply_outputs();
         }
         // Then the synchronous TPDOs.
-        self.service_tpdos(app, now_us, true, &mut |r, comm| r.on_sync(comm, counter));
+        self.service_tpdos(app, true, &mut |r, comm| r.on_sync(comm, counter));
     }
 
-    /// Sends the valid synchronous (or event-driven) TPDOs that `due` selects, after change
-    /// detection for the acyclic and event-driven types. (`due` as `dyn`: one body for the
-    /// SYNC and the timer callers.)
+    /// Queues the valid synchronous (or event-driven) TPDOs that `due` selects for
+    /// [`CanNode::step`], after change detection for the acyclic and event-driven types.
+    /// (`due` as `dyn`: one body for the SYNC and the timer callers.)
     fn service_tpdos<A: CanApplication + ?Sized>(
         &mut self,
         app: &mut A,
-        now_us: u64,
         synchronous: bool,
         due: &mut dyn FnMut(&mut TpdoRuntime, &PdoComm) -> bool,
     ) {
@@ -878,7 +903,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                 self.detect_change(i, app);
             }
             if self.rt.tpdo.get_mut(i).is_some_and(|r| due(r, &comm)) {
-                self.send_tpdo(i, app, now_us);
+                self.rt.tpdo_steps |= 1 << i;
             }
         }
     }
@@ -958,9 +983,9 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         ok
     }
 
-    /// The current data of TPDO `i`, or `None` (unreadable mapping, or longer than 64 bits,
+    /// The layout of TPDO `i`, or `None` (unreadable mapping, or longer than 64 bits,
     /// which is reported).
-    fn tpdo_data<A: CanApplication + ?Sized>(&mut self, i: usize, app: &mut A) -> Option<PdoData> {
+    fn tpdo_layout<A: CanApplication + ?Sized>(&mut self, i: usize, app: &mut A) -> Option<Layout> {
         let layout = read_mapping(app, mapping_index(PdoKind::Tpdo, i))
             .and_then(|m| Layout::of_mapping(&m).ok())?;
         if layout.bit_len() > super::pdo::MAX_PDO_BITS {
@@ -973,6 +998,11 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             );
             return None;
         }
+        Some(layout)
+    }
+
+    /// The current data of a TPDO with `layout`.
+    fn tpdo_data<A: CanApplication + ?Sized>(layout: &Layout, app: &mut A) -> Option<PdoData> {
         let mut data = PdoData {
             bytes: [0; 8],
             len: layout.byte_len() as u8,
@@ -981,11 +1011,17 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         Some(data)
     }
 
-    fn send_tpdo<A: CanApplication + ?Sized>(&mut self, i: usize, app: &mut A, now_us: u64) {
+    fn send_tpdo<A: CanApplication + ?Sized>(
+        &mut self,
+        i: usize,
+        layout: &Layout,
+        app: &mut A,
+        now_us: u64,
+    ) {
         let Some(comm) = self.rt.params.tpdo.get(i).copied() else {
             return;
         };
-        let Some(data) = self.tpdo_data(i, app) else {
+        let Some(data) = Self::tpdo_data(layout, app) else {
             return;
         };
         if let Ok(frame) = CanFrame::new(comm.cob_id.can_id(), data.as_slice()) {
@@ -999,7 +1035,10 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
 
     /// Change of state: request TPDO `i` if its data differ from the last sent.
     fn detect_change<A: CanApplication + ?Sized>(&mut self, i: usize, app: &mut A) {
-        let Some(data) = self.tpdo_data(i, app) else {
+        let Some(data) = self
+            .tpdo_layout(i, app)
+            .and_then(|l| Self::tpdo_data(&l, app))
+        else {
             return;
         };
         if let Some(r) = self.rt.tpdo.get_mut(i) {
@@ -1009,11 +1048,63 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         }
     }
 
+    // ------------------------------------------------------------------ steps
+
+    /// True if PDO work waits for [`CanNode::step`] (after an NMT start, a SYNC or an
+    /// event-driven TPDO's timer).
+    pub const fn has_steps(&self) -> bool {
+        self.rt.rpdo_steps | self.rt.tpdo_steps != 0
+    }
+
+    /// One step of the PDO work left: an RPDO layout read, a TPDO layout read, or a TPDO
+    /// packed and queued; false if none was left. A caller with a deadline runs one per
+    /// call, before the next frame (an RPDO needs its layout); [`CanNode::poll`] runs them
+    /// all. Outside operational the work is dropped.
+    pub fn step<A: CanApplication + ?Sized>(&mut self, app: &mut A, now_us: u64) -> bool {
+        let rt = &mut self.rt;
+        if rt.nmt.state() != NmtState::Operational {
+            rt.rpdo_steps = 0;
+            rt.tpdo_steps = 0;
+            return false;
+        }
+        if rt.rpdo_steps != 0 {
+            let i = rt.rpdo_steps.trailing_zeros() as usize;
+            rt.rpdo_steps &= !(1 << i);
+            rt.load_rpdo_layout(app, i);
+            return true;
+        }
+        if rt.tpdo_steps == 0 {
+            return false;
+        }
+        let i = rt.tpdo_steps.trailing_zeros() as usize;
+        match rt.tpdo_layout.get_mut(i).and_then(Option::take) {
+            Some(layout) => {
+                self.rt.tpdo_steps &= !(1 << i);
+                self.send_tpdo(i, &layout, app, now_us);
+            }
+            None => {
+                let layout = self.tpdo_layout(i, app);
+                match self.rt.tpdo_layout.get_mut(i) {
+                    Some(slot) if layout.is_some() => *slot = layout,
+                    _ => self.rt.tpdo_steps &= !(1 << i),
+                }
+            }
+        }
+        true
+    }
+
     // ------------------------------------------------------------------ timers
 
     /// Timers and queued work at `now_us`: boot-up, heartbeat, consumer and life guarding
-    /// deadlines, SYNC and RPDO deadlines, event-driven TPDOs, Emergencies.
+    /// deadlines, SYNC and RPDO deadlines, event-driven TPDOs, Emergencies; then every PDO
+    /// step left ([`CanNode::step`]).
     pub fn poll<A: CanApplication + ?Sized>(&mut self, app: &mut A, now_us: u64) {
+        self.timers(app, now_us);
+        while self.step(app, now_us) {}
+    }
+
+    /// [`CanNode::poll`] without the PDO steps, for a caller that runs them one per call.
+    pub fn timers<A: CanApplication + ?Sized>(&mut self, app: &mut A, now_us: u64) {
         if self.boot_pending {
             self.boot(now_us);
         }
@@ -1061,7 +1152,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                     }
                 }
             }
-            self.service_tpdos(app, now_us, false, &mut |r, comm| r.event_due(comm, now_us));
+            self.service_tpdos(app, false, &mut |r, comm| r.event_due(comm, now_us));
         }
         let lost = self.rt.stats.outbox_overflow;
         if lost != self.overflow_reported {
