@@ -14,12 +14,12 @@
 //! sample ring (in AHB SRAM), two request flags and the `PdiSide` (the slave application)
 //! of the PDI and CAN tasks, which run at the same priority and so never preempt each
 //! other (`#[lock_free]`); no resource needs a lock. The CAN task moves what CAN1 received
-//! into its inbox at every activation, but calls the CANopen node (one frame, or its
-//! timers) only while the CAN window is open (`app::can_window`): while EtherCAT delivers
-//! outputs in regular cycles, in the part of the cycle after the outputs where the call
-//! cannot reach the next cycle's SM2 event before its SYNC0 edge. It takes one frame per
-//! call and pends itself again while frames wait; EINT3's vector comes before CAN's, so a
-//! pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
+//! into its inbox at every activation, but calls the CANopen node (one frame, one PDO step
+//! or its timers) only when the CAN window admits the call's kind (`app::can_window`):
+//! while EtherCAT delivers outputs in regular cycles, only if the call's bound ends early
+//! enough for the PDI work before the next cycle's SYNC0 edge. It makes one call per
+//! activation and pends itself again while work waits; EINT3's vector comes before CAN's,
+//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
 //! on the host); the task bodies only read pins and pend each other:
 //!
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::on_sync0`: LDAC pulse or
@@ -42,10 +42,11 @@
 //!   pends the CAN task as well: the node's timers (heartbeat, guarding, inhibit and event
 //!   timers, SYNC window) at 1 ms resolution and frames the PDI side queued (Emergencies).
 //! - A received CAN frame pends the CAN task (`can_task::run`): the frame into the inbox,
-//!   one frame to the node if the window admits it, the node's frames into the free
-//!   transmit buffers, and the DAC task pended with the apply request when an RPDO brought
-//!   outputs (`OutputSource::Can`). After an activation that served a cycle's outputs the
-//!   PDI task pends the CAN task if the window held work back.
+//!   one call of the node if the window admits it (its PDO steps first, its timers after
+//!   each frame), the node's frames into the free transmit buffers, and the DAC task
+//!   pended with the apply request when an RPDO brought outputs (`OutputSource::Can`).
+//!   After each activation the PDI task pends the CAN task if a call the window refused
+//!   fits now.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -286,7 +287,7 @@ mod rtic_app {
             // From INIT: the outputs already hold their safe values.
             hw::boot_request::enter_bootloader();
         }
-        // CAN frames to send, or CAN work the window held back until these outputs.
+        // CAN frames to send, or a CAN call the window refused that fits now.
         let app = pdi.task.app();
         if app.has_can_tx() || app.can_work_waiting(now) {
             rtic::pend(Interrupt::CAN);

@@ -4,6 +4,7 @@
 //! the node's frames into the controller's free transmit buffers. The same logic runs
 //! behind the LPC1754's CAN1 (`crate::hw::can`) and the virtual board's bus.
 
+use super::can_window::CallKind;
 use super::outputs::OutputStage;
 use super::SlaveApp;
 use coe_core::canopen::CanFrame;
@@ -25,11 +26,13 @@ pub trait CanController {
     fn transmit(&mut self, frame: &CanFrame) -> bool;
 }
 
-/// Received frames waiting for the node, and those lost because it was full.
+/// Received frames waiting for the node, and those lost because it was full; whether the
+/// node's timers are due after a frame.
 #[derive(Debug, Default)]
 pub struct CanInbox {
     frames: Deque<CanFrame, INBOX_FRAMES>,
     overruns: u32,
+    timers_due: bool,
 }
 
 impl CanInbox {
@@ -38,6 +41,7 @@ impl CanInbox {
         Self {
             frames: Deque::new(),
             overruns: 0,
+            timers_due: false,
         }
     }
 
@@ -81,9 +85,10 @@ pub struct CanOutcome {
     pub run_again: bool,
 }
 
-/// Serves the controller at `now_ns`: its frames into the inbox; if the window admits a
-/// node call, one frame from the inbox, or the timers when none waits; then transmission
-/// as long as the controller takes frames (short: it holds no SM2 event for long).
+/// Serves the controller at `now_ns`: its frames into the inbox; one node call if the
+/// window admits its kind: the timers after a frame or when none waits, else the next
+/// frame; then transmission as long as the controller takes frames (short: it holds no
+/// SM2 event for long).
 pub fn run<C: CanController + ?Sized>(
     can: &mut C,
     inbox: &mut CanInbox,
@@ -93,14 +98,28 @@ pub fn run<C: CanController + ?Sized>(
 ) -> CanOutcome {
     let mut out = CanOutcome::default();
     inbox.fill(can);
-    if app.admit_can_call(now_ns) {
-        match inbox.frames.pop_front() {
-            Some(frame) => {
-                out.apply_outputs = app.on_can_frame(&frame, stage, now_ns).apply_outputs;
-                out.run_again = !inbox.is_empty();
+    // The node's PDO steps before the next frame (an RPDO needs the layout an NMT start
+    // left to them), its timers after each frame.
+    let frame = match inbox.timers_due || app.can_has_steps() {
+        true => None,
+        false => inbox.frames.front().copied(),
+    };
+    let kind = app.can_call_kind(frame.as_ref());
+    if app.admit_can_call(kind, now_ns) {
+        let done = match frame {
+            Some(f) => {
+                inbox.frames.pop_front();
+                app.on_can_frame(&f, stage, now_ns)
             }
-            None => out.apply_outputs = app.poll_can(stage, now_ns).apply_outputs,
-        }
+            None => app.poll_can(stage, now_ns),
+        };
+        inbox.timers_due = match kind {
+            CallKind::Timers => false,
+            CallKind::PdoStep => inbox.timers_due,
+            _ => true,
+        };
+        out.apply_outputs = done.apply_outputs;
+        out.run_again = inbox.timers_due || app.can_has_steps() || !inbox.is_empty();
     }
     while let Some(frame) = app.peek_can_tx() {
         if !can.transmit(&frame) {
@@ -184,7 +203,7 @@ mod tests {
             self.now += MS;
             self.can.rx.extend(frames.iter().copied());
             let mut out = CanOutcome::default();
-            for _ in 0..=frames.len() {
+            for _ in 0..64 {
                 let o = self.activation();
                 out.apply_outputs |= o.apply_outputs;
                 if !o.run_again {
@@ -229,19 +248,16 @@ mod tests {
         let mut r = Rig::new(usize::MAX);
         r.run(&[]);
         // A burst: the first activation moves it into the inbox, each gives the node one
-        // frame and asks to run again while more wait, so the PDI task (same priority,
-        // served first when both are pending) waits for one frame's work.
+        // frame, the next its timers, and asks to run again while work waits, so the PDI
+        // task (same priority, served first when both are pending) waits for one piece.
         r.can.rx.extend(vec![nmt(0x80); 3]);
         for left in (0..3).rev() {
-            assert_eq!(r.activation().run_again, left > 0);
+            assert!(r.activation().run_again, "the timers follow the frame");
             assert!(r.can.rx.is_empty());
             assert_eq!(r.inbox.len(), left);
+            assert_eq!(r.activation().run_again, left > 0, "the timers ran");
         }
-        assert_eq!(
-            r.activation(),
-            CanOutcome::default(),
-            "nothing left: the timers ran"
-        );
+        assert_eq!(r.activation(), CanOutcome::default(), "nothing left");
         // The node still answers within the same run.
         let (_, sent) = r.run(&[frame(
             0x600 + u16::from(NODE),
@@ -324,13 +340,13 @@ mod tests {
         frame(0x600 + u16::from(NODE), &[0x40, 0, 0x10, 0, 0, 0, 0, 0])
     }
 
-    /// While EtherCAT cycles run, frames that arrive after the first half of a cycle wait
-    /// in the inbox (the node's calls could reach the next SYNC0) and all are served once
+    /// While EtherCAT cycles run, frames that arrive too late in a cycle for their kind
+    /// (an SDO call could reach the next frame) wait in the inbox and all are served once
     /// the next cycle's outputs open the window.
     #[test]
     fn frames_wait_for_the_window_and_none_is_lost() {
         let (mut r, base) = Rig::in_100_us_cycles();
-        r.now = base + 270 * US;
+        r.now = base + 280 * US;
         r.can.rx.extend(vec![upload_0x1000(); 3]);
         assert_eq!(r.activation(), CanOutcome::default());
         assert_eq!(r.inbox.len(), 3, "taken from the controller, not served");
@@ -346,7 +362,7 @@ mod tests {
         while r.activation().run_again {
             activations += 1;
         }
-        assert_eq!(activations, 3, "one frame per activation");
+        assert_eq!(activations, 6, "one frame, then the timers, per activation");
         assert_eq!(r.can.tx.len(), 3, "every request answered");
         assert!(r.can.tx.iter().all(|f| f.id() == 0x580 + u16::from(NODE)));
         assert!(!r.app.can_waiting());
@@ -356,7 +372,7 @@ mod tests {
     #[test]
     fn a_full_inbox_counts_the_frames_it_loses() {
         let (mut r, base) = Rig::in_100_us_cycles();
-        r.now = base + 280 * US;
+        r.now = base + 290 * US;
         let extra = 5;
         r.can.rx.extend(vec![nmt(0x80); INBOX_FRAMES + extra]);
         let mut activations = 0;

@@ -67,7 +67,7 @@ use crate::product::capacity::MAX_IMAGE;
 use crate::product::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use crate::product::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
 use can::{CanView, Node};
-use can_window::CanWindow;
+use can_window::{CallKind, CanWindow};
 use coe_core::canopen::{CanFrame, NmtState};
 use coe_core::device::{MemoryWindow, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
@@ -296,6 +296,11 @@ impl SlaveApp {
         let counts = stage.sync0_counts();
         let new_edge = counts.edges != self.sync0_seen;
         self.sync0_seen = counts.edges;
+        if new_edge {
+            self.can_window.on_sync0_polled(now_ns, counts.last_edge_lo);
+        } else {
+            self.can_window.on_tick_polled(now_ns);
+        }
         if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
             self.sync_error(esc, stage, AlStatusCode::SynchronizationError, &mut out)?;
         }
@@ -803,8 +808,8 @@ impl SlaveApp {
         self.can_call(Some(frame), stage, now_ns)
     }
 
-    /// The CAN node's timers at `now_ns` (call at [`SlaveApp::can_deadline_ns`] at the
-    /// latest).
+    /// The CAN node's next PDO step, or its timers when none is left, at `now_ns` (call
+    /// at [`SlaveApp::can_deadline_ns`] at the latest).
     pub fn poll_can(&mut self, stage: &OutputStage, now_ns: u64) -> PdiOutcome {
         self.can_call(None, stage, now_ns)
     }
@@ -824,10 +829,26 @@ impl SlaveApp {
         self.can.has_tx()
     }
 
-    /// Whether a call of the CAN node may start at `now_ns` ([`CanWindow`]); a refusal
-    /// is remembered as CAN work that waits.
-    pub fn admit_can_call(&mut self, now_ns: u64) -> bool {
-        self.can_window.admit(now_ns)
+    /// The kind of the node call that serves received `frame`, or without one
+    /// [`SlaveApp::poll_can`] ([`CallKind`]).
+    pub fn can_call_kind(&self, frame: Option<&CanFrame>) -> CallKind {
+        let sync_id = self.can.params().sync.cob_id.can_id();
+        match frame {
+            Some(f) => CallKind::of_frame(f.id(), self.can.node_id(), sync_id),
+            None if self.can.has_steps() => CallKind::PdoStep,
+            None => CallKind::Timers,
+        }
+    }
+
+    /// True if the CAN node has PDO work left in steps (run before the next frame).
+    pub fn can_has_steps(&self) -> bool {
+        self.can.has_steps()
+    }
+
+    /// Whether a call of the CAN node of `kind` may start at `now_ns` ([`CanWindow`]); a
+    /// refusal is remembered as CAN work that waits.
+    pub fn admit_can_call(&mut self, kind: CallKind, now_ns: u64) -> bool {
+        self.can_window.admit(kind, now_ns)
     }
 
     /// CAN work was refused and the window is open now: pend the CAN task.
@@ -847,8 +868,9 @@ impl SlaveApp {
             .map(|us| us.saturating_mul(1000))
     }
 
-    /// A received frame (if any) into the CAN node, then its poll, and what follows from it
-    /// for the outputs and the other fieldbus. (One body for both callers: in the image it
+    /// A received frame into the CAN node, or without one its next PDO step or else its
+    /// timers, and what follows from it for the outputs and the other fieldbus: one
+    /// bounded piece of work per call, so the CAN window can admit it by its kind. (One body for both callers: in the image it
     /// exists once.)
     fn can_call(
         &mut self,
@@ -864,10 +886,11 @@ impl SlaveApp {
             self.data.sampler.publish();
         }
         let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
-        if let Some(frame) = frame {
-            self.can.receive(frame, &mut view, now_us);
+        match frame {
+            Some(frame) => self.can.receive(frame, &mut view, now_us),
+            None if self.can.has_steps() => _ = self.can.step(&mut view, now_us),
+            None => self.can.timers(&mut view, now_us),
         }
-        self.can.poll(&mut view, now_us);
         let operational = self.can.state() == NmtState::Operational;
         view.data.running.can = operational;
         // SDO-written outputs take effect if CAN drives the outputs and is operational.
