@@ -1,7 +1,7 @@
 //! One activation of the CAN task: the frames the controller received go into the
-//! task's inbox, one of them (or the node's timers when none waits) to the application if
-//! the CAN window is open ([`super::can_window`]: after an EtherCAT cycle's outputs), and
-//! the node's frames into the controller's free transmit buffers. The same logic runs
+//! task's inbox, one call of the node (a frame, a PDO step or its timers) if the CAN
+//! window admits its kind ([`super::can_window`]), and the node's frames into the
+//! controller's free transmit buffers. The same logic runs
 //! behind the LPC1754's CAN1 (`crate::hw::can`) and the virtual board's bus.
 
 use super::can_window::CallKind;
@@ -86,9 +86,9 @@ pub struct CanOutcome {
 }
 
 /// Serves the controller at `now_ns`: its frames into the inbox; one node call if the
-/// window admits its kind: the timers after a frame or when none waits, else the next
-/// frame; then transmission as long as the controller takes frames (short: it holds no
-/// SM2 event for long).
+/// window admits its kind: a PDO step while the node has them, the timers after a frame
+/// or when none waits, else the next frame; then transmission as long as the controller
+/// takes frames (short: it holds no SM2 event for long).
 pub fn run<C: CanController + ?Sized>(
     can: &mut C,
     inbox: &mut CanInbox,
