@@ -1,8 +1,8 @@
 //! One activation of the CAN task: the frames the controller received go into the
 //! task's inbox, one call of the node (a frame, a PDO step or its timers) if the CAN
 //! window admits its kind ([`super::can_window`]), and the node's frames into the
-//! controller's free transmit buffers. The same logic runs
-//! behind the LPC1754's CAN1 (`crate::hw::can`) and the virtual board's bus.
+//! controller's free transmit buffers. The same logic runs behind the LPC1754's CAN1
+//! (`crate::hw::can`) and the virtual board's bus.
 
 use super::can_window::CallKind;
 use super::outputs::OutputStage;
