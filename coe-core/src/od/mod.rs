@@ -42,11 +42,11 @@ use core::fmt;
 /// Information service and the ESI file show.
 ///
 /// The layout is kept small because the firmware's dictionary lives in its flash budget:
-/// the default is stored in a 4-byte-aligned packed form (carrying the unit flag in its
-/// spare byte), minimum/maximum sit behind one optional reference (most entries have none)
-/// and the data type is its one-byte code, so an entry takes 32 bytes on a 32-bit target
-/// instead of 72. Read them through [`EntryDesc::data_type`], [`EntryDesc::default`],
-/// [`EntryDesc::min`], [`EntryDesc::max`] and [`EntryDesc::unit`].
+/// the default is stored in a 4-byte-aligned packed form that also carries the unit flag
+/// and, for an entry with limits, the reference to its minimum and maximum (with the default
+/// as a 32-bit number beside it), and the data type is its one-byte code, so an entry takes
+/// 28 bytes on a 32-bit target instead of 72. Read them through [`EntryDesc::data_type`],
+/// [`EntryDesc::default`], [`EntryDesc::min`], [`EntryDesc::max`] and [`EntryDesc::unit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EntryDesc {
@@ -64,16 +64,15 @@ pub struct EntryDesc {
     pub access: Access,
     /// Unit type, valid if the default's unit flag is set (see [`EntryDesc::unit`]).
     unit: u16,
-    /// Default value (see [`EntryDesc::default`]).
+    /// Default value, unit flag and limits (see [`EntryDesc::default`],
+    /// [`EntryDesc::range`]).
     default: PackedValue,
-    /// Minimum and maximum, if limited (see [`EntryDesc::range`]).
-    range: Option<&'static ValueRange>,
 }
 
-// The firmware's dictionary sits in its flash budget: an entry stays at 32 bytes on a
+// The firmware's dictionary sits in its flash budget: an entry stays at 28 bytes on a
 // 32-bit target (checked when building for one).
 #[cfg(target_pointer_width = "32")]
-const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 32);
+const _: () = assert!(core::mem::size_of::<EntryDesc>() <= 28);
 
 /// The minimum and maximum of an entry (ESI `MinValue`/`MaxValue`, SDO Information value
 /// info 0x20/0x40); writes outside them are refused. Given by reference so that entries
@@ -95,11 +94,13 @@ impl ValueRange {
     }
 }
 
-/// A [`Value`] as stored in an [`EntryDesc`], with the entry's "has a unit type" flag: 64-bit
-/// numbers as two 32-bit halves, so the entry needs only 4-byte alignment (an `i64`/`f64`
-/// payload forces 8-byte alignment and padding on Cortex-M), and the flag in the byte after
-/// the tag that would otherwise be padding (the unit itself is [`EntryDesc`]'s `unit`).
-/// Converted losslessly both ways.
+/// A [`Value`] as stored in an [`EntryDesc`], with the entry's "has a unit type" flag and its
+/// limits: 64-bit numbers as two 32-bit halves, so the entry needs only 4-byte alignment (an
+/// `i64`/`f64` payload forces 8-byte alignment and padding on Cortex-M), the flag in the byte
+/// after the tag that would otherwise be padding (the unit itself is [`EntryDesc`]'s `unit`),
+/// and an entry with limits as their reference plus its default in 32 bits ([`Small`]), in
+/// the same 12 bytes. Converted losslessly both ways; a default that a limited entry cannot
+/// hold is kept as [`Small::TooWide`] for [`ObjectDictionary::validate`] to refuse.
 #[derive(Debug, Clone, Copy)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 enum PackedValue {
@@ -109,6 +110,47 @@ enum PackedValue {
     Real(bool, [u32; 2]),
     Str(bool, &'static str),
     Bytes(bool, &'static [u8]),
+    Limited {
+        unit: bool,
+        kind: Small,
+        bits: u32,
+        range: &'static ValueRange,
+    },
+}
+
+/// The kind of a limited entry's default, whose 32 bits [`PackedValue::Limited`] holds: an
+/// `Int` within `i32`, a `Uint` within `u32`, a `Real` whose low 32 bits are zero (1.5, 0.25,
+/// 4.0, ...: the upper half is kept).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Small {
+    None,
+    Int,
+    Uint,
+    Real,
+    /// A default of more than 32 bits (or a string) given to an entry with limits.
+    TooWide,
+}
+
+impl Small {
+    const fn pack(value: Value) -> (Self, u32) {
+        match value {
+            Value::None => (Self::None, 0),
+            Value::Int(v) if v >= i32::MIN as i64 && v <= i32::MAX as i64 => (Self::Int, v as u32),
+            Value::Uint(v) if v <= u32::MAX as u64 => (Self::Uint, v as u32),
+            Value::Real(v) if v.to_bits() as u32 == 0 => (Self::Real, (v.to_bits() >> 32) as u32),
+            _ => (Self::TooWide, 0),
+        }
+    }
+
+    const fn unpack(self, bits: u32) -> Value {
+        match self {
+            Self::None | Self::TooWide => Value::None,
+            Self::Int => Value::Int(bits as i32 as i64),
+            Self::Uint => Value::Uint(bits as u64),
+            Self::Real => Value::Real(f64::from_bits((bits as u64) << 32)),
+        }
+    }
 }
 
 impl PackedValue {
@@ -120,7 +162,17 @@ impl PackedValue {
         halves[0] as u64 | (halves[1] as u64) << 32
     }
 
-    const fn pack(value: Value, unit: bool) -> Self {
+    /// `value` with the unit flag, limited by `range` if given.
+    const fn pack(value: Value, unit: bool, range: Option<&'static ValueRange>) -> Self {
+        if let Some(range) = range {
+            let (kind, bits) = Small::pack(value);
+            return Self::Limited {
+                unit,
+                kind,
+                bits,
+                range,
+            };
+        }
         match value {
             Value::None => Self::None(unit),
             Value::Int(v) => Self::Int(unit, Self::split(v as u64)),
@@ -128,6 +180,34 @@ impl PackedValue {
             Value::Real(v) => Self::Real(unit, Self::split(v.to_bits())),
             Value::Str(s) => Self::Str(unit, s),
             Value::Bytes(b) => Self::Bytes(unit, b),
+        }
+    }
+
+    /// `Value::Uint(value)` in place of the value, unit flag and limits kept (an object's
+    /// own default, [`ObjectDesc::resolve`]).
+    const fn with_uint(self, value: u32) -> Self {
+        match self {
+            Self::Limited { unit, range, .. } => Self::Limited {
+                unit,
+                kind: Small::Uint,
+                bits: value,
+                range,
+            },
+            _ => Self::Uint(self.has_unit(), [value, 0]),
+        }
+    }
+
+    /// The same value with another unit flag or limits (a default a limited entry could
+    /// not hold stays refused).
+    const fn repack(self, unit: bool, range: Option<&'static ValueRange>) -> Self {
+        match (self.lost_default(), range) {
+            (true, Some(range)) => Self::Limited {
+                unit,
+                kind: Small::TooWide,
+                bits: 0,
+                range,
+            },
+            _ => Self::pack(self.unpack(), unit, range),
         }
     }
 
@@ -139,6 +219,7 @@ impl PackedValue {
             Self::Real(_, h) => Value::Real(f64::from_bits(Self::join(h))),
             Self::Str(_, s) => Value::Str(s),
             Self::Bytes(_, b) => Value::Bytes(b),
+            Self::Limited { kind, bits, .. } => kind.unpack(bits),
         }
     }
 
@@ -149,14 +230,36 @@ impl PackedValue {
             | Self::Uint(u, _)
             | Self::Real(u, _)
             | Self::Str(u, _)
-            | Self::Bytes(u, _) => u,
+            | Self::Bytes(u, _)
+            | Self::Limited { unit: u, .. } => u,
         }
+    }
+
+    const fn range(self) -> Option<&'static ValueRange> {
+        match self {
+            Self::Limited { range, .. } => Some(range),
+            _ => None,
+        }
+    }
+
+    /// True if a default was given that a limited entry cannot hold.
+    const fn lost_default(self) -> bool {
+        matches!(
+            self,
+            Self::Limited {
+                kind: Small::TooWide,
+                ..
+            }
+        )
     }
 }
 
 impl PartialEq for PackedValue {
     fn eq(&self, other: &Self) -> bool {
-        self.unpack() == other.unpack() && self.has_unit() == other.has_unit()
+        self.unpack() == other.unpack()
+            && self.has_unit() == other.has_unit()
+            && self.range() == other.range()
+            && self.lost_default() == other.lost_default()
     }
 }
 
@@ -183,7 +286,6 @@ impl EntryDesc {
             access,
             unit: 0,
             default: PackedValue::None(false),
-            range: None,
         }
     }
 
@@ -225,13 +327,15 @@ impl EntryDesc {
 
     /// Sets the default value.
     pub const fn with_default(mut self, default: Value) -> Self {
-        self.default = PackedValue::pack(default, self.default.has_unit());
+        self.default = PackedValue::pack(default, self.default.has_unit(), self.default.range());
         self
     }
 
     /// Sets minimum and maximum (a `&ValueRange { .. }` literal is promoted to a constant).
+    /// With limits the default must be a number of at most 32 bits (see
+    /// [`OdErrorKind::DefaultTooWideForLimits`]).
     pub const fn with_range(mut self, range: &'static ValueRange) -> Self {
-        self.range = Some(range);
+        self.default = self.default.repack(self.default.has_unit(), Some(range));
         self
     }
 
@@ -243,12 +347,12 @@ impl EntryDesc {
 
     /// Minimum and maximum, if the entry has limits.
     pub const fn range(&self) -> Option<&'static ValueRange> {
-        self.range
+        self.default.range()
     }
 
     /// Minimum value (ESI `MinValue`, value info 0x20), or [`Value::None`].
     pub const fn min(&self) -> Value {
-        match self.range {
+        match self.range() {
             Some(r) => r.min,
             None => Value::None,
         }
@@ -256,7 +360,7 @@ impl EntryDesc {
 
     /// Maximum value (ESI `MaxValue`, value info 0x40), or [`Value::None`].
     pub const fn max(&self) -> Value {
-        match self.range {
+        match self.range() {
             Some(r) => r.max,
             None => Value::None,
         }
@@ -275,7 +379,7 @@ impl EntryDesc {
     /// Sets the unit type.
     pub const fn with_unit(mut self, unit: u16) -> Self {
         self.unit = unit;
-        self.default = PackedValue::pack(self.default.unpack(), true);
+        self.default = self.default.repack(true, self.default.range());
         self
     }
 
@@ -288,7 +392,7 @@ impl EntryDesc {
     /// Checks `bytes` (a value to be written) against `min`/`max`
     /// (0x06090031 ValueTooHigh / 0x06090032 ValueTooLow).
     pub fn check_range(&self, bytes: &[u8]) -> Result<(), SdoAbortCode> {
-        match self.range {
+        match self.range() {
             Some(r) => value::check_range(self.data_type(), self.bit_len, &r.min, &r.max, bytes),
             None => Ok(()),
         }
@@ -418,7 +522,9 @@ impl ObjectDesc {
         let mut rest = self.defaults;
         while let [own, tail @ ..] = rest {
             if own.subindex == entry.subindex {
-                return entry.with_default(Value::Uint(own.value as u64));
+                let mut own_entry = *entry;
+                own_entry.default = entry.default.with_uint(own.value);
+                return own_entry;
             }
             rest = tail;
         }
@@ -521,7 +627,8 @@ impl ObjectDictionary {
     /// unsorted or duplicate subindices; ARRAY elements of differing type or length; empty
     /// names; a bit length that does not match the type (fixed types) or is not a whole
     /// number of bytes (strings) or is zero (strings); PDO-mappable flags on a type that
-    /// cannot be mapped; a default/min/max of the wrong kind or outside the type's range;
+    /// cannot be mapped; a default/min/max of the wrong kind or outside the type's range; a
+    /// default of more than 32 bits on an entry with limits;
     /// `min > max`; a default outside `min..=max`; a string default longer than the entry.
     pub const fn validate(&self) -> Result<(), OdError> {
         let mut rest = self.objects;
@@ -641,6 +748,9 @@ const fn validate_entry(entry: &EntryDesc) -> Result<(), OdErrorKind> {
     let t = entry.data_type();
     if entry.name.is_empty() {
         return Err(OdErrorKind::EmptyName);
+    }
+    if entry.default.lost_default() {
+        return Err(OdErrorKind::DefaultTooWideForLimits);
     }
     #[cfg(not(feature = "real"))]
     if matches!(t, DataType::Real32 | DataType::Real64) {
@@ -781,6 +891,9 @@ pub enum OdErrorKind {
     RealNotEnabled,
     /// An object's own default names a subindex the object does not have.
     DefaultOfNoEntry,
+    /// An entry with limits has a default that is not a number of at most 32 bits (an
+    /// `Int` within `i32`, a `Uint` within `u32`, a `Real` with zero low 32 bits).
+    DefaultTooWideForLimits,
 }
 
 impl OdErrorKind {
@@ -808,6 +921,9 @@ impl OdErrorKind {
             }
             Self::DefaultOutOfRange => "default value outside min..max",
             Self::DefaultOfNoEntry => "an object's own default names no entry of it",
+            Self::DefaultTooWideForLimits => {
+                "an entry with limits needs a default of at most 32 bits"
+            }
         }
     }
 }

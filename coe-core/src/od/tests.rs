@@ -404,3 +404,61 @@ fn an_own_default_must_name_an_entry() {
         "an own default is checked against its entry like the table's"
     );
 }
+
+/// An entry with limits keeps them beside its default in the same packed field: every
+/// default of at most 32 bits reads back, with the unit and limits, in any order of the
+/// builders; a wider default (or a string) on a limited entry is refused by validation.
+#[test]
+fn limits_keep_a_default_of_32_bits() {
+    static RANGE: ValueRange = ValueRange::new(Value::Int(-3), Value::Uint(7));
+    let base = EntryDesc::new(1, "x", DataType::Integer64, Access::RW);
+    for v in [
+        Value::None,
+        Value::Int(i32::MIN as i64),
+        Value::Int(-2),
+        Value::Uint(u32::MAX as u64),
+        Value::Real(1.5),
+        Value::Real(-4.0),
+    ] {
+        let a = base.with_default(v).with_range(&RANGE).with_unit(0x26);
+        let b = base.with_unit(0x26).with_range(&RANGE).with_default(v);
+        assert_eq!(a, b, "{v:?}");
+        assert_eq!(
+            (a.default(), a.min(), a.max(), a.unit()),
+            (v, Value::Int(-3), Value::Uint(7), Some(0x26)),
+            "{v:?}"
+        );
+        assert_eq!(a.range(), Some(&RANGE));
+    }
+    for wide in [
+        Value::Int(i32::MIN as i64 - 1),
+        Value::Uint(u32::MAX as u64 + 1),
+        Value::Real(0.1),
+        Value::Str("DAC"),
+        Value::Bytes(&[1]),
+    ] {
+        for entry in [
+            base.with_default(wide).with_range(&RANGE),
+            base.with_range(&RANGE).with_default(wide),
+            base.with_default(wide).with_range(&RANGE).with_unit(1),
+            base.with_range(&RANGE)
+                .with_default(wide)
+                .with_range(&RANGE),
+        ] {
+            assert_eq!(
+                validate_entry(&entry),
+                Err(OdErrorKind::DefaultTooWideForLimits),
+                "{wide:?}"
+            );
+        }
+        // Without limits the same default is kept whole.
+        assert_eq!(base.with_default(wide).default(), wide);
+    }
+    // A narrow default given after a refused one replaces it.
+    let fixed = base
+        .with_range(&RANGE)
+        .with_default(Value::Uint(u64::MAX))
+        .with_default(Value::Int(1));
+    assert_eq!(validate_entry(&fixed), Ok(()));
+    assert_eq!(fixed.default(), Value::Int(1));
+}
