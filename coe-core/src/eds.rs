@@ -191,7 +191,7 @@ fn write_entry<W: Write>(
     object: &ObjectDesc,
     entry: &EntryDesc,
 ) -> Result<(), EdsError> {
-    if object.code == ObjectCode::Var {
+    if object.code() == ObjectCode::Var {
         writeln!(out, "[{:04X}]", object.index)?;
     } else {
         writeln!(out, "[{:04X}sub{:X}]", object.index, entry.subindex)?;
@@ -212,7 +212,7 @@ fn write_entry<W: Write>(
 }
 
 fn write_object<W: Write>(out: &mut W, object: &ObjectDesc) -> Result<(), EdsError> {
-    if object.code == ObjectCode::Var {
+    if object.code() == ObjectCode::Var {
         if let Some(entry) = object.entries.first() {
             write_entry(out, object, entry)?;
         }
@@ -220,7 +220,7 @@ fn write_object<W: Write>(out: &mut W, object: &ObjectDesc) -> Result<(), EdsErr
     }
     writeln!(out, "[{:04X}]", object.index)?;
     writeln!(out, "ParameterName={}", ini_text(object.name)?)?;
-    writeln!(out, "ObjectType=0x{:X}", object.code.code())?;
+    writeln!(out, "ObjectType=0x{:X}", object.code().code())?;
     writeln!(out, "SubNumber=0x{:X}", object.entries.len())?;
     writeln!(out)?;
     for entry in object.entries {

@@ -127,7 +127,7 @@ fn config_data(desc: &DeviceDescription) -> Result<[u8; CONFIG_DATA_LEN], EsiErr
 /// data type, whose names the schema keys).
 fn check_entry_names(desc: &DeviceDescription) -> Result<(), EsiError> {
     for object in desc.od.iter() {
-        if object.code == ObjectCode::Var {
+        if object.code() == ObjectCode::Var {
             continue;
         }
         for (i, entry) in object.entries.iter().enumerate() {
@@ -152,7 +152,7 @@ fn entry_offsets(object: &ObjectDesc) -> impl Iterator<Item = (&'static EntryDes
 /// `BitSize` of an object: the entry's length for a VAR, the whole bytes of the
 /// complete-access image for an ARRAY/RECORD.
 fn object_bits(object: &ObjectDesc) -> u32 {
-    match object.code {
+    match object.code() {
         ObjectCode::Var => object.entries.first().map_or(0, |e| u32::from(e.bit_len)),
         ObjectCode::Array | ObjectCode::Record => Layout::whole(object).bits().div_ceil(8) * 8,
     }
@@ -162,7 +162,7 @@ fn object_bits(object: &ObjectDesc) -> u32 {
 /// access right (type and length are the same by [`crate::od::ObjectDictionary::validate`]).
 fn uniform_elements(object: &ObjectDesc) -> Option<&'static [EntryDesc]> {
     let entries: &'static [EntryDesc] = object.entries;
-    match (object.code, entries) {
+    match (object.code(), entries) {
         (ObjectCode::Array, [_, first, ..]) => {
             let elements = entries.get(1..)?;
             let contiguous = elements
@@ -461,7 +461,7 @@ impl<W: Write> Xml<'_, W> {
             self.close("DataType")?;
         }
         for object in desc.od.iter() {
-            if object.code != ObjectCode::Var {
+            if object.code() != ObjectCode::Var {
                 self.complex_type(object)?;
             }
         }
@@ -517,7 +517,7 @@ impl<W: Write> Xml<'_, W> {
         self.open("Object")?;
         self.leaf("Index", idx(object.index))?;
         self.name("Name", object.name)?;
-        match (object.code, object.entries) {
+        match (object.code(), object.entries) {
             (ObjectCode::Var, [entry]) => {
                 let entry = &object.resolve(entry);
                 self.leaf("Type", type_name(entry))?;

@@ -163,7 +163,7 @@ proptest! {
                 let lo = match entry.min() { Value::Int(v) => lo.max(v.into()), _ => lo };
                 let hi = match entry.max() { Value::Int(v) => hi.min(v.into()), _ => hi };
                 // Sub 0 of the dynamic list must stay within its highest subindex.
-                let hi = if entry.subindex == 0 && object.code != coe_core::od::ObjectCode::Var {
+                let hi = if entry.subindex == 0 && object.code() != coe_core::od::ObjectCode::Var {
                     hi.min(object.max_subindex().into())
                 } else { hi };
                 let value = lo + (raw as i128).rem_euclid(hi - lo + 1);

@@ -623,7 +623,7 @@ fn check_object(dict: Node<'_, '_>, xml: Node<'_, '_>, object: &ObjectDesc) {
     assert_eq!(name.attribute("LcId"), Some("1033"));
     let type_name = child_text(xml, "Type");
     let info = opt_child(xml, "Info");
-    if object.code == ObjectCode::Var {
+    if object.code() == ObjectCode::Var {
         let e = &object.entries[0];
         assert_eq!(type_name, expected_type(e), "{what} Type");
         assert_eq!(
@@ -697,7 +697,7 @@ fn check_object(dict: Node<'_, '_>, xml: Node<'_, '_>, object: &ObjectDesc) {
             }
             (None, Some(el)) => {
                 assert_eq!(
-                    object.code,
+                    object.code(),
                     ObjectCode::Array,
                     "{what}: only arrays have Elements"
                 );

@@ -419,19 +419,20 @@ impl EntryDesc {
 }
 
 /// One object: index, name, object code and its entries in subindex order.
+///
+/// Kept at 28 bytes on a 32-bit target (the firmware's dictionary lives in its flash budget):
+/// the object code and the data type share one 16-bit word. Read them through
+/// [`ObjectDesc::code`] and [`ObjectDesc::data_type`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ObjectDesc {
     /// Object index.
     pub index: u16,
+    /// The object code ([`ObjectDesc::code`]) in the top two bits and the data type code
+    /// ([`ObjectDesc::data_type`]) below.
+    code_and_type: u16,
     /// Object name.
     pub name: &'static str,
-    /// VAR, ARRAY or RECORD.
-    pub code: ObjectCode,
-    /// The object's data type as the SDO Information object description gives it: the entry
-    /// type of a VAR, the element type of an ARRAY, the record type of a RECORD (e.g.
-    /// 0x0023 IDENTITY, 0x0021 PDO_MAPPING).
-    pub data_type: DataType,
     /// Entries sorted by subindex; an ARRAY/RECORD starts with sub 0 (UNSIGNED8). Objects
     /// of one structure (the PDO mappings, 0x1C32/0x1C33, ...) share one table and differ
     /// in [`ObjectDesc::defaults`].
@@ -440,6 +441,17 @@ pub struct ObjectDesc {
     /// through [`ObjectDesc::resolve`].
     pub defaults: &'static [EntryDefault],
 }
+
+#[cfg(target_pointer_width = "32")]
+const _: () = assert!(core::mem::size_of::<ObjectDesc>() <= 28);
+
+/// The data type codes an object can carry next to its object code: the data type area of
+/// the dictionary (ETG.1000.6 / CiA 301: indices 0x0001..0x0FFF); a larger code is stored
+/// as [`TYPE_OUT_OF_AREA`] and refused by [`ObjectDictionary::validate`].
+const TYPE_BITS: u16 = 0x3FFF;
+/// The stored type code of an object whose data type lies outside the data type area.
+const TYPE_OUT_OF_AREA: u16 = TYPE_BITS;
+const LAST_TYPE_CODE: u16 = 0x0FFF;
 
 /// An object's own default of one of its entries (an unsigned number: PDO mappings,
 /// COB-IDs, times), for entry tables shared by objects of one structure.
@@ -466,14 +478,7 @@ impl ObjectDesc {
             [first, ..] => first.data_type(),
             [] => DataType::Unknown(0),
         };
-        Self {
-            index,
-            name,
-            code: ObjectCode::Var,
-            data_type,
-            entries,
-            defaults: &[],
-        }
+        Self::with_code(index, name, ObjectCode::Var, data_type, entries)
     }
 
     /// An ARRAY: sub 0 then elements of one type; the object's type is the element type.
@@ -482,14 +487,7 @@ impl ObjectDesc {
             [_, element, ..] => element.data_type(),
             _ => DataType::Unknown(0),
         };
-        Self {
-            index,
-            name,
-            code: ObjectCode::Array,
-            data_type,
-            entries,
-            defaults: &[],
-        }
+        Self::with_code(index, name, ObjectCode::Array, data_type, entries)
     }
 
     /// A RECORD of the given record type.
@@ -499,14 +497,48 @@ impl ObjectDesc {
         data_type: DataType,
         entries: &'static [EntryDesc],
     ) -> Self {
+        Self::with_code(index, name, ObjectCode::Record, data_type, entries)
+    }
+
+    const fn with_code(
+        index: u16,
+        name: &'static str,
+        code: ObjectCode,
+        data_type: DataType,
+        entries: &'static [EntryDesc],
+    ) -> Self {
+        let code_bits = match code {
+            ObjectCode::Var => 0,
+            ObjectCode::Array => 1,
+            ObjectCode::Record => 2,
+        };
+        let type_code = match data_type.code() {
+            c if c <= LAST_TYPE_CODE => c,
+            _ => TYPE_OUT_OF_AREA,
+        };
         Self {
             index,
+            code_and_type: code_bits << 14 | type_code,
             name,
-            code: ObjectCode::Record,
-            data_type,
             entries,
             defaults: &[],
         }
+    }
+
+    /// VAR, ARRAY or RECORD.
+    pub const fn code(&self) -> ObjectCode {
+        match self.code_and_type >> 14 {
+            0 => ObjectCode::Var,
+            1 => ObjectCode::Array,
+            _ => ObjectCode::Record,
+        }
+    }
+
+    /// The object's data type as the SDO Information object description gives it: the entry
+    /// type of a VAR, the element type of an ARRAY, the record type of a RECORD (e.g.
+    /// 0x0023 IDENTITY, 0x0021 PDO_MAPPING).
+    pub const fn data_type(&self) -> DataType {
+        DataType::from_raw(self.code_and_type & TYPE_BITS)
     }
 
     /// The object with its own defaults for entries of a shared table.
@@ -657,7 +689,10 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
     if object.name.is_empty() {
         return Err(OdError::new(OdErrorKind::EmptyName, index, 0));
     }
-    match (object.code, object.entries) {
+    if object.code_and_type & TYPE_BITS == TYPE_OUT_OF_AREA {
+        return Err(OdError::new(OdErrorKind::ObjectTypeOutOfArea, index, 0));
+    }
+    match (object.code(), object.entries) {
         (_, []) => return Err(OdError::new(OdErrorKind::NoEntries, index, 0)),
         (ObjectCode::Var, [only]) => {
             if only.subindex != 0 {
@@ -711,7 +746,7 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
         if let Err(kind) = validate_entry(&object.resolve(entry)) {
             return Err(OdError::new(kind, index, entry.subindex));
         }
-        if matches!(object.code, ObjectCode::Array) && entry.subindex != 0 {
+        if matches!(object.code(), ObjectCode::Array) && entry.subindex != 0 {
             match element {
                 Some(first) => {
                     if first.data_type().code() != entry.data_type().code()
@@ -894,6 +929,8 @@ pub enum OdErrorKind {
     /// An entry with limits has a default that is not a number of at most 32 bits (an
     /// `Int` within `i32`, a `Uint` within `u32`, a `Real` with zero low 32 bits).
     DefaultTooWideForLimits,
+    /// An object's data type code lies outside the data type area 0x0000..=0x0FFF.
+    ObjectTypeOutOfArea,
 }
 
 impl OdErrorKind {
@@ -921,6 +958,7 @@ impl OdErrorKind {
             }
             Self::DefaultOutOfRange => "default value outside min..max",
             Self::DefaultOfNoEntry => "an object's own default names no entry of it",
+            Self::ObjectTypeOutOfArea => "object data type outside the data type area",
             Self::DefaultTooWideForLimits => {
                 "an entry with limits needs a default of at most 32 bits"
             }

@@ -68,8 +68,8 @@ fn lookup_and_iteration() {
         Some(SdoAbortCode::SubindexDoesNotExist)
     );
     let (obj, e) = OD.entry(0x6411, 1).unwrap_or_else(|_| panic!());
-    assert_eq!(obj.code, ObjectCode::Array);
-    assert_eq!(obj.data_type, DataType::Integer16);
+    assert_eq!(obj.code(), ObjectCode::Array);
+    assert_eq!(obj.data_type(), DataType::Integer16);
     assert_eq!(e.bit_len, 16);
     assert_eq!(e.value_info(), 0x60);
     let indices: std::vec::Vec<u16> = OD.iter().map(|o| o.index).collect();
@@ -461,4 +461,39 @@ fn limits_keep_a_default_of_32_bits() {
         .with_default(Value::Int(1));
     assert_eq!(validate_entry(&fixed), Ok(()));
     assert_eq!(fixed.default(), Value::Int(1));
+}
+
+/// An object keeps its object code and data type in one word: every code of the data type
+/// area reads back beside each object code; a type beyond the area is refused.
+#[test]
+fn object_code_and_type_share_a_word() {
+    static VAR: [EntryDesc; 1] = [EntryDesc::new(0, "a", DataType::Unsigned16, Access::RO)];
+    static ARRAY: [EntryDesc; 2] = [
+        EntryDesc::count(1),
+        EntryDesc::new(1, "a", DataType::Integer32, Access::RO),
+    ];
+    let var = ObjectDesc::var(1, "a", &VAR);
+    assert_eq!(
+        (var.code(), var.data_type()),
+        (ObjectCode::Var, DataType::Unsigned16)
+    );
+    let array = ObjectDesc::array(1, "a", &ARRAY);
+    assert_eq!(
+        (array.code(), array.data_type()),
+        (ObjectCode::Array, DataType::Integer32)
+    );
+    for code in [0x0000, 0x0001, 0x0023, 0x0042, 0x0FFF] {
+        let record = ObjectDesc::record(1, "a", DataType::from_raw(code), &ARRAY);
+        assert_eq!(record.code(), ObjectCode::Record);
+        assert_eq!(record.data_type().code(), code);
+    }
+    assert_eq!(
+        check!(&[ObjectDesc::record(
+            2,
+            "a",
+            DataType::Unknown(0x1000),
+            &[EntryDesc::count(0)]
+        )]),
+        Err(OdErrorKind::ObjectTypeOutOfArea)
+    );
 }

@@ -39,7 +39,7 @@ impl<'a> Layout<'a> {
     }
 
     pub(crate) fn entries(&self) -> impl Iterator<Item = (&'static EntryDesc, u32)> {
-        let is_var = self.object.code == ObjectCode::Var;
+        let is_var = self.object.code() == ObjectCode::Var;
         let start = self.start;
         let count = self.count;
         let entries: &'static [EntryDesc] = self.object.entries;
@@ -59,7 +59,7 @@ impl<'a> Layout<'a> {
 
     /// Bits up to the end of the last entry.
     pub(crate) fn bits(&self) -> u32 {
-        let is_var = self.object.code == ObjectCode::Var;
+        let is_var = self.object.code() == ObjectCode::Var;
         self.entries()
             .last()
             .map_or(0, |(e, offset)| offset + entry_bits(is_var, e))
@@ -80,7 +80,7 @@ fn entry_bits(is_var: bool, entry: &EntryDesc) -> u32 {
 }
 
 pub(crate) fn check_start(object: &ObjectDesc, start: u8) -> Result<(), SdoAbortCode> {
-    let allowed = match object.code {
+    let allowed = match object.code() {
         ObjectCode::Var => start == 0,
         ObjectCode::Array | ObjectCode::Record => start <= 1,
     };
@@ -102,7 +102,7 @@ fn current_count<A: ObjectAccess + ?Sized>(
     object: &ObjectDesc,
     app: &mut A,
 ) -> Result<u8, SdoAbortCode> {
-    if object.code == ObjectCode::Var {
+    if object.code() == ObjectCode::Var {
         return Ok(0);
     }
     let mut value = [0u8; 1];
@@ -150,7 +150,7 @@ pub(crate) fn download<A: ObjectAccess + ?Sized>(
     state: AlState,
 ) -> Result<(), SdoAbortCode> {
     check_start(object, start)?;
-    let is_var = object.code == ObjectCode::Var;
+    let is_var = object.code() == ObjectCode::Var;
     // Access first: nothing writable at all, or nothing writable in this state.
     let in_scope = || object.entries.iter().filter(move |e| e.subindex >= start);
     if !in_scope().any(|e| e.access.writable_in(state)) {

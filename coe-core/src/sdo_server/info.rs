@@ -222,9 +222,9 @@ fn generate(
             let object = od.find(index).ok_or(SdoAbortCode::ObjectDoesNotExist)?;
             SdoInfoRepr::ObjectDescriptionResponse {
                 index,
-                data_type: object.data_type,
+                data_type: object.data_type(),
                 max_sub_index: object.max_subindex(),
-                object_code: object.code.code(),
+                object_code: object.code().code(),
                 name: object.name.as_bytes(),
             }
             .write(w);
