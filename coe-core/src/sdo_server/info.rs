@@ -70,6 +70,13 @@ impl ServiceDataSink for FragmentWriter<'_> {
             }
         }
     }
+
+    // One out-of-line copy: the responses write a dozen u16 fields, each would otherwise
+    // carry its own conversion and call.
+    #[inline(never)]
+    fn push_u16(&mut self, value: u16) {
+        self.push(&value.to_le_bytes())
+    }
 }
 
 /// Writes service data bytes `offset .. offset + out.len()` of `repr` (clipped to the end
