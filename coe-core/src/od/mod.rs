@@ -455,19 +455,32 @@ const LAST_TYPE_CODE: u16 = 0x0FFF;
 
 /// An object's own default of one of its entries (an unsigned number: PDO mappings,
 /// COB-IDs, times), for entry tables shared by objects of one structure.
+///
+/// The value is kept as two 16-bit halves, so a default takes 6 bytes instead of 8 (a
+/// firmware's PDO mappings and communication parameters have dozens of them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EntryDefault {
     /// Subindex.
     pub subindex: u8,
-    /// Default value ([`Value::Uint`]).
-    pub value: u32,
+    /// Default value ([`EntryDefault::value`]), low half first.
+    halves: [u16; 2],
 }
+
+const _: () = assert!(core::mem::size_of::<EntryDefault>() == 6);
 
 impl EntryDefault {
     /// The default `value` of sub `subindex`.
     pub const fn new(subindex: u8, value: u32) -> Self {
-        Self { subindex, value }
+        Self {
+            subindex,
+            halves: [value as u16, (value >> 16) as u16],
+        }
+    }
+
+    /// Default value ([`Value::Uint`]).
+    pub const fn value(&self) -> u32 {
+        self.halves[0] as u32 | (self.halves[1] as u32) << 16
     }
 }
 
@@ -555,7 +568,7 @@ impl ObjectDesc {
         while let [own, tail @ ..] = rest {
             if own.subindex == entry.subindex {
                 let mut own_entry = *entry;
-                own_entry.default = entry.default.with_uint(own.value);
+                own_entry.default = entry.default.with_uint(own.value());
                 return own_entry;
             }
             rest = tail;
