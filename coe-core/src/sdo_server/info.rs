@@ -170,34 +170,29 @@ fn list_members(
 /// zero-padded, a UNICODE_STRING as UTF-16LE code units.
 fn push_value(w: &mut FragmentWriter<'_>, entry: &EntryDesc, value: &Value) {
     let len = entry.byte_len();
-    match *value {
-        Value::Str(s) if entry.data_type() == DataType::UnicodeString => {
-            let n = value.encoded_len(entry.data_type(), entry.bit_len).min(len) / 2;
+    let data_type = entry.data_type();
+    let mut number = [0u8; 8];
+    let bytes = match *value {
+        Value::Str(s) if data_type == DataType::UnicodeString => {
+            let n = s.len().min(len / 2);
             for c in s.bytes().take(n) {
                 w.push_u16(u16::from(c));
             }
             w.push_zeros(len - n * 2);
+            return;
         }
-        Value::Str(_) | Value::Bytes(_) => {
-            let n = value.encoded_len(entry.data_type(), entry.bit_len).min(len);
-            let bytes = match *value {
-                Value::Str(s) => s.as_bytes(),
-                Value::Bytes(b) => b,
-                _ => &[],
-            };
-            w.push(bytes.get(..n).unwrap_or_default());
-            w.push_zeros(len - n);
-        }
+        Value::Str(s) => s.as_bytes(),
+        Value::Bytes(b) => b,
         _ => {
-            let mut buf = [0u8; 8];
             let n = value
-                .encode(entry.data_type(), entry.bit_len, &mut buf)
-                .unwrap_or(0)
-                .min(len);
-            w.push(buf.get(..n).unwrap_or_default());
-            w.push_zeros(len - n);
+                .encode(data_type, entry.bit_len, &mut number)
+                .unwrap_or(0);
+            number.get(..n).unwrap_or_default()
         }
-    }
+    };
+    let n = bytes.len().min(len);
+    w.push(bytes.get(..n).unwrap_or_default());
+    w.push_zeros(len - n);
 }
 
 /// Generates the response service data (everything after the SDO Information header).
