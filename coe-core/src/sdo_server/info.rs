@@ -341,6 +341,50 @@ mod tests {
     }
 
     #[test]
+    fn values_fill_exactly_their_entry() {
+        let entry = |t, bits| EntryDesc::new(0, "x", t, Access::RO).with_bits(bits);
+        let cases: [(EntryDesc, Value, &[u8]); 6] = [
+            (
+                entry(DataType::UnicodeString, 64),
+                Value::Str("AB"),
+                b"A\0B\0\0\0\0\0",
+            ),
+            (
+                entry(DataType::UnicodeString, 32),
+                Value::Str("ABC"),
+                b"A\0B\0",
+            ),
+            (
+                entry(DataType::VisibleString, 32),
+                Value::Str("ABCDEF"),
+                b"ABCD",
+            ),
+            (
+                entry(DataType::VisibleString, 32),
+                Value::Str("AB"),
+                b"AB\0\0",
+            ),
+            (
+                entry(DataType::OctetString, 24),
+                Value::Bytes(&[1]),
+                &[1, 0, 0],
+            ),
+            (
+                entry(DataType::Integer16, 16),
+                Value::Int(-2),
+                &[0xFE, 0xFF],
+            ),
+        ];
+        for (entry, value, expected) in cases {
+            let mut out = [0xA5u8; 16];
+            let mut w = FragmentWriter::new(0, &mut out);
+            push_value(&mut w, &entry, &value);
+            assert_eq!(w.position(), expected.len(), "{value:?}");
+            assert_eq!(&out[..expected.len()], expected, "{value:?}");
+        }
+    }
+
+    #[test]
     fn fragment_writer_windows() {
         let mut out = [0u8; 3];
         let mut w = FragmentWriter::new(2, &mut out);
