@@ -17,7 +17,7 @@
 //! (0x06090030).
 
 use super::diagnostics::{Diagnostics, EMCY_AO_OUT_OF_RANGE, ERR_MANUFACTURER};
-use super::entry_bytes::{channel, put};
+use super::entry_bytes::{channel, put_le};
 use super::outputs::{AnalogOutputs, ErrorMode, OutputStage, SetOutcome};
 use super::process_data::ProcessData;
 use super::sampler::{PublishMode, Sampler};
@@ -191,42 +191,48 @@ impl AppData {
     }
 }
 
+/// An INTEGER16 as the low half of [`put_le`]'s value.
+fn int16(v: i16) -> u32 {
+    u32::from(v as u16)
+}
+
 impl ObjectAccess for AppData {
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        match (index, sub) {
-            (0x1001, 0) => put(buf, &[self.diag.register()]),
-            (0x10F1, 0) => put(buf, &[2]),
-            (0x10F1, 1) => put(buf, &self.diag.local_error_reaction.to_le_bytes()),
-            (0x10F1, 2) => put(buf, &self.sync.error_limit().to_le_bytes()),
-            (0x1C32, _) => self.sync.read(false, sub, buf),
-            (0x1C33, _) => self.sync.read(true, sub, buf),
-            (i, _) if self.pd.owns(i) => self.pd.read(i, sub, buf),
-            (0x6401, 0) => put(buf, &[AI_CHANNELS as u8]),
+        // The application's values as a number and its length in bytes, copied in one place.
+        let (value, len): (u32, usize) = match (index, sub) {
+            (0x1001, 0) => (self.diag.register().into(), 1),
+            (0x10F1, 0) => (2, 1),
+            (0x10F1, 1) => (self.diag.local_error_reaction, 4),
+            (0x10F1, 2) => (self.sync.error_limit().into(), 2),
+            (0x1C32, _) => return self.sync.read(false, sub, buf),
+            (0x1C33, _) => return self.sync.read(true, sub, buf),
+            (i, _) if self.pd.owns(i) => return self.pd.read(i, sub, buf),
+            (0x6401, 0) => (AI_CHANNELS as u32, 1),
             (0x6401, _) => {
                 let i = channel(sub, AI_CHANNELS)?;
-                put(buf, &self.sampler.value(i).unwrap_or(0).to_le_bytes())
+                (int16(self.sampler.value(i).unwrap_or(0)), 2)
             }
-            (0x6411 | 0x6443 | 0x6444, 0) => put(buf, &[AO_CHANNELS as u8]),
+            (0x6411 | 0x6443 | 0x6444, 0) => (AO_CHANNELS as u32, 1),
             (0x6411, _) => {
                 let i = channel(sub, AO_CHANNELS)?;
-                let v = self.ao_values().get(i).copied().unwrap_or(0);
-                put(buf, &v.to_le_bytes())
+                (int16(self.ao_values().get(i).copied().unwrap_or(0)), 2)
             }
             (0x6443, _) => {
                 let i = channel(sub, AO_CHANNELS)?;
                 let m = self.outputs.fault_config().mode.get(i).copied();
-                put(buf, &[m.unwrap_or_default().to_u8()])
+                (m.unwrap_or_default().to_u8().into(), 1)
             }
             (0x6444, _) => {
                 let i = channel(sub, AO_CHANNELS)?;
                 let v = self.outputs.fault_config().value.get(i).copied();
-                put(buf, &v.unwrap_or(0).to_le_bytes())
+                (v.unwrap_or(0) as u32, 4)
             }
-            (SETTINGS_INDEX, 1) => put(buf, &[self.sampler.mode().setting()]),
-            (PROCESS_DATA_SOURCE_INDEX, 0) => put(buf, &[self.source.value()]),
-            (AI_INTERRUPT_ENABLE_INDEX, 0) => put(buf, &[u8::from(self.ai_events)]),
-            _ => self.read_default(index, sub, buf),
-        }
+            (SETTINGS_INDEX, 1) => (self.sampler.mode().setting().into(), 1),
+            (PROCESS_DATA_SOURCE_INDEX, 0) => (self.source.value().into(), 1),
+            (AI_INTERRUPT_ENABLE_INDEX, 0) => (u32::from(self.ai_events), 1),
+            _ => return self.read_default(index, sub, buf),
+        };
+        put_le(buf, value, len)
     }
 
     fn write(
