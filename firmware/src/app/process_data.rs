@@ -24,7 +24,7 @@ use crate::product::capacity::{
 use crate::product::od;
 use coe_core::device::{sm_control, SyncManagerDesc};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
-use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoMapping};
+use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoEntry, PdoMapping};
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
 use et1100::SyncManager;
 
@@ -184,6 +184,22 @@ pub struct ProcessData {
     inputs: [u8; MAX_IMAGE],
 }
 
+/// The product's default mapping objects, built when compiling (copied, not built, at
+/// start-up).
+const PRODUCT_RX: [Mapping; RX_PDOS] = mappings(od::RX_MAPPINGS, od::RX_DEFAULTS);
+const PRODUCT_TX: [Mapping; TX_PDOS] = mappings(od::TX_MAPPINGS, od::TX_DEFAULTS);
+
+/// The mapping objects `indices` with their default `entries`.
+const fn mappings<const N: usize>(indices: [u16; N], entries: [&[PdoEntry]; N]) -> [Mapping; N] {
+    let mut out = [Mapping::new(0); N];
+    let mut i = 0;
+    while i < N {
+        out[i] = Mapping::with_entries(indices[i], entries[i]);
+        i += 1;
+    }
+    out
+}
+
 /// Bits a PDO (and an assignment) may hold.
 const MAX_BITS: u32 = (MAX_IMAGE * 8) as u32;
 
@@ -193,11 +209,12 @@ impl ProcessData {
     /// 0x1A00../0x1C12/0x1C13 are made of ([`od::RX_DEFAULTS`] and friends); a host test
     /// reads it back against the dictionary.
     pub fn product_default() -> Self {
-        let rx: [Mapping; RX_PDOS] =
-            core::array::from_fn(|i| Mapping::with_entries(od::RX_MAPPINGS[i], od::RX_DEFAULTS[i]));
-        let tx: [Mapping; TX_PDOS] =
-            core::array::from_fn(|i| Mapping::with_entries(od::TX_MAPPINGS[i], od::TX_DEFAULTS[i]));
-        Self::new(rx, tx, &od::RX_ASSIGN_DEFAULT, &od::TX_ASSIGN_DEFAULT)
+        Self::new(
+            PRODUCT_RX,
+            PRODUCT_TX,
+            &od::RX_ASSIGN_DEFAULT,
+            &od::TX_ASSIGN_DEFAULT,
+        )
     }
 
     /// A configuration: the mapping objects (their indices name them) and the assigned
