@@ -38,11 +38,12 @@
 use crate::boot::staging::is_firmware_name;
 use crate::product::capacity::{EMERGENCY_QUEUE, MAILBOX_SIZE, TRANSFER_BUFFER};
 use coe_core::device::sm_control;
-use coe_core::foe::{FileStore, FoeEndpoint, FoeError, FoeServer, WriteRefusal};
-use coe_core::mailbox::MAILBOX_HEADER_LEN;
+use coe_core::foe::FoeError;
+use coe_core::mailbox::{MailboxErrorCode, MailboxProtocol, MAILBOX_HEADER_LEN};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::{Emergency, Reply, SdoServer};
-use coe_core::wire::FoeErrorCode;
+use coe_core::wire::foe::{self, Foe, FoeErrorCode, FoeRepr};
+use coe_core::wire::MailboxType;
 use coe_core::AlState;
 use et1100::{AlEvents, Et1100, Pdi, PdiResult, SyncManager};
 
@@ -93,37 +94,74 @@ pub trait MailboxServer {
     fn on_state_change(&mut self, ctx: &mut Self::Context<'_>, from: AlState, to: AlState);
 }
 
-/// The application's FoE files: none. A firmware file (`*.efw`) is written in BOOT, where
-/// the bootloader serves it; here a write of one is answered "bootstrap only" (0x8008), any
-/// other name "not found".
-pub struct BootOnlyFiles;
+/// FoE in the application: a firmware file (`*.efw`) is written in BOOT, where the
+/// bootloader serves it; here every FoE packet is refused, so no transfer ever starts and
+/// nothing is kept between packets (a stateless answer instead of coe-core's `FoeServer`
+/// with a file store that refuses everything, whose answers a host test compares with
+/// these): a write of a firmware file is "bootstrap only" (0x8008), any other write and
+/// every read "not found", DATA, ACK and BUSY without a transfer "illegal", an ERR from the
+/// master has no answer.
+pub struct BootOnlyFoe;
 
-impl FileStore for BootOnlyFiles {
-    fn open_write(&mut self, name: &[u8], _: u32, _: AlState) -> Result<(), FoeError> {
-        Err(if is_firmware_name(name) {
-            FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only")
-        } else {
-            FoeError::new(FoeErrorCode::NotFound)
+impl BootOnlyFoe {
+    /// The error a packet gets, `None` for the master's ERR.
+    fn refusal(packet: &FoeRepr<'_>) -> Option<FoeError> {
+        const ILLEGAL: FoeErrorCode = FoeErrorCode::Illegal;
+        Some(match packet {
+            FoeRepr::WriteRequest { file_name, .. } if is_firmware_name(file_name) => {
+                FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only")
+            }
+            FoeRepr::WriteRequest { .. } | FoeRepr::ReadRequest { .. } => NOT_FOUND,
+            FoeRepr::Data { .. } => {
+                FoeError::with_text(ILLEGAL, "DATA without a write in progress")
+            }
+            FoeRepr::Ack { .. } => FoeError::with_text(ILLEGAL, "ACK without a read in progress"),
+            FoeRepr::Busy { .. } => FoeError::with_text(ILLEGAL, "BUSY from the master"),
+            FoeRepr::Error { .. } => return None,
         })
     }
+}
 
-    fn write(&mut self, _: u32, _: &[u8]) -> Result<(), WriteRefusal> {
-        Err(FoeError::new(FoeErrorCode::Illegal).into())
+/// "Not found" with its standard text (a constant: only this code's text is kept).
+const NOT_FOUND: FoeError = FoeError::new(FoeErrorCode::NotFound);
+
+impl MailboxProtocol for BootOnlyFoe {
+    fn serves(&self, mailbox_type: MailboxType) -> bool {
+        mailbox_type == MailboxType::Foe
     }
 
-    fn finish_write(&mut self, _: u32) -> Result<(), FoeError> {
-        Err(FoeError::new(FoeErrorCode::Illegal))
+    fn serve(
+        &mut self,
+        payload: &[u8],
+        _: usize,
+        _: AlState,
+        _: u32,
+        out: &mut [u8],
+    ) -> Result<Option<(MailboxType, usize)>, MailboxErrorCode> {
+        let packet =
+            FoeRepr::parse(&Foe::new_unchecked(payload)).map_err(|e| e.mailbox_error_code())?;
+        let Some(FoeError { code, text }) = Self::refusal(&packet) else {
+            return Ok(None);
+        };
+        // A text that does not fit is shortened.
+        let room = out.len().saturating_sub(foe::HEADER_LEN);
+        let text = text.as_bytes();
+        let answer = FoeRepr::Error {
+            code,
+            text: text.get(..room).unwrap_or(text),
+        };
+        if answer.emit(&mut Foe::new_unchecked(&mut *out)).is_err() {
+            return Ok(None);
+        }
+        Ok(Some((MailboxType::Foe, answer.buffer_len())))
     }
-
-    fn abort(&mut self) {}
 }
 
 /// The application's server: the SDO server on the dictionary `od`, FoE on the same
-/// mailbox beside it.
+/// mailbox beside it ([`BootOnlyFoe`]).
 pub struct AppServer {
     od: &'static ObjectDictionary,
     sdo: Server,
-    foe: FoeServer,
 }
 
 impl AppServer {
@@ -132,7 +170,6 @@ impl AppServer {
         Self {
             od,
             sdo: SdoServer::new(),
-            foe: FoeServer::new(),
         }
     }
 
@@ -155,12 +192,15 @@ impl MailboxServer for AppServer {
         now_ms: u32,
         reply: &mut [u8],
     ) -> Reply {
-        let mut foe = FoeEndpoint {
-            server: &mut self.foe,
-            files: &mut BootOnlyFiles,
-        };
-        self.sdo
-            .process_with(request, state, self.od, objects, now_ms, reply, &mut foe)
+        self.sdo.process_with(
+            request,
+            state,
+            self.od,
+            objects,
+            now_ms,
+            reply,
+            &mut BootOnlyFoe,
+        )
     }
 
     fn poll(&mut self, _: &mut (dyn ObjectAccess + '_), reply: &mut [u8]) -> Reply {
@@ -177,7 +217,6 @@ impl MailboxServer for AppServer {
 
     fn on_state_change(&mut self, _: &mut (dyn ObjectAccess + '_), from: AlState, to: AlState) {
         self.sdo.on_state_change(from, to);
-        self.foe.on_state_change(from, to, &mut BootOnlyFiles);
     }
 }
 
@@ -515,6 +554,93 @@ pub fn write_frame<P: Pdi>(
 mod tests {
     use super::*;
     use crate::fake_esc::FakeEsc;
+    use coe_core::foe::{FileStore, FoeEndpoint, FoeServer, WriteRefusal};
+    use std::vec::Vec;
+
+    /// The file store of an application that takes no file: a firmware file is "bootstrap
+    /// only", any other name "not found" (what [`BootOnlyFoe`] answers without a server).
+    struct RefuseAll;
+
+    impl FileStore for RefuseAll {
+        fn open_write(&mut self, name: &[u8], _: u32, _: AlState) -> Result<(), FoeError> {
+            Err(if is_firmware_name(name) {
+                FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only")
+            } else {
+                FoeError::new(FoeErrorCode::NotFound)
+            })
+        }
+
+        fn write(&mut self, _: u32, _: &[u8]) -> Result<(), WriteRefusal> {
+            Err(FoeError::new(FoeErrorCode::Illegal).into())
+        }
+
+        fn finish_write(&mut self, _: u32) -> Result<(), FoeError> {
+            Err(FoeError::new(FoeErrorCode::Illegal))
+        }
+
+        fn abort(&mut self) {}
+    }
+
+    fn packet(repr: FoeRepr<'_>) -> Vec<u8> {
+        let mut buf = std::vec![0u8; repr.buffer_len()];
+        repr.emit(&mut Foe::new_unchecked(&mut buf[..])).unwrap();
+        buf
+    }
+
+    #[test]
+    fn foe_answers_are_the_servers_with_a_store_that_refuses_everything() {
+        let packets = [
+            packet(FoeRepr::WriteRequest {
+                password: 0,
+                file_name: b"analog-io.efw",
+            }),
+            packet(FoeRepr::WriteRequest {
+                password: 7,
+                file_name: b"notes.txt",
+            }),
+            packet(FoeRepr::ReadRequest {
+                password: 0,
+                file_name: b"analog-io.efw",
+            }),
+            packet(FoeRepr::Data {
+                packet_number: 1,
+                data: &[1, 2, 3],
+            }),
+            packet(FoeRepr::Ack { packet_number: 1 }),
+            packet(FoeRepr::Busy {
+                done: 1,
+                entire: 2,
+                text: b"",
+            }),
+            packet(FoeRepr::Error {
+                code: FoeErrorCode::NotDefined,
+                text: b"stop",
+            }),
+            std::vec![2, 0, 0],
+            std::vec![9, 0, 0, 0, 0, 0],
+            Vec::new(),
+        ];
+        let mut server = FoeServer::new();
+        let mut checked = 0;
+        // Room for every text, for a shortened one, for the header only, for less.
+        for room in [122, 16, foe::HEADER_LEN, 3] {
+            for (n, p) in packets.iter().enumerate() {
+                let (mut want, mut got) = ([0xAAu8; 122], [0xAAu8; 122]);
+                let now_ms = 1_000 * n as u32;
+                let expected = FoeEndpoint {
+                    server: &mut server,
+                    files: &mut RefuseAll,
+                }
+                .serve(p, 128, AlState::PreOp, now_ms, &mut want[..room]);
+                let answer = BootOnlyFoe.serve(p, 128, AlState::PreOp, now_ms, &mut got[..room]);
+                assert_eq!(answer, expected, "packet {n}, room {room}");
+                assert_eq!(got, want, "packet {n}, room {room}");
+                assert!(!server.busy(), "no transfer starts");
+                checked += usize::from(matches!(answer, Ok(Some(_))));
+            }
+        }
+        assert!(checked >= 12, "most packets have an answer");
+    }
 
     const OUT: u16 = 0x1000;
     const IN: u16 = 0x1080;
