@@ -215,6 +215,8 @@ impl MailboxServer for AppServer {
         self.sdo.has_outgoing()
     }
 
+    // Cold: one copy for the AL control and the local error paths.
+    #[inline(never)]
     fn on_state_change(&mut self, _: &mut (dyn ObjectAccess + '_), from: AlState, to: AlState) {
         self.sdo.on_state_change(from, to);
     }
