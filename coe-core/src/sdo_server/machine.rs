@@ -152,15 +152,29 @@ fn emit(out: &mut [u8], frame: &SdoRepr<'_>) -> Option<SdoAnswer> {
     })
 }
 
-fn abort(out: &mut [u8], index: u16, sub_index: u8, code: SdoAbortCode) -> Option<SdoAnswer> {
-    emit(
-        out,
-        &SdoRepr::Abort {
+/// An abort to answer a request with: the object it names and why. Every abort ends the
+/// transfer in progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Abort {
+    index: u16,
+    subindex: u8,
+    code: SdoAbortCode,
+}
+
+impl Abort {
+    const fn new(index: u16, subindex: u8, code: SdoAbortCode) -> Self {
+        Self {
             index,
-            sub_index,
+            subindex,
             code,
-        },
-    )
+        }
+    }
+}
+
+impl Target {
+    const fn abort(self, code: SdoAbortCode) -> Abort {
+        Abort::new(self.index, self.subindex, code)
+    }
 }
 
 impl<const BUF: usize> SdoMachine<BUF> {
@@ -204,30 +218,53 @@ impl<const BUF: usize> SdoMachine<BUF> {
         if out.len() < wire::sdo::HEADER_LEN {
             return None;
         }
+        // One place turns an abort into its frame: the replies below only name it.
+        let reply = match self.reply(view, ctx, out.len()) {
+            Ok(reply) => reply?,
+            Err(Abort {
+                index,
+                subindex,
+                code,
+            }) => {
+                self.transfer = Transfer::Idle;
+                SdoRepr::Abort {
+                    index,
+                    sub_index: subindex,
+                    code,
+                }
+            }
+        };
+        emit(out, &reply)
+    }
+
+    /// The reply to one request in a frame of at most `room` bytes: a frame, nothing (an
+    /// abort from the client) or an abort.
+    fn reply<A: ObjectAccess + ?Sized>(
+        &mut self,
+        view: &Sdo<&[u8]>,
+        ctx: SdoContext<'_, A>,
+        room: usize,
+    ) -> Result<Option<SdoRepr<'_>>, Abort> {
         // Segment requests (specifier 0 download, 3 upload) continue a transfer.
         let segment = matches!(view.command_specifier(), 0 | 3);
         if let Some((t_index, t_sub, last_ms)) = self.transfer.target() {
             if ctx.now_ms.wrapping_sub(last_ms) > self.timeout_ms {
                 self.transfer = Transfer::Idle;
                 if segment {
-                    return abort(out, t_index, t_sub, SdoAbortCode::SdoProtocolTimeout);
+                    return Err(Abort::new(t_index, t_sub, SdoAbortCode::SdoProtocolTimeout));
                 }
             }
         }
-        let request = match SdoRepr::parse(view, Direction::Request) {
-            Ok(request) => request,
-            Err(e) => {
-                // A segment frame has no index: name the transfer's object.
-                let (index, subindex) = self
-                    .transfer
-                    .target()
-                    .filter(|_| segment)
-                    .map_or((view.index(), view.sub_index()), |(i, s, _)| (i, s));
-                self.transfer = Transfer::Idle;
-                return abort(out, index, subindex, e.sdo_abort_code());
-            }
-        };
-        match request {
+        let request = SdoRepr::parse(view, Direction::Request).map_err(|e| {
+            // A segment frame has no index: name the transfer's object.
+            let (index, subindex) = self
+                .transfer
+                .target()
+                .filter(|_| segment)
+                .map_or((view.index(), view.sub_index()), |(i, s, _)| (i, s));
+            Abort::new(index, subindex, e.sdo_abort_code())
+        })?;
+        let reply = match request {
             SdoRepr::InitiateDownloadRequest {
                 index,
                 sub_index,
@@ -235,14 +272,11 @@ impl<const BUF: usize> SdoMachine<BUF> {
                 data,
             } => {
                 self.transfer = Transfer::Idle;
-                let target = match self.target(index, sub_index, complete_access, out) {
-                    Ok(target) => target,
-                    Err(answer) => return answer,
-                };
-                self.init_download(target, data, ctx, out)
+                let target = self.target(index, sub_index, complete_access)?;
+                self.init_download(target, data, ctx)?
             }
             SdoRepr::DownloadSegmentRequest { toggle, last, data } => {
-                self.download_segment(toggle, last, data, ctx, out)
+                self.download_segment(toggle, last, data, ctx)?
             }
             SdoRepr::InitiateUploadRequest {
                 index,
@@ -250,69 +284,54 @@ impl<const BUF: usize> SdoMachine<BUF> {
                 complete_access,
             } => {
                 self.transfer = Transfer::Idle;
-                let target = match self.target(index, sub_index, complete_access, out) {
-                    Ok(target) => target,
-                    Err(answer) => return answer,
-                };
-                self.init_upload(target, ctx, out)
+                let target = self.target(index, sub_index, complete_access)?;
+                self.init_upload(target, ctx, room)?
             }
             SdoRepr::UploadSegmentRequest { toggle } => {
-                self.upload_segment(toggle, ctx.now_ms, out)
+                self.upload_segment(toggle, ctx.now_ms, room)?
             }
             SdoRepr::Abort { .. } => {
                 // Abort transfer from the client: no response.
                 self.transfer = Transfer::Idle;
-                None
+                return Ok(None);
             }
             // Responses are never parsed from the request direction.
             SdoRepr::InitiateDownloadResponse { .. }
             | SdoRepr::InitiateUploadResponse { .. }
             | SdoRepr::DownloadSegmentResponse { .. }
             | SdoRepr::UploadSegmentResponse { .. } => {
-                self.transfer = Transfer::Idle;
-                abort(
-                    out,
+                return Err(Abort::new(
                     view.index(),
                     view.sub_index(),
                     SdoAbortCode::InvalidCommandSpecifier,
-                )
+                ));
             }
-        }
+        };
+        Ok(Some(reply))
     }
 
     /// The target of an initiate request; a complete access on a transport without it is
-    /// answered at once (`Err` holds that answer).
-    fn target(
-        &self,
-        index: u16,
-        subindex: u8,
-        complete: bool,
-        out: &mut [u8],
-    ) -> Result<Target, Option<SdoAnswer>> {
-        if complete && !self.complete_access {
-            return Err(abort(
-                out,
-                index,
-                subindex,
-                SdoAbortCode::InvalidCommandSpecifier,
-            ));
-        }
-        Ok(Target {
+    /// aborted.
+    fn target(&self, index: u16, subindex: u8, complete: bool) -> Result<Target, Abort> {
+        let target = Target {
             index,
             subindex,
             complete,
-        })
+        };
+        if complete && !self.complete_access {
+            return Err(target.abort(SdoAbortCode::InvalidCommandSpecifier));
+        }
+        Ok(target)
     }
 
     /// A segment request that does not belong to the transfer in progress: the old transfer
     /// ends and the request is answered with 0x05040001.
-    fn unexpected_segment(&mut self, out: &mut [u8]) -> Option<SdoAnswer> {
+    fn unexpected_segment(&self) -> Abort {
         let (index, subindex) = self
             .transfer
             .target()
             .map_or((0, 0), |(index, subindex, _)| (index, subindex));
-        self.transfer = Transfer::Idle;
-        abort(out, index, subindex, SdoAbortCode::InvalidCommandSpecifier)
+        Abort::new(index, subindex, SdoAbortCode::InvalidCommandSpecifier)
     }
 
     fn init_download<A: ObjectAccess + ?Sized>(
@@ -320,8 +339,7 @@ impl<const BUF: usize> SdoMachine<BUF> {
         target: Target,
         data: InitData<'_>,
         ctx: SdoContext<'_, A>,
-        out: &mut [u8],
-    ) -> Option<SdoAnswer> {
+    ) -> Result<SdoRepr<'static>, Abort> {
         let Target {
             index,
             subindex,
@@ -342,29 +360,23 @@ impl<const BUF: usize> SdoMachine<BUF> {
                 data,
             ),
         };
-        let result = if complete {
+        let size = if complete {
             check_complete_download(ctx.od, index, subindex, declared)
         } else {
             check_download(&ctx, index, subindex, declared)
-        };
-        let size = match result {
-            Ok(size) => size,
-            Err(code) => return abort(out, index, subindex, code),
-        };
+        }
+        .map_err(|code| target.abort(code))?;
         if size <= payload.len() {
             let value = payload.get(..size).unwrap_or(&[]);
-            return match store(ctx, target, value) {
-                Ok(()) => download_ack(out, target),
-                Err(code) => abort(out, index, subindex, code),
-            };
+            store(ctx, target, value).map_err(|code| target.abort(code))?;
+            return Ok(download_ack(target));
         }
         // Segmented: keep what came and wait for segments.
-        if size > BUF {
-            return abort(out, index, subindex, SdoAbortCode::OutOfMemory);
-        }
-        let Some(dst) = self.buf.get_mut(..payload.len()) else {
-            return abort(out, index, subindex, SdoAbortCode::OutOfMemory);
-        };
+        let dst = self
+            .buf
+            .get_mut(..payload.len())
+            .filter(|_| size <= BUF)
+            .ok_or(target.abort(SdoAbortCode::OutOfMemory))?;
         dst.copy_from_slice(payload);
         self.transfer = Transfer::Download {
             index,
@@ -375,7 +387,7 @@ impl<const BUF: usize> SdoMachine<BUF> {
             toggle: false,
             last_ms: ctx.now_ms,
         };
-        download_ack(out, target)
+        Ok(download_ack(target))
     }
 
     fn download_segment<A: ObjectAccess + ?Sized>(
@@ -384,8 +396,7 @@ impl<const BUF: usize> SdoMachine<BUF> {
         last: bool,
         segment: &[u8],
         ctx: SdoContext<'_, A>,
-        out: &mut [u8],
-    ) -> Option<SdoAnswer> {
+    ) -> Result<SdoRepr<'static>, Abort> {
         let Transfer::Download {
             index,
             subindex,
@@ -396,24 +407,24 @@ impl<const BUF: usize> SdoMachine<BUF> {
             ..
         } = self.transfer
         else {
-            return self.unexpected_segment(out);
+            return Err(self.unexpected_segment());
+        };
+        let target = Target {
+            index,
+            subindex,
+            complete,
         };
         if seg_toggle != toggle {
-            self.transfer = Transfer::Idle;
-            return abort(out, index, subindex, SdoAbortCode::ToggleBitNotAlternated);
+            return Err(target.abort(SdoAbortCode::ToggleBitNotAlternated));
         }
         let end = received + segment.len();
         if end > total {
-            self.transfer = Transfer::Idle;
-            return abort(out, index, subindex, SdoAbortCode::LengthTooHigh);
+            return Err(target.abort(SdoAbortCode::LengthTooHigh));
         }
-        match self.buf.get_mut(received..end) {
-            Some(dst) => dst.copy_from_slice(segment),
-            None => {
-                self.transfer = Transfer::Idle;
-                return abort(out, index, subindex, SdoAbortCode::OutOfMemory);
-            }
-        }
+        self.buf
+            .get_mut(received..end)
+            .ok_or(target.abort(SdoAbortCode::OutOfMemory))?
+            .copy_from_slice(segment);
         let response = SdoRepr::DownloadSegmentResponse { toggle };
         if !last {
             self.transfer = Transfer::Download {
@@ -425,30 +436,25 @@ impl<const BUF: usize> SdoMachine<BUF> {
                 toggle: !toggle,
                 last_ms: ctx.now_ms,
             };
-            return emit(out, &response);
+            return Ok(response);
         }
         self.transfer = Transfer::Idle;
         if end < total {
-            return abort(out, index, subindex, SdoAbortCode::LengthTooLow);
+            return Err(target.abort(SdoAbortCode::LengthTooLow));
         }
         let value = self.buf.get(..total).unwrap_or(&[]);
-        let target = Target {
-            index,
-            subindex,
-            complete,
-        };
-        match store(ctx, target, value) {
-            Ok(()) => emit(out, &response),
-            Err(code) => abort(out, index, subindex, code),
-        }
+        store(ctx, target, value).map_err(|code| target.abort(code))?;
+        Ok(response)
     }
 
+    /// The initiate upload response in a frame of `room` bytes; a value that does not fit
+    /// opens a segmented transfer.
     fn init_upload<A: ObjectAccess + ?Sized>(
         &mut self,
         target: Target,
         ctx: SdoContext<'_, A>,
-        out: &mut [u8],
-    ) -> Option<SdoAnswer> {
+        room: usize,
+    ) -> Result<SdoRepr<'_>, Abort> {
         let now_ms = ctx.now_ms;
         let Target {
             index,
@@ -465,13 +471,10 @@ impl<const BUF: usize> SdoMachine<BUF> {
         } else {
             self.read_entry(ctx, index, subindex)
         };
-        let n = match read {
-            Ok(n) => n.min(BUF),
-            Err(code) => return abort(out, index, subindex, code),
-        };
+        let n = read.map_err(|code| target.abort(code))?.min(BUF);
         let value = self.buf.get(..n).unwrap_or_default();
         // Room for data after the initiate header: none on CAN, the mailbox's on CoE.
-        let room = out.len().saturating_sub(wire::sdo::HEADER_LEN);
+        let room = room.saturating_sub(wire::sdo::HEADER_LEN);
         // Expedited with the exact size for 1..4 bytes; else normal, segmented if the
         // value does not fit the reply.
         let data = match InitData::expedited(value) {
@@ -491,15 +494,12 @@ impl<const BUF: usize> SdoMachine<BUF> {
                 last_ms: now_ms,
             };
         }
-        emit(
-            out,
-            &SdoRepr::InitiateUploadResponse {
-                index,
-                sub_index: subindex,
-                complete_access: complete,
-                data,
-            },
-        )
+        Ok(SdoRepr::InitiateUploadResponse {
+            index,
+            sub_index: subindex,
+            complete_access: complete,
+            data,
+        })
     }
 
     /// Access checks and read of a single entry into the transfer buffer.
@@ -526,12 +526,13 @@ impl<const BUF: usize> SdoMachine<BUF> {
         Ok(n.min(cap))
     }
 
+    /// The next upload segment in a frame of `room` bytes.
     fn upload_segment(
         &mut self,
         seg_toggle: bool,
         now_ms: u32,
-        out: &mut [u8],
-    ) -> Option<SdoAnswer> {
+        room: usize,
+    ) -> Result<SdoRepr<'_>, Abort> {
         let Transfer::Upload {
             index,
             subindex,
@@ -541,14 +542,17 @@ impl<const BUF: usize> SdoMachine<BUF> {
             ..
         } = self.transfer
         else {
-            return self.unexpected_segment(out);
+            return Err(self.unexpected_segment());
         };
         if seg_toggle != toggle {
-            self.transfer = Transfer::Idle;
-            return abort(out, index, subindex, SdoAbortCode::ToggleBitNotAlternated);
+            return Err(Abort::new(
+                index,
+                subindex,
+                SdoAbortCode::ToggleBitNotAlternated,
+            ));
         }
         // Room for segment data: 7 bytes on CAN, the mailbox's on CoE.
-        let room = out.len().saturating_sub(wire::sdo::SEGMENT_HEADER_LEN);
+        let room = room.saturating_sub(wire::sdo::SEGMENT_HEADER_LEN);
         let remaining = total.saturating_sub(sent);
         let chunk = remaining.min(room);
         let last = chunk == remaining;
@@ -565,19 +569,16 @@ impl<const BUF: usize> SdoMachine<BUF> {
             }
         };
         let data = self.buf.get(sent..sent + chunk).unwrap_or_default();
-        emit(out, &SdoRepr::UploadSegmentResponse { toggle, last, data })
+        Ok(SdoRepr::UploadSegmentResponse { toggle, last, data })
     }
 }
 
-fn download_ack(out: &mut [u8], target: Target) -> Option<SdoAnswer> {
-    emit(
-        out,
-        &SdoRepr::InitiateDownloadResponse {
-            index: target.index,
-            sub_index: target.subindex,
-            complete_access: target.complete,
-        },
-    )
+fn download_ack(target: Target) -> SdoRepr<'static> {
+    SdoRepr::InitiateDownloadResponse {
+        index: target.index,
+        sub_index: target.subindex,
+        complete_access: target.complete,
+    }
 }
 
 /// Access and size checks of a single-entry download; returns the value size.
