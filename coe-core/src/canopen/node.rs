@@ -227,8 +227,9 @@ impl Outbox {
     }
 }
 
-/// Everything of the node but the SDO server and the outbox: what the object access of the
-/// communication parameters needs.
+/// What a reset of communication restarts: everything of the node but the SDO server, the
+/// outbox, the error bits and the counters; what the object access of the communication
+/// parameters needs.
 #[derive(Debug, Clone)]
 struct Runtime<const R: usize, const T: usize, const HB: usize, const Q: usize> {
     node_id: u8,
@@ -250,8 +251,6 @@ struct Runtime<const R: usize, const T: usize, const HB: usize, const Q: usize> 
     tpdo_steps: u32,
     /// The layout of a TPDO between its two steps.
     tpdo_layout: [Option<Layout>; T],
-    faults: u8,
-    stats: NodeStats,
 }
 
 /// Milliseconds of `us` modulo 2^32 (the SDO server's wrapping clock), from 32-bit
@@ -333,18 +332,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize> Runtime<R,
             rpdo_steps: 0,
             tpdo_steps: 0,
             tpdo_layout: [None; T],
-            faults: 0,
-            stats: NodeStats::default(),
         }
-    }
-
-    /// Back to the defaults; the application's faults and the counters stay.
-    fn reset(&mut self, defaults: &CommDefaults<R, T>) {
-        *self = Self {
-            faults: self.faults,
-            stats: self.stats,
-            ..Self::new(self.node_id, defaults)
-        };
     }
 
     /// Reads the layout of RPDO `i` (None: not valid, unreadable or not a CAN PDO).
@@ -484,6 +472,9 @@ pub struct CanNode<
     rt: Runtime<R, T, HB, Q>,
     sdo: CanSdoServer<BUF>,
     outbox: Outbox,
+    /// Communication errors raised and not yet cleared (bits of `fault`).
+    faults: u8,
+    stats: NodeStats,
     overflow_reported: u32,
     boot_pending: bool,
 }
@@ -506,6 +497,8 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             rt: Runtime::new(node_id, defaults),
             sdo: CanSdoServer::new(),
             outbox: Outbox::new(),
+            faults: 0,
+            stats: NodeStats::default(),
             overflow_reported: 0,
             boot_pending: true,
         }
@@ -528,7 +521,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
 
     /// Counters.
     pub const fn stats(&self) -> NodeStats {
-        self.rt.stats
+        self.stats
     }
 
     /// Frames waiting for the controller.
@@ -616,7 +609,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
     #[inline(never)]
     fn send(&mut self, frame: CanFrame) {
         if !self.outbox.push(frame) {
-            self.rt.stats.outbox_overflow = self.rt.stats.outbox_overflow.wrapping_add(1);
+            self.stats.outbox_overflow = self.stats.outbox_overflow.wrapping_add(1);
         }
     }
 
@@ -638,21 +631,21 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         code: u16,
         data: [u8; 5],
     ) {
-        if self.rt.faults & kind != 0 {
+        if self.faults & kind != 0 {
             return;
         }
-        self.rt.faults |= kind;
+        self.faults |= kind;
         let e = app.raise_error(ERR_COMMUNICATION, code, data);
         self.rt.emcy.push(e);
     }
 
     /// Clears a communication error; the error reset goes out when none is left.
     fn clear<A: CanApplication + ?Sized>(&mut self, app: &mut A, kind: u8) {
-        if self.rt.faults & kind == 0 {
+        if self.faults & kind == 0 {
             return;
         }
-        self.rt.faults &= !kind;
-        if self.rt.faults == 0 {
+        self.faults &= !kind;
+        if self.faults == 0 {
             if let Some(e) = app.clear_error(ERR_COMMUNICATION) {
                 self.rt.emcy.push(e);
             }
@@ -732,10 +725,11 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                 app.reset(application);
                 // The reset clears the node's own errors (their Emergencies are dropped with
                 // the queue; the error register follows).
-                if core::mem::take(&mut self.rt.faults) != 0 {
+                if core::mem::take(&mut self.faults) != 0 {
                     let _ = app.clear_error(ERR_COMMUNICATION);
                 }
-                self.rt.reset(self.defaults);
+                // The counters stay.
+                self.rt = Runtime::new(self.rt.node_id, self.defaults);
                 self.sdo.reset();
                 self.outbox.clear();
                 self.boot(now_us);
@@ -752,7 +746,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         app: &mut A,
         now_us: u64,
     ) {
-        self.rt.stats.received = self.rt.stats.received.wrapping_add(1);
+        self.stats.received = self.stats.received.wrapping_add(1);
         if self.boot_pending {
             self.boot(now_us);
         }
@@ -865,7 +859,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         if self.state() != NmtState::Operational {
             return;
         }
-        self.rt.stats.syncs = self.rt.stats.syncs.wrapping_add(1);
+        self.stats.syncs = self.stats.syncs.wrapping_add(1);
         // Synchronous RPDOs received before this SYNC take effect now.
         let mut applied = false;
         for i in 0..R {
@@ -916,7 +910,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         now_us: u64,
     ) {
         if !app.can_owns_outputs() {
-            self.rt.stats.rpdo_not_owner = self.rt.stats.rpdo_not_owner.wrapping_add(1);
+            self.stats.rpdo_not_owner = self.stats.rpdo_not_owner.wrapping_add(1);
             return;
         }
         let Some(Some(layout)) = self.rt.rpdo_layout.get(i).copied() else {
@@ -978,7 +972,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
     ) -> bool {
         let ok = layout.unpack(data.as_slice(), app, AlState::Op).is_ok();
         if ok {
-            self.rt.stats.rpdo_applied = self.rt.stats.rpdo_applied.wrapping_add(1);
+            self.stats.rpdo_applied = self.stats.rpdo_applied.wrapping_add(1);
         }
         ok
     }
@@ -1026,7 +1020,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         };
         if let Ok(frame) = CanFrame::new(comm.cob_id.can_id(), data.as_slice()) {
             self.send(frame);
-            self.rt.stats.tpdo_sent = self.rt.stats.tpdo_sent.wrapping_add(1);
+            self.stats.tpdo_sent = self.stats.tpdo_sent.wrapping_add(1);
         }
         if let Some(r) = self.rt.tpdo.get_mut(i) {
             r.sent(&comm, data, now_us);
@@ -1154,7 +1148,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             }
             self.service_tpdos(app, false, &mut |r, comm| r.event_due(comm, now_us));
         }
-        let lost = self.rt.stats.outbox_overflow;
+        let lost = self.stats.outbox_overflow;
         if lost != self.overflow_reported {
             self.overflow_reported = lost;
             self.raise(app, fault::OVERRUN, emcy_code::CAN_OVERRUN, [0; 5]);
