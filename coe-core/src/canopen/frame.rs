@@ -195,13 +195,25 @@ impl CobId {
 /// CiA 301 7.3.5 "restricted CAN-IDs": identifiers a configurable COB-ID (PDO, EMCY, SYNC)
 /// must not use, because the predefined connection set gives them to NMT, SYNC/EMCY of the
 /// default ranges, SDO, NMT error control and LSS.
-pub const fn is_restricted_id(id: u16) -> bool {
-    matches!(
-        id,
-        0x000 | 0x001..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF
-            | 0x701..=0x77F | 0x780..=0x7FF
-    )
+// Out of line (cold: parameter downloads): the SYNC, EMCY and PDO checks share one copy.
+#[inline(never)]
+pub fn is_restricted_id(id: u16) -> bool {
+    RESTRICTED_IDS
+        .iter()
+        .any(|&(first, last)| (first..=last).contains(&id))
 }
+
+/// The restricted ranges of CiA 301 7.3.5 (first, last), in the order it lists them.
+const RESTRICTED_IDS: [(u16, u16); 8] = [
+    (0x000, 0x000),
+    (0x001, 0x07F),
+    (0x101, 0x180),
+    (0x581, 0x5FF),
+    (0x601, 0x67F),
+    (0x6E0, 0x6FF),
+    (0x701, 0x77F),
+    (0x780, 0x7FF),
+];
 
 #[cfg(test)]
 mod tests {
