@@ -38,35 +38,55 @@ impl<'a> Layout<'a> {
         }
     }
 
-    pub(crate) fn entries(&self) -> impl Iterator<Item = (&'static EntryDesc, u32)> {
-        let is_var = self.object.code() == ObjectCode::Var;
-        let start = self.start;
-        let count = self.count;
-        let entries: &'static [EntryDesc] = self.object.entries;
-        let mut bits = 0u32;
-        entries
-            .iter()
-            .filter(move |e| e.subindex >= start && (is_var || e.subindex <= count))
-            .map(move |e| {
-                if e.bit_len % 8 == 0 && bits % 8 != 0 {
-                    bits += 8 - bits % 8;
-                }
-                let offset = bits;
-                bits += entry_bits(is_var, e);
-                (e, offset)
-            })
+    pub(crate) fn entries(&self) -> Entries {
+        Entries {
+            entries: self.object.entries.iter(),
+            is_var: self.object.code() == ObjectCode::Var,
+            start: self.start,
+            count: self.count,
+            end: 0,
+        }
     }
 
     /// Bits up to the end of the last entry.
     pub(crate) fn bits(&self) -> u32 {
-        let is_var = self.object.code() == ObjectCode::Var;
-        self.entries()
-            .last()
-            .map_or(0, |(e, offset)| offset + entry_bits(is_var, e))
+        let mut entries = self.entries();
+        entries.by_ref().for_each(drop);
+        entries.end
     }
 
     fn byte_len(&self) -> usize {
         self.bits().div_ceil(8) as usize
+    }
+}
+
+/// The entries of a [`Layout`] with their bit offsets.
+pub(crate) struct Entries {
+    entries: core::slice::Iter<'static, EntryDesc>,
+    is_var: bool,
+    start: u8,
+    count: u8,
+    /// Bits up to the end of the entries given so far.
+    end: u32,
+}
+
+impl Iterator for Entries {
+    type Item = (&'static EntryDesc, u32);
+
+    // Out of line (cold: complete access only): the uploads, the downloads and the image
+    // length share one copy.
+    #[inline(never)]
+    fn next(&mut self) -> Option<Self::Item> {
+        let (start, count, is_var) = (self.start, self.count, self.is_var);
+        let e = self
+            .entries
+            .find(|e| e.subindex >= start && (is_var || e.subindex <= count))?;
+        if e.bit_len % 8 == 0 && self.end % 8 != 0 {
+            self.end += 8 - self.end % 8;
+        }
+        let offset = self.end;
+        self.end += entry_bits(is_var, e);
+        Some((e, offset))
     }
 }
 
