@@ -346,6 +346,8 @@ pub struct TpdoRuntime {
 
 impl TpdoRuntime {
     /// Entering operational: event-driven PDOs are sent once, SYNC counting starts over.
+    // Out of line (cold): NMT start and parameter writes share one copy.
+    #[inline(never)]
     pub fn start(&mut self, comm: &PdoComm, now_us: u64) {
         *self = Self {
             requested: true,
