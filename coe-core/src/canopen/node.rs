@@ -267,6 +267,16 @@ pub const fn wrapping_ms(us: u64) -> u32 {
     (q1 << 16) | q0
 }
 
+/// The CAN fault reaction: the outputs go to their fault values if CAN drives them.
+// Out of line: four fault paths (NMT, heartbeat or life guarding loss, RPDO deadline)
+// share one copy of the application's reaction.
+#[inline(never)]
+fn fault_outputs<A: CanApplication + ?Sized>(app: &mut A) {
+    if app.can_owns_outputs() {
+        app.outputs_fault();
+    }
+}
+
 /// The lowest `n` bits set (one per PDO).
 const fn bits(n: usize) -> u32 {
     if n >= 32 {
@@ -661,9 +671,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         now_us: u64,
     ) {
         self.raise(app, kind, emcy_code::HEARTBEAT, [node, 0, 0, 0, 0]);
-        if app.can_owns_outputs() {
-            app.outputs_fault();
-        }
+        fault_outputs(app);
         let to = match (self.rt.params.error_behaviour, self.state()) {
             (error_behaviour::PRE_OPERATIONAL, NmtState::Operational) => NmtState::PreOperational,
             (error_behaviour::STOPPED, _) => NmtState::Stopped,
@@ -692,9 +700,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         match t {
             NmtTransition::Enter { from, to } => {
                 if from == NmtState::Operational {
-                    if app.can_owns_outputs() {
-                        app.outputs_fault();
-                    }
+                    fault_outputs(app);
                     for r in self.rt.rpdo.iter_mut() {
                         *r = RpdoRuntime::default();
                     }
@@ -719,9 +725,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                 }
             }
             NmtTransition::Reset { application } => {
-                if app.can_owns_outputs() {
-                    app.outputs_fault();
-                }
+                fault_outputs(app);
                 app.reset(application);
                 // The reset clears the node's own errors (their Emergencies are dropped with
                 // the queue; the error register follows).
@@ -1141,9 +1145,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                         emcy_code::RPDO_TIMEOUT,
                         [i as u8 + 1, 0, 0, 0, 0],
                     );
-                    if app.can_owns_outputs() {
-                        app.outputs_fault();
-                    }
+                    fault_outputs(app);
                 }
             }
             self.service_tpdos(app, false, &mut |r, comm| r.event_due(comm, now_us));
