@@ -308,6 +308,13 @@ fn read_mapping<A: ObjectAccess + ?Sized>(
     ))
 }
 
+/// The layout of PDO `i` of `kind` (None: the mapping is unreadable or not valid).
+// Out of line: the RPDO and the TPDO steps share one copy of the layout construction.
+#[inline(never)]
+fn pdo_layout<A: ObjectAccess + ?Sized>(app: &mut A, kind: PdoKind, i: usize) -> Option<Layout> {
+    read_mapping(app, mapping_index(kind, i)).and_then(|m| Layout::of_mapping(&m).ok())
+}
+
 /// The mapping of PDO `i` of `kind` as the communication parameter rules need it.
 fn mapping_info<A: ObjectAccess + ?Sized>(app: &mut A, kind: PdoKind, i: usize) -> MappingInfo {
     let index = mapping_index(kind, i);
@@ -349,9 +356,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize> Runtime<R,
     fn load_rpdo_layout<A: ObjectAccess + ?Sized>(&mut self, app: &mut A, i: usize) {
         let valid = self.params.rpdo.get(i).is_some_and(|c| c.is_valid());
         let layout = if valid {
-            read_mapping(app, mapping_index(PdoKind::Rpdo, i))
-                .and_then(|m| Layout::of_mapping(&m).ok())
-                .filter(|l| l.bit_len() <= super::pdo::MAX_PDO_BITS)
+            pdo_layout(app, PdoKind::Rpdo, i).filter(|l| l.bit_len() <= super::pdo::MAX_PDO_BITS)
         } else {
             None
         };
@@ -984,8 +989,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
     /// The layout of TPDO `i`, or `None` (unreadable mapping, or longer than 64 bits,
     /// which is reported).
     fn tpdo_layout<A: CanApplication + ?Sized>(&mut self, i: usize, app: &mut A) -> Option<Layout> {
-        let layout = read_mapping(app, mapping_index(PdoKind::Tpdo, i))
-            .and_then(|m| Layout::of_mapping(&m).ok())?;
+        let layout = pdo_layout(app, PdoKind::Tpdo, i)?;
         if layout.bit_len() > super::pdo::MAX_PDO_BITS {
             let bits = layout.bit_len().min(255) as u8;
             self.raise(
