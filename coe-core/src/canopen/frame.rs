@@ -198,12 +198,15 @@ impl CobId {
 // Out of line (cold: parameter downloads): the SYNC, EMCY and PDO checks share one copy.
 #[inline(never)]
 pub fn is_restricted_id(id: u16) -> bool {
+    // Ascending ranges: the search ends at the first one above `id`.
     RESTRICTED_IDS
         .iter()
-        .any(|&(first, last)| (first..=last).contains(&id))
+        .take_while(|&&(first, _)| first <= id)
+        .any(|&(_, last)| id <= last)
 }
 
-/// The restricted ranges of CiA 301 7.3.5 (first, last), in the order it lists them.
+/// The restricted ranges of CiA 301 7.3.5 (first, last), in the order it lists them
+/// (ascending).
 const RESTRICTED_IDS: [(u16, u16); 8] = [
     (0x000, 0x000),
     (0x001, 0x07F),
