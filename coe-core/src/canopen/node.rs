@@ -268,8 +268,8 @@ pub const fn wrapping_ms(us: u64) -> u32 {
 }
 
 /// The CAN fault reaction: the outputs go to their fault values if CAN drives them.
-// Out of line: four fault paths (NMT, heartbeat or life guarding loss, RPDO deadline)
-// share one copy of the application's reaction.
+// Out of line: four fault paths (leaving operational, NMT reset, heartbeat or life
+// guarding loss, RPDO deadline) share one copy of the application's reaction.
 #[inline(never)]
 fn fault_outputs<A: CanApplication + ?Sized>(app: &mut A) {
     if app.can_owns_outputs() {
