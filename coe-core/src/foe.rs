@@ -57,6 +57,17 @@ impl FoeError {
     pub const fn with_text(code: FoeErrorCode, text: &'static str) -> Self {
         Self { code, text }
     }
+
+    /// The answer to a DATA packet outside a write (also what a slave that takes no file
+    /// sends).
+    pub const DATA_WITHOUT_WRITE: Self =
+        Self::with_text(FoeErrorCode::Illegal, "DATA without a write in progress");
+    /// The answer to an ACK packet outside a read.
+    pub const ACK_WITHOUT_READ: Self =
+        Self::with_text(FoeErrorCode::Illegal, "ACK without a read in progress");
+    /// The answer to a BUSY packet: only a slave may be busy.
+    pub const BUSY_FROM_MASTER: Self =
+        Self::with_text(FoeErrorCode::Illegal, "BUSY from the master");
 }
 
 impl From<FoeErrorCode> for FoeError {
@@ -310,8 +321,7 @@ impl FoeServer {
                 }
                 _ => {
                     self.end(files);
-                    FoeError::with_text(FoeErrorCode::Illegal, "ACK without a read in progress")
-                        .into_repr()
+                    FoeError::ACK_WITHOUT_READ.into_repr()
                 }
             },
             FoeRepr::Error { .. } => {
@@ -321,7 +331,7 @@ impl FoeServer {
             }
             FoeRepr::Busy { .. } => {
                 self.end(files);
-                FoeError::with_text(FoeErrorCode::Illegal, "BUSY from the master").into_repr()
+                FoeError::BUSY_FROM_MASTER.into_repr()
             }
         };
         Ok(send(out, &answer))
@@ -337,10 +347,7 @@ impl FoeServer {
         now_ms: u32,
     ) -> Result<FoeRepr<'static>, FoeError> {
         let Transfer::Write { next, offset, .. } = self.transfer else {
-            return Err(FoeError::with_text(
-                FoeErrorCode::Illegal,
-                "DATA without a write in progress",
-            ));
+            return Err(FoeError::DATA_WITHOUT_WRITE);
         };
         if number != next {
             return Err(FoeError::new(FoeErrorCode::PacketNumberWrong));

@@ -35,7 +35,7 @@
 //!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
 //!   catches anything the events missed.
 
-use crate::boot::staging::is_firmware_name;
+use crate::boot::staging::{is_firmware_name, BOOT_ONLY};
 use crate::product::capacity::{EMERGENCY_QUEUE, MAILBOX_SIZE, TRANSFER_BUFFER};
 use coe_core::device::sm_control;
 use coe_core::foe::FoeError;
@@ -106,17 +106,12 @@ pub struct BootOnlyFoe;
 impl BootOnlyFoe {
     /// The error a packet gets, `None` for the master's ERR.
     fn refusal(packet: &FoeRepr<'_>) -> Option<FoeError> {
-        const ILLEGAL: FoeErrorCode = FoeErrorCode::Illegal;
         Some(match packet {
-            FoeRepr::WriteRequest { file_name, .. } if is_firmware_name(file_name) => {
-                FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only")
-            }
+            FoeRepr::WriteRequest { file_name, .. } if is_firmware_name(file_name) => BOOT_ONLY,
             FoeRepr::WriteRequest { .. } | FoeRepr::ReadRequest { .. } => NOT_FOUND,
-            FoeRepr::Data { .. } => {
-                FoeError::with_text(ILLEGAL, "DATA without a write in progress")
-            }
-            FoeRepr::Ack { .. } => FoeError::with_text(ILLEGAL, "ACK without a read in progress"),
-            FoeRepr::Busy { .. } => FoeError::with_text(ILLEGAL, "BUSY from the master"),
+            FoeRepr::Data { .. } => FoeError::DATA_WITHOUT_WRITE,
+            FoeRepr::Ack { .. } => FoeError::ACK_WITHOUT_READ,
+            FoeRepr::Busy { .. } => FoeError::BUSY_FROM_MASTER,
             FoeRepr::Error { .. } => return None,
         })
     }
@@ -566,7 +561,7 @@ mod tests {
     impl FileStore for RefuseAll {
         fn open_write(&mut self, name: &[u8], _: u32, _: AlState) -> Result<(), FoeError> {
             Err(if is_firmware_name(name) {
-                FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only")
+                BOOT_ONLY
             } else {
                 FoeError::new(FoeErrorCode::NotFound)
             })

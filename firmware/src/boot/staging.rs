@@ -39,6 +39,9 @@ fn error(code: FoeErrorCode, text: &'static str) -> FoeError {
 
 const FLASH_ERROR: FoeError = FoeError::with_text(FoeErrorCode::FlashError, "flash write failed");
 
+/// The answer to a write of a firmware file outside BOOT (here and in the application).
+pub const BOOT_ONLY: FoeError = FoeError::with_text(FoeErrorCode::BootstrapOnly, "in BOOT only");
+
 /// Whether `name` ends in `.efw`, ignoring case.
 pub fn is_firmware_name(name: &[u8]) -> bool {
     name.len() > SUFFIX.len()
@@ -194,7 +197,7 @@ impl<E: IapEntry> FileStore for StagingWriter<E> {
 
     fn open_write(&mut self, name: &[u8], password: u32, state: AlState) -> Result<(), FoeError> {
         if state != AlState::Bootstrap {
-            return Err(error(FoeErrorCode::BootstrapOnly, "in BOOT only"));
+            return Err(BOOT_ONLY);
         }
         if !is_firmware_name(name) {
             return Err(error(FoeErrorCode::NotFound, "only *.efw files"));
