@@ -278,31 +278,46 @@ impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
                 .ok_or(SdoAbortCode::ObjectDoesNotExist)?
                 .value(kind, sub);
         }
-        let (value, len) = match (index, sub) {
-            (COB_ID_SYNC, 0) => (self.sync.cob_id.0, 4),
-            (COMMUNICATION_CYCLE_PERIOD, 0) => (self.sync.period_us, 4),
-            (GUARD_TIME, 0) => (self.guard_time_ms.into(), 2),
-            (LIFE_TIME_FACTOR, 0) => (self.life_factor.into(), 1),
-            (COB_ID_EMCY, 0) => (self.emcy.cob_id.0, 4),
-            (INHIBIT_TIME_EMCY, 0) => (self.emcy.inhibit_100us.into(), 2),
-            (PRODUCER_HEARTBEAT_TIME, 0) => (self.heartbeat_ms.into(), 2),
-            (SYNC_COUNTER_OVERFLOW, 0) => (self.sync.overflow.into(), 1),
-            (CONSUMER_HEARTBEAT_TIME, 0) => (HB as u32, 1),
-            (CONSUMER_HEARTBEAT_TIME, _) => {
-                let e = self
-                    .consumers
-                    .get(usize::from(sub) - 1)
-                    .ok_or(SdoAbortCode::SubindexDoesNotExist)?;
-                (e.to_u32(), 4)
+        // The objects of one value hold it in sub 0; the others answer by subindex.
+        let (value, len) = match index {
+            COB_ID_SYNC => (self.sync.cob_id.0, 4),
+            COMMUNICATION_CYCLE_PERIOD => (self.sync.period_us, 4),
+            GUARD_TIME => (self.guard_time_ms.into(), 2),
+            LIFE_TIME_FACTOR => (self.life_factor.into(), 1),
+            COB_ID_EMCY => (self.emcy.cob_id.0, 4),
+            INHIBIT_TIME_EMCY => (self.emcy.inhibit_100us.into(), 2),
+            PRODUCER_HEARTBEAT_TIME => (self.heartbeat_ms.into(), 2),
+            SYNC_COUNTER_OVERFLOW => (self.sync.overflow.into(), 1),
+            CONSUMER_HEARTBEAT_TIME => {
+                return match usize::from(sub).checked_sub(1) {
+                    None => Ok((HB as u32, 1)),
+                    Some(i) => self
+                        .consumers
+                        .get(i)
+                        .map(|e| (e.to_u32(), 4))
+                        .ok_or(SdoAbortCode::SubindexDoesNotExist),
+                }
             }
-            (ERROR_BEHAVIOUR, 0) => (1, 1),
-            (ERROR_BEHAVIOUR, 1) => (self.error_behaviour.into(), 1),
-            (SDO_SERVER_PARAMETER, 0) => (2, 1),
-            (SDO_SERVER_PARAMETER, 1) => ((cob::SDO_RX + u16::from(node)).into(), 4),
-            (SDO_SERVER_PARAMETER, 2) => ((cob::SDO_TX + u16::from(node)).into(), 4),
-            _ if Self::serves(index) => return Err(SdoAbortCode::SubindexDoesNotExist),
+            ERROR_BEHAVIOUR => {
+                return match sub {
+                    0 => Ok((1, 1)),
+                    1 => Ok((self.error_behaviour.into(), 1)),
+                    _ => Err(SdoAbortCode::SubindexDoesNotExist),
+                }
+            }
+            SDO_SERVER_PARAMETER => {
+                return match sub {
+                    0 => Ok((2, 1)),
+                    1 => Ok(((cob::SDO_RX + u16::from(node)).into(), 4)),
+                    2 => Ok(((cob::SDO_TX + u16::from(node)).into(), 4)),
+                    _ => Err(SdoAbortCode::SubindexDoesNotExist),
+                }
+            }
             _ => return Err(SdoAbortCode::ObjectDoesNotExist),
         };
+        if sub != 0 {
+            return Err(SdoAbortCode::SubindexDoesNotExist);
+        }
         Ok((value, len))
     }
 
@@ -472,6 +487,30 @@ mod tests {
         assert_eq!(read(&p, 0x1402, 1), Err(SdoAbortCode::ObjectDoesNotExist));
         assert_eq!(read(&p, 0x1005, 1), Err(SdoAbortCode::SubindexDoesNotExist));
         assert_eq!(read(&p, 0x1016, 5), Err(SdoAbortCode::SubindexDoesNotExist));
+    }
+
+    #[test]
+    fn subindexes_beyond_each_object() {
+        for (index, sub) in [
+            (0x1006, 1),
+            (0x100C, 1),
+            (0x1017, 1),
+            (0x1019, 1),
+            (0x1016, 5),
+            (0x1029, 2),
+            (0x1200, 3),
+        ] {
+            assert_eq!(
+                read(&Params::defaults(&DEFAULTS, 5), index, sub),
+                Err(SdoAbortCode::SubindexDoesNotExist),
+                "{index:#x}:{sub}"
+            );
+        }
+        let p = Params::defaults(&DEFAULTS, 5);
+        assert_eq!(read(&p, 0x1016, 4), Ok(std::vec![0; 4]));
+        assert_eq!(read(&p, 0x1029, 1), Ok(std::vec![0]));
+        assert_eq!(read(&p, 0x1200, 0), Ok(std::vec![2]));
+        assert_eq!(read(&p, 0x1030, 0), Err(SdoAbortCode::ObjectDoesNotExist));
     }
 
     #[test]
