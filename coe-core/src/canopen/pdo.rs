@@ -133,6 +133,8 @@ impl PdoComm {
 
     /// The meaning of the transmission type (event-driven for a stored value this node
     /// would refuse, which only a wrong default can hold).
+    // Out of line: the SYNC, timer, RPDO and parameter paths share one copy.
+    #[inline(never)]
     pub const fn transmission(&self) -> Transmission {
         match Transmission::of(self.transmission_type) {
             Some(t) => t,
