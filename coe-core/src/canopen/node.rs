@@ -932,27 +932,21 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             count: layout.fields().len() as u8,
             bits: layout.bit_len(),
         };
-        match LengthCheck::of(data.len(), mapping) {
-            LengthCheck::TooShort => {
+        let check = LengthCheck::of(data.len(), mapping);
+        let code = match check {
+            LengthCheck::TooShort => Some(emcy_code::PDO_LENGTH),
+            LengthCheck::TooLong => Some(emcy_code::PDO_LENGTH_EXCEEDED),
+            LengthCheck::Exact => None,
+        };
+        match code {
+            Some(code) => {
                 let n = data.len() as u8;
-                self.raise(
-                    app,
-                    fault::RPDO_LENGTH,
-                    emcy_code::PDO_LENGTH,
-                    [n, i as u8 + 1, 0, 0, 0],
-                );
-                return;
+                self.raise(app, fault::RPDO_LENGTH, code, [n, i as u8 + 1, 0, 0, 0]);
             }
-            LengthCheck::TooLong => {
-                let n = data.len() as u8;
-                self.raise(
-                    app,
-                    fault::RPDO_LENGTH,
-                    emcy_code::PDO_LENGTH_EXCEEDED,
-                    [n, i as u8 + 1, 0, 0, 0],
-                );
-            }
-            LengthCheck::Exact => self.clear(app, fault::RPDO_LENGTH),
+            None => self.clear(app, fault::RPDO_LENGTH),
+        }
+        if check == LengthCheck::TooShort {
+            return;
         }
         let resumed = self.rt.rpdo.get_mut(i).is_some_and(|r| {
             r.last_us = Some(now_us);
