@@ -277,6 +277,22 @@ fn fault_outputs<A: CanApplication + ?Sized>(app: &mut A) {
     }
 }
 
+/// Writes an RPDO's objects with `layout` (no copy of the layout); true if it was taken.
+// Out of line: an event-driven RPDO and the SYNC's pending ones share one copy.
+#[inline(never)]
+fn unpack<A: CanApplication + ?Sized>(
+    stats: &mut NodeStats,
+    layout: &Layout,
+    data: &[u8],
+    app: &mut A,
+) -> bool {
+    let ok = layout.unpack(data, app, AlState::Op).is_ok();
+    if ok {
+        stats.rpdo_applied = stats.rpdo_applied.wrapping_add(1);
+    }
+    ok
+}
+
 /// The lowest `n` bits set (one per PDO).
 const fn bits(n: usize) -> u32 {
     if n >= 32 {
@@ -871,11 +887,9 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         self.stats.syncs = self.stats.syncs.wrapping_add(1);
         // Synchronous RPDOs received before this SYNC take effect now.
         let mut applied = false;
-        for i in 0..R {
-            let pending = self.rt.rpdo.get_mut(i).and_then(|r| r.pending.take());
-            if let (Some(data), Some(Some(layout))) = (pending, self.rt.rpdo_layout.get(i).copied())
-            {
-                applied |= self.unpack(&layout, &data, app);
+        for (r, layout) in self.rt.rpdo.iter_mut().zip(&self.rt.rpdo_layout) {
+            if let (Some(data), Some(layout)) = (r.pending.take(), layout) {
+                applied |= unpack(&mut self.stats, layout, data.as_slice(), app);
             }
         }
         if applied {
@@ -922,15 +936,15 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             self.stats.rpdo_not_owner = self.stats.rpdo_not_owner.wrapping_add(1);
             return;
         }
-        let Some(Some(layout)) = self.rt.rpdo_layout.get(i).copied() else {
-            return;
-        };
-        let Some(comm) = self.rt.params.rpdo.get(i).copied() else {
+        let Some(Some(layout)) = self.rt.rpdo_layout.get(i) else {
             return;
         };
         let mapping = MappingInfo {
             count: layout.fields().len() as u8,
             bits: layout.bit_len(),
+        };
+        let Some(comm) = self.rt.params.rpdo.get(i).copied() else {
+            return;
         };
         let check = LengthCheck::of(data.len(), mapping);
         let code = match check {
@@ -961,23 +975,12 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             }
             return;
         }
-        if self.unpack(&layout, &PdoData::new(data), app) {
-            app.apply_outputs();
+        // The layout again: the error reports above needed the whole node.
+        if let Some(Some(layout)) = self.rt.rpdo_layout.get(i) {
+            if unpack(&mut self.stats, layout, data, app) {
+                app.apply_outputs();
+            }
         }
-    }
-
-    /// Writes an RPDO's objects; true if it was taken.
-    fn unpack<A: CanApplication + ?Sized>(
-        &mut self,
-        layout: &Layout,
-        data: &PdoData,
-        app: &mut A,
-    ) -> bool {
-        let ok = layout.unpack(data.as_slice(), app, AlState::Op).is_ok();
-        if ok {
-            self.stats.rpdo_applied = self.stats.rpdo_applied.wrapping_add(1);
-        }
-        ok
     }
 
     /// The layout of TPDO `i`, or `None` (unreadable mapping, or longer than 64 bits,
