@@ -447,10 +447,11 @@ impl<
     > ObjectAccess for NodeAccess<'_, A, R, T, HB, Q>
 {
     fn read(&mut self, index: u16, subindex: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        if CommParameters::<R, T, HB>::serves(index) {
-            return self.rt.params.read(self.rt.node_id, index, subindex, buf);
+        // An object the parameters do not hold is the application's.
+        match self.rt.params.read(self.rt.node_id, index, subindex, buf) {
+            Err(SdoAbortCode::ObjectDoesNotExist) => self.app.read(index, subindex, buf),
+            answer => answer,
         }
-        self.app.read(index, subindex, buf)
     }
 
     fn write(
@@ -460,14 +461,19 @@ impl<
         data: &[u8],
         state: AlState,
     ) -> Result<(), SdoAbortCode> {
-        if CommParameters::<R, T, HB>::serves(index) {
-            let app = &mut *self.app;
-            let what = self
-                .rt
-                .params
-                .write(index, subindex, data, |kind, i| mapping_info(app, kind, i))?;
-            self.rt.changed(what, self.app, self.now_us);
-            return Ok(());
+        let app = &mut *self.app;
+        let written = self
+            .rt
+            .params
+            .write(index, subindex, data, |kind, i| mapping_info(app, kind, i));
+        // An object the parameters do not hold is the application's.
+        match written {
+            Ok(what) => {
+                self.rt.changed(what, self.app, self.now_us);
+                return Ok(());
+            }
+            Err(SdoAbortCode::ObjectDoesNotExist) => {}
+            Err(e) => return Err(e),
         }
         if self.rt.mapping_locked(index, self.app.can_owns_outputs()) {
             return Err(SdoAbortCode::UnsupportedAccess);

@@ -321,7 +321,8 @@ impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
         Ok((value, len))
     }
 
-    /// SDO upload of `index:sub` (node `node` for 0x1200).
+    /// SDO upload of `index:sub` (node `node` for 0x1200); 0x06020000 (object does not
+    /// exist) exactly for the objects these parameters do not serve.
     pub fn read(
         &self,
         node: u8,
@@ -334,7 +335,8 @@ impl<const R: usize, const T: usize, const HB: usize> CommParameters<R, T, HB> {
     }
 
     /// SDO download of `index:sub`; `mapping` gives the current mapping of a PDO (for the
-    /// checks of making it valid). Returns what the runtime must know.
+    /// checks of making it valid). Returns what the runtime must know; 0x06020000 (object
+    /// does not exist) exactly for the objects these parameters do not serve.
     pub fn write(
         &mut self,
         index: u16,
@@ -511,6 +513,23 @@ mod tests {
         assert_eq!(read(&p, 0x1029, 1), Ok(std::vec![0]));
         assert_eq!(read(&p, 0x1200, 0), Ok(std::vec![2]));
         assert_eq!(read(&p, 0x1030, 0), Err(SdoAbortCode::ObjectDoesNotExist));
+    }
+
+    #[test]
+    fn object_does_not_exist_exactly_for_the_objects_not_served() {
+        let mut p = Params::defaults(&DEFAULTS, 5);
+        for index in 0x1000..=0x1FFF {
+            for sub in 0..=7 {
+                let missing = SdoAbortCode::ObjectDoesNotExist;
+                let served = Params::serves(index);
+                let read = read(&p, index, sub);
+                assert_eq!(read != Err(missing), served, "{index:#x}:{sub}");
+                for data in [&[0u8][..], &[0; 2], &[0x80, 0, 0, 0]] {
+                    let written = p.write(index, sub, data, |_, _| MAPPED);
+                    assert_eq!(written != Err(missing), served, "{index:#x}:{sub} {data:?}");
+                }
+            }
+        }
     }
 
     #[test]
