@@ -1113,33 +1113,38 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         if self.boot_pending {
             self.boot(now_us);
         }
-        let p = self.rt.params;
-        if p.heartbeat_ms != 0 && self.rt.heartbeat.due(now_us) {
+        // The parameters are read where used, not copied: nothing here changes them.
+        let heartbeat_ms = self.rt.params.heartbeat_ms;
+        if heartbeat_ms != 0 && self.rt.heartbeat.due(now_us) {
             self.send_state(self.state().code());
-            self.rt.heartbeat.sent(now_us, p.heartbeat_ms);
+            self.rt.heartbeat.sent(now_us, heartbeat_ms);
         }
-        while let Some(ConsumerEvent::Lost { node }) = self.rt.consumer.check(&p.consumers, now_us)
+        while let Some(ConsumerEvent::Lost { node }) =
+            self.rt.consumer.check(&self.rt.params.consumers, now_us)
         {
             self.communication_error(app, fault::HEARTBEAT, node, now_us);
         }
-        if p.heartbeat_ms == 0 {
+        if heartbeat_ms == 0 {
+            let (guard_time_ms, life_factor) =
+                (self.rt.params.guard_time_ms, self.rt.params.life_factor);
             if let Some(LifeGuardEvent::Lost) =
-                self.rt
-                    .guarding
-                    .check(p.guard_time_ms, p.life_factor, now_us)
+                self.rt.guarding.check(guard_time_ms, life_factor, now_us)
             {
                 self.communication_error(app, fault::LIFE_GUARD, 0, now_us);
             }
         }
         if self.state() == NmtState::Operational {
-            if self.rt.sync.timed_out(&p.sync, now_us) {
+            if self.rt.sync.timed_out(&self.rt.params.sync, now_us) {
                 self.raise(app, fault::SYNC_TIMEOUT, emcy_code::SYNC_TIMEOUT, [0; 5]);
             }
             for i in 0..R {
-                let timer =
-                    p.rpdo
-                        .get(i)
-                        .map_or(0, |c| if c.is_valid() { c.event_timer_ms } else { 0 });
+                let timer = self.rt.params.rpdo.get(i).map_or(0, |c| {
+                    if c.is_valid() {
+                        c.event_timer_ms
+                    } else {
+                        0
+                    }
+                });
                 let passed = self
                     .rt
                     .rpdo
@@ -1165,7 +1170,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             self.clear(app, fault::OVERRUN);
         }
         if self.state().allows(Service::Emcy) {
-            if let Some(frame) = self.rt.emcy.next_frame(&p.emcy, now_us) {
+            if let Some(frame) = self.rt.emcy.next_frame(&self.rt.params.emcy, now_us) {
                 self.send(frame);
             }
         }
