@@ -493,6 +493,7 @@ mod tests {
 
     #[test]
     fn subindexes_beyond_each_object() {
+        let p = Params::defaults(&DEFAULTS, 5);
         for (index, sub) in [
             (0x1006, 1),
             (0x100C, 1),
@@ -503,12 +504,11 @@ mod tests {
             (0x1200, 3),
         ] {
             assert_eq!(
-                read(&Params::defaults(&DEFAULTS, 5), index, sub),
+                read(&p, index, sub),
                 Err(SdoAbortCode::SubindexDoesNotExist),
                 "{index:#x}:{sub}"
             );
         }
-        let p = Params::defaults(&DEFAULTS, 5);
         assert_eq!(read(&p, 0x1016, 4), Ok(std::vec![0; 4]));
         assert_eq!(read(&p, 0x1029, 1), Ok(std::vec![0]));
         assert_eq!(read(&p, 0x1200, 0), Ok(std::vec![2]));
@@ -522,8 +522,8 @@ mod tests {
             for sub in 0..=7 {
                 let missing = SdoAbortCode::ObjectDoesNotExist;
                 let served = Params::serves(index);
-                let read = read(&p, index, sub);
-                assert_eq!(read != Err(missing), served, "{index:#x}:{sub}");
+                let answer = read(&p, index, sub);
+                assert_eq!(answer != Err(missing), served, "{index:#x}:{sub}");
                 for data in [&[0u8][..], &[0; 2], &[0x80, 0, 0, 0]] {
                     let written = p.write(index, sub, data, |_, _| MAPPED);
                     assert_eq!(written != Err(missing), served, "{index:#x}:{sub} {data:?}");
