@@ -55,7 +55,7 @@ use super::frame::CanFrame;
 use super::nmt::{NmtCommandRepr, NmtSlave, NmtState, NmtTransition, Service};
 use super::params::{self, error_behaviour, Changed, CommDefaults, CommParameters};
 use super::pdo::{
-    LengthCheck, MappingInfo, PdoComm, PdoData, PdoKind, RpdoRuntime, TpdoRuntime, Transmission,
+    LengthCheck, MappingInfo, PdoData, PdoKind, RpdoRuntime, TpdoRuntime, Transmission,
 };
 use super::sdo::CanSdoServer;
 use super::sync::{SyncConsumer, SyncEvent};
@@ -150,6 +150,14 @@ mod fault {
     pub const RPDO_TIMEOUT: u8 = 1 << 5;
     pub const TPDO_LENGTH: u8 = 1 << 6;
     pub const OVERRUN: u8 = 1 << 7;
+}
+
+/// What makes TPDOs due: a SYNC (with its counter, if it carries one) or the timers at a
+/// time (µs).
+#[derive(Debug, Clone, Copy)]
+enum TpdoTrigger {
+    Sync(Option<u8>),
+    Timers(u64),
 }
 
 /// Frames waiting for the controller, each with its queueing number (the order among
@@ -902,18 +910,14 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             app.apply_outputs();
         }
         // Then the synchronous TPDOs.
-        self.service_tpdos(app, true, &mut |r, comm| r.on_sync(comm, counter));
+        self.service_tpdos(app, TpdoTrigger::Sync(counter));
     }
 
-    /// Queues the valid synchronous (or event-driven) TPDOs that `due` selects for
-    /// [`CanNode::step`], after change detection for the acyclic and event-driven types.
-    /// (`due` as `dyn`: one body for the SYNC and the timer callers.)
-    fn service_tpdos<A: CanApplication + ?Sized>(
-        &mut self,
-        app: &mut A,
-        synchronous: bool,
-        due: &mut dyn FnMut(&mut TpdoRuntime, &PdoComm) -> bool,
-    ) {
+    /// Queues the valid TPDOs that `trigger` makes due for [`CanNode::step`] (a SYNC the
+    /// synchronous ones, the timers the event-driven ones), after change detection for the
+    /// acyclic and event-driven types.
+    fn service_tpdos<A: CanApplication + ?Sized>(&mut self, app: &mut A, trigger: TpdoTrigger) {
+        let synchronous = matches!(trigger, TpdoTrigger::Sync(_));
         for i in 0..T {
             let Some(comm) = self.rt.params.tpdo.get(i).copied() else {
                 continue;
@@ -925,7 +929,11 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             if app.change_of_state() && !matches!(kind, Transmission::SyncCyclic(_)) {
                 self.detect_change(i, app);
             }
-            if self.rt.tpdo.get_mut(i).is_some_and(|r| due(r, &comm)) {
+            let due = self.rt.tpdo.get_mut(i).is_some_and(|r| match trigger {
+                TpdoTrigger::Sync(counter) => r.on_sync(&comm, counter),
+                TpdoTrigger::Timers(now_us) => r.event_due(&comm, now_us),
+            });
+            if due {
                 self.rt.tpdo_steps |= 1 << i;
             }
         }
@@ -1160,7 +1168,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                     fault_outputs(app);
                 }
             }
-            self.service_tpdos(app, false, &mut |r, comm| r.event_due(comm, now_us));
+            self.service_tpdos(app, TpdoTrigger::Timers(now_us));
         }
         let lost = self.stats.outbox_overflow;
         if lost != self.overflow_reported {
