@@ -668,19 +668,21 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
 
     // ------------------------------------------------------------------ errors
 
-    /// Raises a communication error of kind `kind` (once until it clears).
+    /// Raises a communication error of kind `kind` (once until it clears); `detail` is the
+    /// first two bytes of the EMCY's manufacturer-specific field (the rest 0).
     fn raise<A: CanApplication + ?Sized>(
         &mut self,
         app: &mut A,
         kind: u8,
         code: u16,
-        data: [u8; 5],
+        detail: [u8; 2],
     ) {
         if self.faults & kind != 0 {
             return;
         }
         self.faults |= kind;
-        let e = app.raise_error(ERR_COMMUNICATION, code, data);
+        let [d0, d1] = detail;
+        let e = app.raise_error(ERR_COMMUNICATION, code, [d0, d1, 0, 0, 0]);
         self.rt.emcy.push(e);
     }
 
@@ -705,7 +707,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         node: u8,
         now_us: u64,
     ) {
-        self.raise(app, kind, emcy_code::HEARTBEAT, [node, 0, 0, 0, 0]);
+        self.raise(app, kind, emcy_code::HEARTBEAT, [node, 0]);
         fault_outputs(app);
         let to = match (self.rt.params.error_behaviour, self.state()) {
             (error_behaviour::PRE_OPERATIONAL, NmtState::Operational) => NmtState::PreOperational,
@@ -885,12 +887,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
             }
             Err(_) => {
                 let n = data.len() as u8;
-                self.raise(
-                    app,
-                    fault::SYNC_LENGTH,
-                    emcy_code::SYNC_LENGTH,
-                    [n, 0, 0, 0, 0],
-                );
+                self.raise(app, fault::SYNC_LENGTH, emcy_code::SYNC_LENGTH, [n, 0]);
                 return;
             }
         };
@@ -969,7 +966,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         match code {
             Some(code) => {
                 let n = data.len() as u8;
-                self.raise(app, fault::RPDO_LENGTH, code, [n, i as u8 + 1, 0, 0, 0]);
+                self.raise(app, fault::RPDO_LENGTH, code, [n, i as u8 + 1]);
             }
             None => self.clear(app, fault::RPDO_LENGTH),
         }
@@ -1007,7 +1004,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                 app,
                 fault::TPDO_LENGTH,
                 emcy_code::PDO_LENGTH_EXCEEDED,
-                [bits, i as u8 + 1, 0, 0, 0],
+                [bits, i as u8 + 1],
             );
             return None;
         }
@@ -1143,7 +1140,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         }
         if self.state() == NmtState::Operational {
             if self.rt.sync.timed_out(&self.rt.params.sync, now_us) {
-                self.raise(app, fault::SYNC_TIMEOUT, emcy_code::SYNC_TIMEOUT, [0; 5]);
+                self.raise(app, fault::SYNC_TIMEOUT, emcy_code::SYNC_TIMEOUT, [0; 2]);
             }
             for i in 0..R {
                 let timer = self.rt.params.rpdo.get(i).map_or(0, |c| {
@@ -1163,7 +1160,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
                         app,
                         fault::RPDO_TIMEOUT,
                         emcy_code::RPDO_TIMEOUT,
-                        [i as u8 + 1, 0, 0, 0, 0],
+                        [i as u8 + 1, 0],
                     );
                     fault_outputs(app);
                 }
@@ -1173,7 +1170,7 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
         let lost = self.stats.outbox_overflow;
         if lost != self.overflow_reported {
             self.overflow_reported = lost;
-            self.raise(app, fault::OVERRUN, emcy_code::CAN_OVERRUN, [0; 5]);
+            self.raise(app, fault::OVERRUN, emcy_code::CAN_OVERRUN, [0; 2]);
         } else if self.outbox.len() == 0 {
             self.clear(app, fault::OVERRUN);
         }
