@@ -30,14 +30,21 @@ const FIOPIN: usize = 0x14;
 const FIOSET: usize = 0x18;
 const FIOCLR: usize = 0x1C;
 
-fn reg(port: u8, offset: usize) -> *mut u32 {
-    (FIO_BASE + usize::from(port) * 0x20 + offset) as *mut u32
+/// The address of port `port`'s register block (the offsets above are added to it).
+fn port_block(port: u8) -> usize {
+    FIO_BASE + usize::from(port) * 0x20
+}
+
+/// Register `offset` of the port block at `block`.
+fn reg(block: usize, offset: usize) -> *mut u32 {
+    (block + offset) as *mut u32
 }
 
 /// A push-pull output (chip selects, LDAC, CLR).
 #[derive(Debug)]
 pub struct OutPin {
-    port: u8,
+    /// The port's register block, computed once (a pin access is then one store).
+    block: usize,
     mask: u32,
 }
 
@@ -46,14 +53,14 @@ impl OutPin {
     /// Only the board bring-up calls this, once per pin of the pin map.
     pub(super) fn new(pin: Pin, high: bool) -> Self {
         let p = Self {
-            port: pin.port,
+            block: port_block(pin.port),
             mask: 1 << pin.pin,
         };
         p.set(high);
         // SAFETY: FIODIR of an existing port; the read-modify-write runs in a critical
         // section during board init, before any task can touch GPIO.
         cortex_m::interrupt::free(|_| unsafe {
-            let dir = reg(p.port, FIODIR);
+            let dir = reg(p.block, FIODIR);
             ptr::write_volatile(dir, ptr::read_volatile(dir) | p.mask);
         });
         p
@@ -64,13 +71,13 @@ impl OutPin {
     pub fn set(&self, high: bool) {
         let offset = if high { FIOSET } else { FIOCLR };
         // SAFETY: FIOSET/FIOCLR are write-1-to-act: only this pin's bit changes.
-        unsafe { ptr::write_volatile(reg(self.port, offset), self.mask) }
+        unsafe { ptr::write_volatile(reg(self.block, offset), self.mask) }
     }
 
     /// The level the pin reads back.
     pub fn is_high(&self) -> bool {
         // SAFETY: a read of FIOPIN has no side effect.
-        unsafe { ptr::read_volatile(reg(self.port, FIOPIN)) & self.mask != 0 }
+        unsafe { ptr::read_volatile(reg(self.block, FIOPIN)) & self.mask != 0 }
     }
 }
 
@@ -93,7 +100,8 @@ impl embedded_hal::digital::OutputPin for OutPin {
 /// A GPIO input (ESC IRQ line, EEPROM_LOADED).
 #[derive(Debug)]
 pub struct InPin {
-    port: u8,
+    /// The port's register block, computed once.
+    block: usize,
     mask: u32,
 }
 
@@ -101,7 +109,7 @@ impl InPin {
     /// `pin` as an input (the reset direction); only the board bring-up calls this.
     pub(super) fn new(pin: Pin) -> Self {
         Self {
-            port: pin.port,
+            block: port_block(pin.port),
             mask: 1 << pin.pin,
         }
     }
@@ -110,6 +118,6 @@ impl InPin {
     #[inline(always)]
     pub fn is_high(&self) -> bool {
         // SAFETY: a read of FIOPIN has no side effect.
-        unsafe { ptr::read_volatile(reg(self.port, FIOPIN)) & self.mask != 0 }
+        unsafe { ptr::read_volatile(reg(self.block, FIOPIN)) & self.mask != 0 }
     }
 }
