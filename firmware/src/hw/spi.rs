@@ -17,6 +17,8 @@ const SR_MODF: u32 = 1 << 4;
 const SR_ROVR: u32 = 1 << 5;
 const SR_WCOL: u32 = 1 << 6;
 const SR_SPIF: u32 = 1 << 7;
+/// The error bits (reading S0SPSR clears them, so every poll looks at them).
+const SR_ERRORS: u32 = SR_ABRT | SR_MODF | SR_ROVR | SR_WCOL;
 /// A byte takes 8 SCK = 64 CPU cycles; a poll loop iteration is >= 4 cycles, so 1000 polls
 /// are several byte times.
 const SPIF_POLLS: u32 = 1000;
@@ -70,21 +72,8 @@ impl LegacySpi {
         self.spi.dr.write(|w| unsafe { w.bits(u32::from(out)) });
         for _ in 0..SPIF_POLLS {
             let sr = self.spi.sr.read().bits();
-            if sr & (SR_ABRT | SR_MODF | SR_ROVR | SR_WCOL) != 0 {
-                let _ = self.spi.dr.read().bits();
-                if sr & SR_MODF != 0 {
-                    // MODF clears by writing CR again.
-                    // SAFETY: the same control value as in `new`.
-                    self.spi.cr.write(|w| unsafe { w.bits(CR_MODE3_MASTER) });
-                    return Err(SpiError::ModeFault);
-                }
-                return Err(if sr & SR_ROVR != 0 {
-                    SpiError::Overrun
-                } else if sr & SR_WCOL != 0 {
-                    SpiError::WriteCollision
-                } else {
-                    SpiError::Abort
-                });
+            if sr & SR_ERRORS != 0 {
+                return Err(self.fault(sr));
             }
             if sr & SR_SPIF != 0 {
                 // Reading SR (done) then DR clears SPIF.
@@ -92,6 +81,26 @@ impl LegacySpi {
             }
         }
         Err(SpiError::Timeout)
+    }
+
+    /// The error an S0SPSR value `sr` with an error bit reports, the bit cleared. Out of
+    /// line: the inlined byte loops share it.
+    #[cold]
+    #[inline(never)]
+    fn fault(&mut self, sr: u32) -> SpiError {
+        let _ = self.spi.dr.read().bits();
+        if sr & SR_MODF != 0 {
+            // MODF clears by writing CR again.
+            // SAFETY: the same control value as in `new`.
+            self.spi.cr.write(|w| unsafe { w.bits(CR_MODE3_MASTER) });
+            SpiError::ModeFault
+        } else if sr & SR_ROVR != 0 {
+            SpiError::Overrun
+        } else if sr & SR_WCOL != 0 {
+            SpiError::WriteCollision
+        } else {
+            SpiError::Abort
+        }
     }
 }
 
