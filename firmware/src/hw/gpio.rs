@@ -100,8 +100,9 @@ impl embedded_hal::digital::OutputPin for OutPin {
 /// A GPIO input (ESC IRQ line, EEPROM_LOADED).
 #[derive(Debug)]
 pub struct InPin {
-    /// The port's register block, computed once.
-    block: usize,
+    /// The port (its block worked out per read): input reads are few, and the
+    /// bootloader's polling code stays smaller so.
+    port: u8,
     mask: u32,
 }
 
@@ -109,7 +110,7 @@ impl InPin {
     /// `pin` as an input (the reset direction); only the board bring-up calls this.
     pub(super) fn new(pin: Pin) -> Self {
         Self {
-            block: port_block(pin.port),
+            port: pin.port,
             mask: 1 << pin.pin,
         }
     }
@@ -118,6 +119,6 @@ impl InPin {
     #[inline(always)]
     pub fn is_high(&self) -> bool {
         // SAFETY: a read of FIOPIN has no side effect.
-        unsafe { ptr::read_volatile(reg(self.block, FIOPIN)) & self.mask != 0 }
+        unsafe { ptr::read_volatile(reg(port_block(self.port), FIOPIN)) & self.mask != 0 }
     }
 }
