@@ -145,7 +145,11 @@ pub struct SlaveApp {
     can_window: CanWindow,
     data: AppData,
     config: AppConfig,
+    /// The AL event mask last written to the ESC.
     mask: Option<AlEvents>,
+    /// What the mask is made of (ESM state, output layout, the mailbox's wanted events) may
+    /// have changed since it was worked out: a cycle that changed none of it skips the work.
+    mask_stale: bool,
     sync0_seen: u32,
     /// Time of the next unconditional mailbox service (ns).
     mailbox_check_ns: u64,
@@ -179,6 +183,7 @@ impl SlaveApp {
             data: AppData::new(od, pd),
             config,
             mask: None,
+            mask_stale: true,
             sync0_seen: 0,
             mailbox_check_ns: 0,
             pdi_errors_read: false,
@@ -270,7 +275,7 @@ impl SlaveApp {
             let mut all = [0u8; 4 * SyncManager::SIZE];
             esc.read(Register::SyncManager0.addr(), &mut all)?;
         }
-        let mailbox_work = self.esm.state() != AlState::Init && self.mailbox.needs_service(events);
+        let mailbox_work = self.esm.state() != AlState::Init && self.mailbox_has_work(events);
         if activation {
             let how = Service::Registers { check_repeat: true };
             self.serve_mailbox(esc, stage, now_ns, how, &mut out)?;
@@ -329,7 +334,7 @@ impl SlaveApp {
                 }
                 None => AlEvents::empty(),
             };
-            let work = self.mailbox.needs_service(events);
+            let work = self.mailbox_has_work(events);
             // In DC mode the periodic register reads, the longest background work, belong
             // to the PDI task's activation right after the outputs ([`Self::safety_service`]):
             // anywhere else in the cycle they can hold the next SM2 event, and its DAC
@@ -355,6 +360,7 @@ impl SlaveApp {
     /// Writes AL status code and AL status and reads them back, writing again what did not
     /// arrive: the master must see the state the slave is in, and the SPI has no checksum.
     fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        self.mask_stale = true;
         self.data.running.ethercat = matches!(self.esm.state(), AlState::SafeOp | AlState::Op);
         let (status, code) = (self.esm.status(), self.esm.status_code_word());
         for _ in 0..confirm::MAX_READS {
@@ -379,7 +385,26 @@ impl SlaveApp {
         self.can.queue_emergency(e);
     }
 
+    /// [`MailboxLink::needs_service`](mailbox::MailboxLink::needs_service). Outside the
+    /// mailbox service, what the mailbox waits for changes only while SM1 is busy: then
+    /// the event bits (SM1 read, a request that waits) and a queued Emergency count.
+    fn mailbox_has_work(&mut self, events: AlEvents) -> bool {
+        if self.mailbox.sm1_busy() {
+            self.mask_stale = true;
+        }
+        self.mailbox.needs_service(events)
+    }
+
+    /// The AL event mask, worked out again only if what it is made of may have changed.
+    #[inline(always)]
     fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        match self.mask_stale {
+            true => self.write_mask(esc),
+            false => Ok(()),
+        }
+    }
+
+    fn write_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
         let mut mask = BASE_EVENTS;
         let state = self.esm.state();
         if state != AlState::Init {
@@ -393,6 +418,7 @@ impl SlaveApp {
             esc.set_event_mask(mask)?;
             self.mask = Some(mask);
         }
+        self.mask_stale = false;
         Ok(())
     }
 
@@ -776,6 +802,7 @@ impl SlaveApp {
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
         let state = self.esm.state();
+        self.mask_stale = true;
         if matches!(how, Service::Registers { .. }) {
             self.arm_mailbox_check(now_ns);
         }

@@ -910,6 +910,35 @@ fn dc_safety_service_runs_late_when_the_master_stops() {
     assert_eq!(r.esc.al_status(), (0x08, 0));
 }
 
+/// The AL event mask is worked out again only when what it is made of may have changed: an
+/// Emergency raised by the outputs while SM1 holds an unread reply must still enable the
+/// SM1 event, or it would wait for the safety service.
+#[test]
+fn an_emergency_while_sm1_is_busy_enables_the_sm1_event() {
+    let mut r = Rig::new();
+    r.goto_op();
+    // An upload of 0x1000 whose reply the master leaves in SM1.
+    let request = [
+        10u8, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x40, 0x00, 0x10, 0, 0, 0, 0, 0,
+    ];
+    assert!(r.esc.master_write_mailbox(&request));
+    r.irq();
+    assert!(r.app.mailbox().sm1_busy());
+    assert!(!r.esc.event_mask().contains(AlEvents::SM1));
+    // A negative AO value: out of range, an Emergency to send.
+    r.outputs(-1, 0);
+    assert!(r.esc.event_mask().contains(AlEvents::SM1));
+    assert_eq!(r.esc.master_read_mailbox().unwrap()[8], 0x43);
+    r.irq();
+    let emergency = r
+        .esc
+        .master_read_mailbox()
+        .expect("the Emergency follows the reply");
+    assert_eq!(emergency[7] >> 4, 0x1, "CoE service 1: Emergency");
+    r.irq();
+    assert!(!r.esc.event_mask().contains(AlEvents::SM1));
+}
+
 /// An SDO exchange on the mailbox events reads no SyncManager registers: SM0 full and SM1
 /// free come from the event bits, start and length from INIT -> PREOP; the SM activation
 /// event (the master changed a SyncManager) reads them again.
