@@ -151,7 +151,7 @@ pub struct SlaveApp {
     /// have changed since it was worked out: a cycle that changed none of it skips the work.
     mask_stale: bool,
     sync0_seen: u32,
-    /// Time of the next unconditional mailbox service (ns).
+    /// Time of the next unconditional mailbox service (ns); never while in INIT.
     mailbox_check_ns: u64,
     /// The safety service has read the PDI error counter; the mailbox registers follow in
     /// the next slot.
@@ -185,7 +185,7 @@ impl SlaveApp {
             mask: None,
             mask_stale: true,
             sync0_seen: 0,
-            mailbox_check_ns: 0,
+            mailbox_check_ns: u64::MAX,
             pdi_errors_read: false,
             event_sample_ns: 0,
             confirm_outputs: true,
@@ -463,6 +463,9 @@ impl SlaveApp {
                 }
                 self.mailbox
                     .on_state_change(&mut self.data, from, self.esm.state());
+                if self.esm.state() == AlState::Init {
+                    self.mailbox_check_ns = u64::MAX;
+                }
             }
             _ => {}
         }
@@ -744,7 +747,7 @@ impl SlaveApp {
     /// Whether the periodic safety service (the mailbox and PDI error registers read, every
     /// [`SAFETY_SERVICE_MS`] from PREOP) is due.
     pub fn safety_service_due(&self, now_ns: u64) -> bool {
-        self.esm.state() != AlState::Init && now_ns >= self.mailbox_check_ns
+        now_ns >= self.mailbox_check_ns
     }
 
     /// The periodic safety service if it is due. The PDI task calls it right after the
@@ -788,7 +791,10 @@ impl SlaveApp {
     /// The next safety service of the mailbox: [`SAFETY_SERVICE_MS`] after the registers were
     /// read at `now_ns`.
     fn arm_mailbox_check(&mut self, now_ns: u64) {
-        self.mailbox_check_ns = now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
+        self.mailbox_check_ns = match self.esm.state() {
+            AlState::Init => u64::MAX,
+            _ => now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000),
+        };
         // The next safety service starts with the PDI error counter again.
         self.pdi_errors_read = false;
     }

@@ -910,6 +910,24 @@ fn dc_safety_service_runs_late_when_the_master_stops() {
     assert_eq!(r.esc.al_status(), (0x08, 0));
 }
 
+/// The periodic safety service belongs to PREOP and up: an SM activation in INIT (the
+/// master configuring the mailbox) reads the mailbox registers but arms no service, and back
+/// in INIT none is due however long the module waits.
+#[test]
+fn no_safety_service_is_due_in_init() {
+    let mut r = Rig::new();
+    r.mailbox_sms();
+    r.esc.raise(AlEvents::SM_ACTIVATION);
+    r.irq();
+    assert!(!r.app.safety_service_due(r.now + 1_000_000_000));
+    r.goto_preop();
+    let period = u64::from(SAFETY_SERVICE_MS) * 1_000_000;
+    assert!(!r.app.safety_service_due(r.now));
+    assert!(r.app.safety_service_due(r.now + period));
+    assert_eq!(r.request(0x01), (0x01, 0));
+    assert!(!r.app.safety_service_due(r.now + 1_000_000_000));
+}
+
 /// The AL event mask is worked out again only when what it is made of may have changed: an
 /// Emergency raised by the outputs while SM1 holds an unread reply must still enable the
 /// SM1 event, or it would wait for the safety service.
