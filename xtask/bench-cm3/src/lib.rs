@@ -14,7 +14,7 @@
 //! | `sync0_ldac`    | [`DacLatch::on_sync0`] with a preloaded pair    | SYNC0 task, every cycle   |
 //! | `dac_preload`   | [`DacLatch::preload`]                           | DAC task after new outputs|
 //! | `pdi_outputs`   | [`SlaveApp::on_pdi_irq`] on the SM2 event       | PDI task, every cycle     |
-//! | `pdi_inputs`    | [`SlaveApp::poll`] after a SYNC0 edge (SM3)     | PDI task, every cycle     |
+//! | `pdi_inputs`    | [`SlaveApp::poll`] after a SYNC0 edge (SM3), one whole ADC scan drained before it ([`Rig::adc_scan`]) | PDI task, every cycle |
 //! | `sdo_upload`    | [`SlaveApp::on_pdi_irq`] on SM0: expedited upload 0x1018:02 | per SDO request |
 //! | `sdo_download`  | [`SlaveApp::on_pdi_irq`] on SM0: expedited download 0x6443:01 | per SDO request |
 //! | `dma_scan_drain`| [`ScanReader::drain`] of one scan from the GPDMA ring, incl. both position computations ([`words_written`]) | PDI task (default GPDMA path) |
@@ -40,7 +40,7 @@ use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer
 use firmware::app::AppConfig;
 use firmware::app::{PdiOutcome, SlaveApp};
 pub use firmware::fake_esc::FakeEsc;
-use firmware::product::capacity::MAILBOX_SIZE;
+use firmware::product::capacity::{AI_CHANNELS as CHANNELS, MAILBOX_SIZE};
 use firmware::product::od::OD;
 
 /// Ring length of the sampler scenario (one scan fits many times).
@@ -157,13 +157,37 @@ impl Rig {
         self.esc.master_write_outputs(&image[..n]);
     }
 
-    /// One whole DC cycle without measuring (outputs, preload, SYNC0, inputs).
+    /// The ADC side of a cycle: one whole 8-channel scan drained into the application's
+    /// sampler, as the PDI task does before the inputs of every DC cycle on the image (the
+    /// shortest cycle is longer than a 32 us scan). Returns the codes the inputs must carry.
+    pub fn adc_scan(&mut self) -> [u16; CHANNELS] {
+        let base = self.cycle.wrapping_mul(8);
+        let mut scan = [0u16; CHANNELS];
+        for (code, n) in scan.iter_mut().zip(0u16..) {
+            *code = base.wrapping_add(n);
+        }
+        self.app.sampler_mut().add_whole_scan(&scan, |c| *c);
+        scan
+    }
+
+    /// Whether the last inputs published `scan`.
+    pub fn check_published(&self, scan: &[u16; CHANNELS]) -> Result<(), CheckFailed> {
+        if self.app.data().sampler.codes() == scan {
+            Ok(())
+        } else {
+            Err(CheckFailed("pdi_inputs: the scan was not published"))
+        }
+    }
+
+    /// One whole DC cycle without measuring (outputs, preload, SYNC0, scan, inputs).
     pub fn cycle(&mut self) -> Result<(), CheckFailed> {
         self.master_outputs();
         self.irq()?;
         self.preload();
         self.sync0();
+        let scan = self.adc_scan();
         self.poll()?;
+        self.check_published(&scan)?;
         self.check_op()
     }
 

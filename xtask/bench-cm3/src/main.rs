@@ -125,8 +125,10 @@ mod runner {
                 "sync0_ldac: the preloaded pair must only need LDAC",
             )?;
             let writes = rig.esc.writes;
+            let scan = rig.adc_scan();
             measure(name("pdi_inputs"), || rig.poll())?;
             check(rig.esc.writes > writes, "pdi_inputs: SM3 not written")?;
+            rig.check_published(&scan)?;
             rig.check_op()?;
 
             rig.master_sdo(0x40, 0x1018, 2, [0; 4])?;
