@@ -454,7 +454,9 @@ impl AnalogOutputs {
         stage: &OutputStage,
     ) -> SetOutcome {
         self.values = values;
-        let bad = values.iter().any(|v| !ao_in_range(*v));
+        // The pair by name: an iterator over two values is a loop at opt-level "s".
+        let [a, b] = values;
+        let bad = !(ao_in_range(a) && ao_in_range(b));
         let newly_out_of_range = bad && !self.out_of_range;
         self.out_of_range = bad;
         if in_op {
