@@ -449,6 +449,8 @@ impl SyncMonitor {
 
     /// An SM2 event (fresh outputs) at `now_ns`, `in_op` while the ESM is in OP; `sync0`
     /// is the DAC task's SYNC0 bookkeeping at this moment.
+    // One caller, on the SM2 path of every cycle; at opt-level "s" the image had it out of line.
+    #[inline(always)]
     pub fn on_sm2_event(&mut self, now_ns: u64, in_op: bool, sync0: Sync0Counts) -> SyncVerdict {
         let previous = self.last_sm2_ns.replace(now_ns);
         let edges_before = self.edges_at_sm2.replace(sync0.edges);
