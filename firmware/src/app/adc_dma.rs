@@ -19,6 +19,8 @@ use core::sync::atomic::{compiler_fence, AtomicU16, AtomicU32, Ordering};
 pub const RING_WORDS: usize = 1024;
 /// Words per half ring (one terminal-count interrupt each).
 pub const HALF_WORDS: usize = RING_WORDS / 2;
+/// Whole scans the ring holds.
+const RING_SCANS: usize = RING_WORDS / CHANNELS;
 /// Bytes of one ring word (the AD7689's 16-bit result).
 const WORD_BYTES: u32 = core::mem::size_of::<u16>() as u32;
 
@@ -151,9 +153,10 @@ impl ScanReader {
         }
         let first = self.read;
         while end.wrapping_sub(self.read) >= CHANNELS as u32 {
-            let at = self.read as usize % RING_WORDS;
-            // `read` stays scan-aligned and the ring holds whole scans, so this is always
-            // `Some`; checked instead of indexed so no input can make the drain panic.
+            // The start of a whole scan: `read` stays scan-aligned and the ring holds whole
+            // scans (computed from the scan number, so the compiler sees it in range too).
+            let at = self.read as usize / CHANNELS % RING_SCANS * CHANNELS;
+            // Always `Some`; checked instead of indexed so no input can make the drain panic.
             let Some(scan) = ring
                 .get(at..at + CHANNELS)
                 .and_then(|s| <&[AtomicU16; CHANNELS]>::try_from(s).ok())
