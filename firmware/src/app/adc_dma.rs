@@ -74,13 +74,10 @@ pub fn words_written(halves: u32, dst: u32, ring: u32, skip: u32) -> Result<u32,
     let o = offset / WORD_BYTES;
     let n = RING_WORDS as u32;
     let half_start = (halves % 2) * HALF_WORDS as u32;
-    // Words past the start of the half being written according to the counter; `o == n`
-    // (end of half B before the reload) reads as n - HALF (half B full).
-    let into = if o == n && half_start == HALF_WORDS as u32 {
-        HALF_WORDS as u32
-    } else {
-        (o + n - half_start) % n
-    };
+    // Words past the start of the half being written according to the counter, modulo the
+    // ring: `o == n` (end of half B before the reload) reads as half B full while the
+    // counter expects B, and as half A not started once B is counted.
+    let into = (o + n - half_start) % n;
     Ok(halves.wrapping_mul(HALF_WORDS as u32).wrapping_add(into))
 }
 
@@ -198,6 +195,11 @@ mod tests {
         // At the end of half B before the reload (address one past the ring).
         assert_eq!(
             words_written(1, RING + 2 * RING_WORDS as u32, RING, SKIP),
+            Ok(1024)
+        );
+        // The same address once half B is counted too.
+        assert_eq!(
+            words_written(2, RING + 2 * RING_WORDS as u32, RING, SKIP),
             Ok(1024)
         );
         // The address between the halves: half A done, counted (5) or not yet (4).
