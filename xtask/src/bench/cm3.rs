@@ -54,10 +54,7 @@ impl CpuReport {
 /// Pairs the program's region names (stdout) with the plugin's counts (its output file),
 /// checks that the measured repetitions of a path agree and subtracts the baseline.
 pub fn pair_regions(stdout: &str, counts: &str) -> Result<(Vec<PathCount>, u64)> {
-    let names: Vec<&str> = stdout
-        .lines()
-        .filter_map(|l| l.trim().strip_prefix("region "))
-        .collect();
+    let names: Vec<&str> = region_names(stdout).collect();
     let mut values = Vec::new();
     for (i, line) in counts.lines().enumerate() {
         let mut it = line.split_whitespace();
@@ -109,7 +106,14 @@ pub fn pair_regions(stdout: &str, counts: &str) -> Result<(Vec<PathCount>, u64)>
     Ok((paths, baseline))
 }
 
-fn bench_target_dir() -> PathBuf {
+/// The region names the program printed, in order (`-` for the warm-up run).
+fn region_names(stdout: &str) -> impl Iterator<Item = &str> {
+    stdout
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("region "))
+}
+
+pub fn bench_target_dir() -> PathBuf {
     target_dir().join("bench")
 }
 
@@ -190,22 +194,33 @@ fn qemu_version() -> String {
         .unwrap_or_default()
 }
 
-/// One QEMU run: (console output, plugin output).
-fn run_qemu(elf: &Path, plugin: &Path, markers: (u64, u64), n: usize) -> Result<(String, String)> {
+/// One QEMU run: (console output, plugin output). With `trace`, the plugin also writes
+/// "<region> <pc>" per counted instruction to that file.
+fn run_qemu(
+    elf: &Path,
+    plugin: &Path,
+    markers: (u64, u64),
+    n: usize,
+    trace: Option<&Path>,
+) -> Result<(String, String)> {
     let counts = bench_target_dir().join(format!("insn_count.{n}.txt"));
     let _ = std::fs::remove_file(&counts);
+    let mut plugin_args = format!(
+        "{},begin={:#x},end={:#x},out={}",
+        plugin.display(),
+        markers.0,
+        markers.1,
+        counts.display()
+    );
+    if let Some(trace) = trace {
+        plugin_args.push_str(&format!(",trace={}", trace.display()));
+    }
     let mut cmd = Command::new(QEMU);
     cmd.args(["-M", MACHINE, "-cpu", "cortex-m3", "-icount", "shift=0"])
         .args(["-display", "none", "-monitor", "none", "-serial", "null"])
         .args(["-semihosting-config", "enable=on,target=native"])
         .arg("-plugin")
-        .arg(format!(
-            "{},begin={:#x},end={:#x},out={}",
-            plugin.display(),
-            markers.0,
-            markers.1,
-            counts.display()
-        ))
+        .arg(plugin_args)
         .arg("-kernel")
         .arg(elf)
         .stdin(Stdio::null())
@@ -244,9 +259,8 @@ fn run_qemu(elf: &Path, plugin: &Path, markers: (u64, u64), n: usize) -> Result<
     Ok((console, counts))
 }
 
-/// Builds (with `profile`) and runs the benchmark `runs` times; every run must count the
-/// same.
-pub fn measure(runs: usize, profile: &Profile) -> Result<CpuReport> {
+/// Builds the program (with `profile`) and the plugin: (ELF, plugin, marker addresses).
+fn prepare(profile: &Profile) -> Result<(PathBuf, PathBuf, (u64, u64))> {
     if !have(QEMU) {
         return Err(format!(
             "{QEMU} is not installed: the CPU figures need it (Debian package qemu-system-arm; \
@@ -256,9 +270,16 @@ pub fn measure(runs: usize, profile: &Profile) -> Result<CpuReport> {
     let elf = build_program(profile)?;
     let plugin = build_plugin()?;
     let markers = marker_addresses(&elf)?;
+    Ok((elf, plugin, markers))
+}
+
+/// Builds (with `profile`) and runs the benchmark `runs` times; every run must count the
+/// same.
+pub fn measure(runs: usize, profile: &Profile) -> Result<CpuReport> {
+    let (elf, plugin, markers) = prepare(profile)?;
     let mut first: Option<(Vec<PathCount>, u64)> = None;
     for n in 0..runs.max(1) {
-        let (stdout, counts) = run_qemu(&elf, &plugin, markers, n)?;
+        let (stdout, counts) = run_qemu(&elf, &plugin, markers, n, None)?;
         let got = pair_regions(&stdout, &counts)?;
         match &first {
             None => first = Some(got),
@@ -277,6 +298,40 @@ pub fn measure(runs: usize, profile: &Profile) -> Result<CpuReport> {
         baseline,
         runs: runs.max(1),
         qemu: qemu_version(),
+    })
+}
+
+/// One run with the plugin's instruction trace, for splitting the counts by function.
+pub struct TracedRun {
+    /// The benchmark program (its DWARF symbolises the trace).
+    pub elf: PathBuf,
+    /// The run's counts, as [`measure`] gives them.
+    pub report: CpuReport,
+    /// Region names in plugin order (`-` for the warm-up run), as the program printed them.
+    pub names: Vec<String>,
+    /// "<region> <pc>" per counted instruction.
+    pub trace: String,
+}
+
+/// Builds (with the release profile) and runs the benchmark once with the trace.
+pub fn traced_run() -> Result<TracedRun> {
+    let (elf, plugin, markers) = prepare(&Profile::default())?;
+    let trace_path = bench_target_dir().join("insn_trace.txt");
+    let _ = std::fs::remove_file(&trace_path);
+    let (stdout, counts) = run_qemu(&elf, &plugin, markers, 0, Some(&trace_path))?;
+    let (paths, baseline) = pair_regions(&stdout, &counts)?;
+    let trace = std::fs::read_to_string(&trace_path)
+        .map_err(|e| format!("the plugin wrote no trace ({}): {e}", trace_path.display()))?;
+    Ok(TracedRun {
+        elf,
+        report: CpuReport {
+            paths,
+            baseline,
+            runs: 1,
+            qemu: qemu_version(),
+        },
+        names: region_names(&stdout).map(str::to_string).collect(),
+        trace,
     })
 }
 

@@ -13,6 +13,7 @@
 //!    supersede), per task cycles and stack, flash and RAM of the same ELF.
 
 mod advertised;
+mod by_function;
 mod cm3;
 mod image_rows;
 mod model;
@@ -50,6 +51,11 @@ pub struct Args {
     /// the image, cycle instructions, F1, SDO time per setting; builds seven times).
     #[arg(long, conflicts_with_all = ["quick", "json", "plot"])]
     pub opt_levels: bool,
+    /// Instead of the table: the Cortex-M3 instructions of each process-data cycle region
+    /// per function (inlined ones included), from one traced QEMU run; JSON of every region
+    /// in target/bench/by_function.json.
+    #[arg(long, conflicts_with_all = ["quick", "json", "plot", "opt_levels", "min_cycle"])]
+    pub by_function: bool,
 }
 
 const AFTER_HELP: &str = "\
@@ -100,6 +106,9 @@ pub fn run(args: &Args) -> Result {
     }
     if args.opt_levels {
         return opt_levels::run();
+    }
+    if args.by_function {
+        return by_function::run();
     }
     let plan = Plan::new(args.quick);
     let cycle_ns = u64::from(CYCLE_US) * 1000;
