@@ -12,7 +12,7 @@
  * not change the count; with -icount shift=0 the run is deterministic.
  *
  * Optional trace=FILE2 writes "<region> <pc>" for every instruction counted, so the count of
- * a region can be split by function (symbolise the addresses with the ELF's symbol table).
+ * a region can be split by function (`cargo xtask bench --by-function` does, with the DWARF).
  */
 #include <inttypes.h>
 #include <stdio.h>
