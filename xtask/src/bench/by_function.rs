@@ -65,7 +65,7 @@ fn crates_of(function: &str) -> Vec<&str> {
         }
     }
     let impl_of = &inner[..close];
-    match split.filter(|i| *i < close) {
+    match split {
         Some(i) => [&impl_of[..i], &impl_of[i + 4..]]
             .into_iter()
             .filter_map(first_segment)
@@ -122,6 +122,13 @@ pub struct Share {
     pub total: i64,
 }
 
+impl Share {
+    /// Instructions per run.
+    pub fn per_run(&self, runs: u64) -> f64 {
+        self.total as f64 / runs.max(1) as f64
+    }
+}
+
 /// A region split by function.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RegionSplit {
@@ -132,13 +139,6 @@ pub struct RegionSplit {
     pub runs: u64,
     /// Largest first; functions whose share is zero are left out.
     pub functions: Vec<Share>,
-}
-
-impl Share {
-    /// Instructions per run.
-    pub fn per_run(&self, runs: u64) -> f64 {
-        self.total as f64 / runs.max(1) as f64
-    }
 }
 
 /// Per region index of the trace: executed instructions per address.
