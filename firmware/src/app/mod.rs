@@ -700,8 +700,7 @@ impl SlaveApp {
             esc.read_process_data(start, image)?;
         }
         let in_op = state == AlState::Op;
-        let verdict = self
-            .data
+        self.data
             .sync
             .on_sm2_event(now_ns, in_op, stage.sync0_counts());
         if in_op {
@@ -713,9 +712,6 @@ impl SlaveApp {
                     out.apply_outputs = true;
                 }
             }
-        }
-        if verdict == SyncVerdict::SyncError {
-            self.sync_error(esc, stage, AlStatusCode::SynchronizationError, out)?;
         }
         if self.data.sync.mode() != SyncMode::DcSync0 {
             self.write_inputs(esc)?;

@@ -448,20 +448,22 @@ impl SyncMonitor {
     }
 
     /// An SM2 event (fresh outputs) at `now_ns`, `in_op` while the ESM is in OP; `sync0`
-    /// is the DAC task's SYNC0 bookkeeping at this moment.
+    /// is the DAC task's SYNC0 bookkeeping at this moment. It only counts: the sync error
+    /// counter moves at the SYNC0 edges ([`Self::on_sync0_counts`]) and, in SM-synchronous
+    /// mode, only down here.
     // One caller, on the SM2 path of every cycle; at opt-level "s" the image had it out of line.
     #[inline(always)]
-    pub fn on_sm2_event(&mut self, now_ns: u64, in_op: bool, sync0: Sync0Counts) -> SyncVerdict {
+    pub fn on_sm2_event(&mut self, now_ns: u64, in_op: bool, sync0: Sync0Counts) {
         let previous = self.last_sm2_ns.replace(now_ns);
         let edges_before = self.edges_at_sm2.replace(sync0.edges);
         if !in_op {
-            return SyncVerdict::Ok;
+            return;
         }
         if !self.armed {
             self.armed = true;
             self.baseline = sync0;
             self.arm_edges = sync0.edges;
-            return SyncVerdict::Ok;
+            return;
         }
         match self.mode {
             SyncMode::DcSync0 => {
@@ -486,7 +488,6 @@ impl SyncMonitor {
             }
             SyncMode::FreeRun => {}
         }
-        SyncVerdict::Ok
     }
 
     /// The DAC task's SYNC0 bookkeeping (read from the output stage): in DC mode, once
@@ -873,7 +874,7 @@ mod tests {
         m.on_sm2_event(1_000_000, true, c);
         // A long gap (the master stopped for a while) is no missed event and no sync error:
         // the SM watchdog reports a stopped master in this mode.
-        assert_eq!(m.on_sm2_event(900_000_000, true, c), SyncVerdict::Ok);
+        m.on_sm2_event(900_000_000, true, c);
         assert_eq!(m.on_sync0_counts(c), SyncVerdict::Ok);
         assert_eq!((m.sm_event_missed(), m.error_counter()), (0, 0));
         assert!(!m.sync_error());
