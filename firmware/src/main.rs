@@ -22,8 +22,9 @@
 //! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
 //! on the host); the task bodies only read pins and pend each other:
 //!
-//! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::on_sync0`: LDAC pulse or
-//!   write-and-update), then requests the PDI task's background work (`SlaveApp::poll`:
+//! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::latch_at_sync0`: LDAC
+//!   pulse or write-and-update) before it reads the capture's time, records the edge, then
+//!   requests the PDI task's background work (`SlaveApp::poll`:
 //!   cycle monitor, inputs of the cycle to SM3, mailbox).
 //! - ESC IRQ edge (or the line still asserted): `SlaveApp::on_pdi_irq`; the PDI task pends
 //!   itself again while the line stays asserted, at most `pdi_task::MAX_REPENDS` times, and
@@ -224,9 +225,10 @@ mod rtic_app {
     fn sync0_dac(cx: sync0_dac::Context) {
         let stage = *cx.local.stage_dac;
         let result = match cx.local.sync0.on_interrupt() {
-            Timer1Event::Sync0(t_ns) => {
-                let action = cx.local.latch.on_sync0(stage, t_ns);
-                let r = cx.local.dac.execute(action);
+            Timer1Event::Sync0(edge) => {
+                // LDAC first: the capture's time is only bookkeeping for the PDI side.
+                let r = cx.local.dac.execute(cx.local.latch.latch_at_sync0(stage));
+                DacLatch::record_sync0(stage, cx.local.sync0.capture_ns(edge));
                 request_pdi_poll(); // the PDI side's per-cycle work
                 r
             }

@@ -59,6 +59,8 @@ where
     }
 
     /// Carries out the DAC task's action.
+    // Inline: at a SYNC0 edge the LDAC pulse is the first thing the task does.
+    #[inline(always)]
     pub fn execute(&mut self, action: DacAction) -> Result<(), DacError<SPI, LDAC>> {
         match action {
             DacAction::Keep => Ok(()),

@@ -332,15 +332,18 @@ impl DacLatch {
     }
 
     /// A SYNC0 edge captured at `captured_ns`: in DC mode latch a fresh pair, or keep the
-    /// outputs and count the edge; outside DC mode only the edge is recorded.
+    /// outputs and count the edge; outside DC mode only the edge is recorded. The SYNC0 task
+    /// calls the two halves ([`Self::latch_at_sync0`], [`Self::record_sync0`]) with the
+    /// DAC action between them, so that the LDAC edge does not wait for the capture's time.
     pub fn on_sync0(&mut self, stage: &OutputStage, captured_ns: u64) -> DacAction {
-        stage
-            .sync0_time_lo
-            .store(captured_ns as u32, Ordering::Release);
-        let edges = stage.sync0_edges.load(Ordering::Relaxed);
-        stage
-            .sync0_edges
-            .store(edges.wrapping_add(1), Ordering::Release);
+        let action = self.latch_at_sync0(stage);
+        Self::record_sync0(stage, captured_ns);
+        action
+    }
+
+    /// What a SYNC0 edge does to the outputs: in DC mode latch a fresh pair (the edges
+    /// that find none are counted), else nothing. Needs no time, so it comes first.
+    pub fn latch_at_sync0(&mut self, stage: &OutputStage) -> DacAction {
         if !stage.dc_mode() {
             return DacAction::Keep;
         }
@@ -357,6 +360,18 @@ impl DacLatch {
                 DacAction::Keep
             }
         }
+    }
+
+    /// Records a SYNC0 edge captured at `captured_ns` for the PDI side
+    /// ([`OutputStage::sync0_counts`]), after [`Self::latch_at_sync0`] of the same edge.
+    pub fn record_sync0(stage: &OutputStage, captured_ns: u64) {
+        stage
+            .sync0_time_lo
+            .store(captured_ns as u32, Ordering::Release);
+        let edges = stage.sync0_edges.load(Ordering::Relaxed);
+        stage
+            .sync0_edges
+            .store(edges.wrapping_add(1), Ordering::Release);
     }
 
     /// An apply request from the PDI task (free run, SM-synchronous, fault): latch a fresh
@@ -506,6 +521,37 @@ mod tests {
             latch.apply_now(&stage),
             DacAction::WriteAndUpdate(DacPair::new(1, 2))
         );
+    }
+
+    #[test]
+    fn the_latch_at_sync0_needs_no_time_and_the_record_no_decision() {
+        // The SYNC0 task pulses LDAC between the two halves: the decision reads only the
+        // stage, the record only counts the edge.
+        let stage = dc_stage();
+        let mut latch = DacLatch::new();
+        stage.stage(DacPair::new(3, 4));
+        assert_eq!(latch.preload(&stage), Some(DacPair::new(3, 4)));
+        assert_eq!(
+            latch.latch_at_sync0(&stage),
+            DacAction::PulseLdac(DacPair::new(3, 4))
+        );
+        assert_eq!(stage.sync0_counts(), Sync0Counts::default());
+        assert_eq!(stage.applied(), DacPair::new(3, 4));
+        DacLatch::record_sync0(&stage, 0x2_0000_0020);
+        assert_eq!(
+            stage.sync0_counts(),
+            Sync0Counts {
+                edges: 1,
+                without_outputs: 0,
+                last_edge_lo: 0x20
+            }
+        );
+        // An edge without fresh outputs: counted by the decision, recorded by the record.
+        assert_eq!(latch.latch_at_sync0(&stage), DacAction::Keep);
+        assert_eq!(stage.sync0_counts().without_outputs, 1);
+        assert_eq!(stage.sync0_counts().edges, 1);
+        DacLatch::record_sync0(&stage, 0x30);
+        assert_eq!(stage.sync0_counts().edges, 2);
     }
 
     #[test]

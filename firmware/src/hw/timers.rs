@@ -55,10 +55,17 @@ pub fn now_ns() -> u64 {
 /// What a TIMER1 interrupt was for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
 pub enum Timer1Event {
-    /// A SYNC0 rising edge captured at this time (ns, the [`now_ns`] time base).
-    Sync0(u64),
+    /// A SYNC0 rising edge; its time is read with [`Sync0Capture::capture_ns`].
+    Sync0(Sync0Edge),
     /// No capture: the handler was pended by software (or only the wrap ticked).
     Pended,
+}
+
+/// A SYNC0 capture found by [`Sync0Capture::on_interrupt`], not read yet: the IR flags it
+/// was found with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub struct Sync0Edge {
+    ir: u32,
 }
 
 /// Timer1: time base and SYNC0 capture on CAP1.0 (owner: the SYNC0/DAC task).
@@ -87,24 +94,38 @@ impl Sync0Capture {
         now_ns()
     }
 
-    /// Serves the TIMER1 interrupt: counts a wrap, returns the SYNC0 capture if there is one.
+    /// Serves the TIMER1 interrupt: a SYNC0 capture at once, with nothing read but IR (the
+    /// DAC task pulses LDAC before it reads the capture's time); else counts a wrap.
     pub fn on_interrupt(&mut self) -> Timer1Event {
         let ir = self.t.ir.read().bits();
-        let mut hi = TIME_HI.load(Ordering::Relaxed);
+        if ir & IR_CR0 != 0 {
+            return Timer1Event::Sync0(Sync0Edge { ir });
+        }
+        self.count_wrap(ir);
+        Timer1Event::Pended
+    }
+
+    /// The time of `edge` (ns, the [`now_ns`] time base); counts a wrap found with it.
+    pub fn capture_ns(&mut self, edge: Sync0Edge) -> u64 {
+        let hi = self.count_wrap(edge.ir);
         let captured = self.t.cr[0].read().bits();
+        // SAFETY: IR is write-1-to-clear.
+        self.t.ir.write(|w| unsafe { w.bits(IR_CR0) });
+        // A capture just before the wrap belongs to the old high word.
+        let ticks = timebase::extend_capture(hi, captured, edge.ir & IR_MR0 != 0);
+        ticks * TICK_NS
+    }
+
+    /// Counts the wrap if `ir` flags one; returns the high word after it.
+    fn count_wrap(&mut self, ir: u32) -> u32 {
+        let mut hi = TIME_HI.load(Ordering::Relaxed);
         if ir & IR_MR0 != 0 {
             // SAFETY: IR is write-1-to-clear.
             self.t.ir.write(|w| unsafe { w.bits(IR_MR0) });
             hi = hi.wrapping_add(1);
             TIME_HI.store(hi, Ordering::Release);
         }
-        if ir & IR_CR0 != 0 {
-            self.t.ir.write(|w| unsafe { w.bits(IR_CR0) });
-            // A capture just before the wrap belongs to the old high word.
-            let ticks = timebase::extend_capture(hi, captured, ir & IR_MR0 != 0);
-            return Timer1Event::Sync0(ticks * TICK_NS);
-        }
-        Timer1Event::Pended
+        hi
     }
 }
 

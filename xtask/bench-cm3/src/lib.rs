@@ -11,7 +11,8 @@
 //!
 //! | path            | firmware code                                   | when it runs on the board |
 //! |-----------------|-------------------------------------------------|---------------------------|
-//! | `sync0_ldac`    | [`DacLatch::on_sync0`] with a preloaded pair    | SYNC0 task, every cycle   |
+//! | `sync0_ldac`    | [`DacLatch::latch_at_sync0`] with a preloaded pair: up to the LDAC edge | SYNC0 task, every cycle |
+//! | `sync0_record`  | [`DacLatch::record_sync0`]: the edge recorded after the LDAC edge | SYNC0 task, every cycle |
 //! | `dac_preload`   | [`DacLatch::preload`]                           | DAC task after new outputs|
 //! | `pdi_outputs`   | [`SlaveApp::on_pdi_irq`] on the SM2 event       | PDI task, every cycle     |
 //! | `pdi_inputs`    | [`SlaveApp::poll`] after a SYNC0 edge (SM3), one whole ADC scan drained before it ([`Rig::adc_scan`]) | PDI task, every cycle |
@@ -134,10 +135,22 @@ impl Rig {
             .map_err(|_| CheckFailed("ESC access failed"))
     }
 
-    /// The SYNC0 task once.
+    /// The SYNC0 task once: [`Rig::sync0_latch`], then [`Rig::sync0_record`].
     pub fn sync0(&mut self) -> DacAction {
+        let action = self.sync0_latch();
+        self.sync0_record();
+        action
+    }
+
+    /// The SYNC0 task up to the LDAC edge: the latch decision.
+    pub fn sync0_latch(&mut self) -> DacAction {
+        self.latch.latch_at_sync0(&self.stage)
+    }
+
+    /// The SYNC0 task after the LDAC edge: the edge recorded for the PDI side.
+    pub fn sync0_record(&mut self) {
         let now = self.tick();
-        self.latch.on_sync0(&self.stage, now)
+        DacLatch::record_sync0(&self.stage, now);
     }
 
     /// The DAC task's preload once.

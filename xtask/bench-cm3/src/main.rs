@@ -119,11 +119,12 @@ mod runner {
             )?;
             let pair = measure(name("dac_preload"), || rig.preload());
             check(pair.is_some(), "dac_preload: no fresh pair")?;
-            let action = measure(name("sync0_ldac"), || rig.sync0());
+            let action = measure(name("sync0_ldac"), || rig.sync0_latch());
             check(
                 matches!(action, DacAction::PulseLdac(_)),
                 "sync0_ldac: the preloaded pair must only need LDAC",
             )?;
+            measure(name("sync0_record"), || rig.sync0_record());
             let writes = rig.esc.writes;
             let scan = rig.adc_scan();
             measure(name("pdi_inputs"), || rig.poll())?;

@@ -18,11 +18,12 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 /// The regions of the process-data cycle, printed in this order (the JSON has all regions).
-const CYCLE_REGIONS: [&str; 8] = [
+const CYCLE_REGIONS: [&str; 9] = [
     "pdi_outputs",
     "pdi_inputs",
     "dac_preload",
     "sync0_ldac",
+    "sync0_record",
     "dma_scan_drain",
     "driver_read4",
     "driver_write16",
