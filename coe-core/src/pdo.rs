@@ -651,7 +651,9 @@ pub fn write_bits(image: &mut [u8], bit_offset: u32, bit_len: u8, value: &[u8]) 
     }
     for i in 0..len {
         let bit = value.get(i / 8).map_or(0, |b| (b >> (i % 8)) & 1);
-        let pos = offset + i;
+        let Some(pos) = offset.checked_add(i) else {
+            break; // beyond any image (a 32-bit target, an offset near u32::MAX)
+        };
         if let Some(byte) = image.get_mut(pos / 8) {
             let mask = 1u8 << (pos % 8);
             if bit != 0 {
@@ -680,7 +682,9 @@ pub fn read_bits(image: &[u8], bit_offset: u32, bit_len: u8, value: &mut [u8]) {
         }
     }
     for i in 0..len {
-        let pos = offset + i;
+        let Some(pos) = offset.checked_add(i) else {
+            break; // beyond any image, as above
+        };
         let bit = image.get(pos / 8).map_or(0, |b| (b >> (pos % 8)) & 1);
         if let Some(byte) = value.get_mut(i / 8) {
             *byte |= bit << (i % 8);
