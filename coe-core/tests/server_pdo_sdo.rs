@@ -120,3 +120,25 @@ fn complete_access_remap() {
     req.extend_from_slice(&[0x10, 0x02, 0x01, 0x64, 0x10, 0x01, 0x01, 0x64]);
     assert_eq!(b.ask(&req), abort(0x1A00, 1, A::SubindexZeroMustBeZero));
 }
+
+#[test]
+fn a_refused_complete_access_remap_leaves_the_mapping_as_it_was() {
+    let mut b = Bench::new();
+    let whole = sdo(0x50, 0x1A00, 0, [0; 4]);
+    let before = b.ask(&whole);
+    // The second entry, 0x6411:01, is an output: not TxPDO-mappable (0x06040041), refused
+    // after sub 0 = 0 and the first entry were written.
+    let mut req = sdo(0x31, 0x1A00, 0, [10, 0, 0, 0]);
+    req.extend_from_slice(&[0x02, 0x00, 0x10, 0x02, 0x01, 0x64, 0x10, 0x01, 0x11, 0x64]);
+    assert_eq!(b.ask(&req), abort(0x1A00, 0, A::CannotBeMapped));
+    assert_eq!(b.ask(&whole), before);
+    assert_eq!(b.app.txpdo[0].count(), 1);
+    // Two inputs and a 16-bit gap do not fit the 32-bit SM3 image: refused at the final
+    // sub 0 (0x06040042), after every entry was written.
+    let mut req = sdo(0x31, 0x1A00, 0, [14, 0, 0, 0]);
+    req.extend_from_slice(&[0x03, 0x00, 0x10, 0x02, 0x01, 0x64, 0x10, 0x01, 0x01, 0x64]);
+    req.extend_from_slice(&[0x10, 0x00, 0x03, 0x00]);
+    assert_eq!(b.ask(&req), abort(0x1A00, 0, A::PdoLengthExceeded));
+    assert_eq!(b.ask(&whole), before);
+    assert_eq!(b.app.txpdo[0].count(), 1);
+}

@@ -20,6 +20,10 @@ use crate::pdo::{read_bits, write_bits};
 /// Largest entry a complete access handles (64-bit types).
 const MAX_ENTRY: usize = 8;
 
+/// Largest image a complete download can put back when the application refuses it halfway
+/// (kept on the stack meanwhile; a PDO mapping of 8 entries is 34 bytes).
+const MAX_ROLLBACK: usize = 128;
+
 /// The entries that take part and their bit offsets in the image (also the ESI's
 /// `BitSize`/`BitOffs`, [`crate::esi`], so both describe the same image).
 pub(crate) struct Layout<'a> {
@@ -161,13 +165,40 @@ pub(crate) fn upload<A: ObjectAccess + ?Sized>(
     Ok(len)
 }
 
-/// Writes the whole object from `data`.
+/// Writes the whole object from `data`. If the application refuses a write halfway (an
+/// entry it cannot map, a mapping too long for its SyncManager, after ETG.1020's sub 0 = 0),
+/// the object is written back as it was: an abort changes nothing. That needs the old image
+/// read first, so it holds for images up to [`MAX_ROLLBACK`] bytes; an entry that cannot be
+/// read in this state (write-only) stays as written.
 pub(crate) fn download<A: ObjectAccess + ?Sized>(
     object: &ObjectDesc,
     start: u8,
     data: &[u8],
     app: &mut A,
     state: AlState,
+) -> Result<(), SdoAbortCode> {
+    let mut saved = [0u8; MAX_ROLLBACK];
+    let old = upload(object, start, app, state, &mut saved).ok();
+    let mut wrote = false;
+    let written = write(object, start, data, app, state, &mut wrote, false);
+    if let (Err(_), true, Some(n)) = (written, wrote, old) {
+        // The old image was accepted before: nothing to report if it is refused now.
+        let old = saved.get(..n).unwrap_or(&[]);
+        let _ = write(object, start, old, app, state, &mut wrote, true);
+    }
+    written
+}
+
+/// [`download`] without the way back; `wrote` is set once the first write is made. With
+/// `restore` (`data` is what [`upload`] read) the entries that cannot be read are left out.
+fn write<A: ObjectAccess + ?Sized>(
+    object: &ObjectDesc,
+    start: u8,
+    data: &[u8],
+    app: &mut A,
+    state: AlState,
+    wrote: &mut bool,
+    restore: bool,
 ) -> Result<(), SdoAbortCode> {
     check_start(object, start)?;
     let is_var = object.code() == ObjectCode::Var;
@@ -225,6 +256,7 @@ pub(crate) fn download<A: ObjectAccess + ?Sized>(
         return Err(SdoAbortCode::DeviceState);
     }
     // ETG.1020 order: sub 0 = 0, the entries, sub 0 = n.
+    *wrote = true;
     let write_sub0 = start == 0 && sub0_writable;
     if write_sub0 {
         app.write(object.index, 0, &[0], state)?;
@@ -233,7 +265,7 @@ pub(crate) fn download<A: ObjectAccess + ?Sized>(
         if entry.subindex == 0 && !is_var {
             continue;
         }
-        if !entry.access.writable_in(state) {
+        if !entry.access.writable_in(state) || (restore && !entry.access.readable_in(state)) {
             continue;
         }
         let mut value = [0u8; MAX_ENTRY];
