@@ -20,6 +20,7 @@ pub mod canopen;
 pub mod device;
 pub mod eds;
 pub mod emergency_queue;
+pub mod error_history;
 pub mod esi;
 pub mod esm;
 pub mod foe;
