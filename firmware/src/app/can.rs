@@ -97,8 +97,11 @@ impl CanApplication for CanView<'_> {
         self.data.ai_events
     }
 
+    // The node sends its own errors on CAN only; they enter the error history here.
     fn raise_error(&mut self, bits: u8, code: u16, data: [u8; 5]) -> Emergency {
-        self.data.diag.raise(bits, code, data)
+        let e = self.data.diag.raise(bits, code, data);
+        self.data.diag.history.record(&e);
+        e
     }
 
     fn clear_error(&mut self, bits: u8) -> Option<Emergency> {
@@ -111,5 +114,63 @@ impl CanApplication for CanView<'_> {
         } else if self.can_owns_outputs() {
             self.data.reset_pdo_configuration();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::diagnostics::ERR_COMMUNICATION;
+    use super::super::process_data::ProcessData;
+    use super::*;
+    use crate::product::od::OD;
+    use std::vec;
+
+    fn read(view: &mut CanView, sub: u8) -> Result<vec::Vec<u8>, SdoAbortCode> {
+        let mut buf = [0u8; 8];
+        let n = view.read(0x1003, sub, &mut buf)?;
+        Ok(buf[..n].to_vec())
+    }
+
+    /// The node's own Emergencies (heartbeat loss here) enter 0x1003, which both
+    /// fieldbuses read and clear through the application data.
+    #[test]
+    fn node_emergencies_enter_the_error_history() {
+        let mut data = AppData::new(&OD, ProcessData::product_default());
+        let stage = OutputStage::new();
+        let mut apply = false;
+        let mut view = CanView::new(&mut data, &stage, &mut apply);
+        assert_eq!(read(&mut view, 0), Ok(vec![0]));
+        assert_eq!(read(&mut view, 1), Err(SdoAbortCode::NoDataAvailable));
+        view.raise_error(ERR_COMMUNICATION, 0x8130, [0x7F, 0, 0, 0, 0]);
+        view.raise_error(ERR_COMMUNICATION, 0x8100, [0; 5]);
+        assert_eq!(read(&mut view, 0), Ok(vec![2]));
+        assert_eq!(
+            read(&mut view, 1),
+            Ok(0x0011_8100u32.to_le_bytes().to_vec())
+        );
+        assert_eq!(
+            read(&mut view, 2),
+            Ok(0x7F11_8130u32.to_le_bytes().to_vec())
+        );
+        assert_eq!(read(&mut view, 3), Err(SdoAbortCode::NoDataAvailable));
+        assert_eq!(
+            view.clear_error(ERR_COMMUNICATION).map(|e| e.error_code),
+            Some(0)
+        );
+        assert_eq!(
+            read(&mut view, 0),
+            Ok(vec![2]),
+            "the error reset is not recorded"
+        );
+        let write =
+            |view: &mut CanView, sub, data: &[u8]| view.write(0x1003, sub, data, AlState::Op);
+        assert_eq!(
+            write(&mut view, 0, &[1]),
+            Err(SdoAbortCode::ValueRangeExceeded)
+        );
+        assert_eq!(read(&mut view, 0), Ok(vec![2]));
+        assert_eq!(write(&mut view, 0, &[0]), Ok(()));
+        assert_eq!(read(&mut view, 0), Ok(vec![0]));
+        assert_eq!(read(&mut view, 1), Err(SdoAbortCode::NoDataAvailable));
     }
 }

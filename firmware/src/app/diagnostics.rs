@@ -1,6 +1,9 @@
-//! Device errors: the error register (0x1001, CiA 301 7.5.2.2), the Emergency codes the
-//! module sends (CiA 301 table 21, CiA 402 0x8700) and the error settings (0x10F1).
+//! Device errors: the error register (0x1001, CiA 301 7.5.2.2), the history of the
+//! Emergencies sent (0x1003, CiA 301 7.5.2.3), the Emergency codes the module sends (CiA 301
+//! table 21, CiA 402 0x8700) and the error settings (0x10F1).
 
+use crate::product::capacity::ERROR_HISTORY;
+use coe_core::error_history::ErrorHistory;
 use coe_core::sdo_server::Emergency;
 
 /// 0x1001 bit 0: generic error (set whenever any other bit is).
@@ -25,10 +28,14 @@ pub const EMCY_PDI_ERROR: u16 = 0x5000;
 /// Emergency: error reset / no error (0x0000), sent when the error register clears.
 pub const EMCY_NO_ERROR: u16 = 0x0000;
 
-/// Error register and 0x10F1:01.
+/// Error register, error history and 0x10F1:01.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Diagnostics {
     register: u8,
+    /// 0x1003: the Emergencies sent, newest first; recorded where they are queued
+    /// (`SlaveApp::emergency` for both fieldbuses, the CAN node's own through
+    /// `CanView::raise_error`).
+    pub history: ErrorHistory<ERROR_HISTORY>,
     /// 0x10F1:01 Local Error Reaction (stored; the reaction is fixed: SAFEOP + safe outputs).
     pub local_error_reaction: u32,
 }
@@ -38,6 +45,7 @@ impl Diagnostics {
     pub const fn new() -> Self {
         Self {
             register: 0,
+            history: ErrorHistory::new(),
             local_error_reaction: 0,
         }
     }
@@ -50,11 +58,7 @@ impl Diagnostics {
     /// Sets `bits` and returns the Emergency that reports `code` with `data`.
     pub fn raise(&mut self, bits: u8, code: u16, data: [u8; 5]) -> Emergency {
         self.register |= bits | ERR_GENERIC;
-        Emergency {
-            error_code: code,
-            error_register: self.register,
-            data,
-        }
+        self.report(code, data)
     }
 
     /// The Emergency that reports `code` with `data` without setting an error bit (an

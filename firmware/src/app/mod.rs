@@ -379,10 +379,12 @@ impl SlaveApp {
         Ok(())
     }
 
-    /// An Emergency of the application: out on both fieldbuses.
+    /// An Emergency of the application: into the error history (0x1003) and out on both
+    /// fieldbuses.
     fn emergency(&mut self, e: coe_core::sdo_server::Emergency) {
         self.mailbox.queue_emergency(e);
         self.can.queue_emergency(e);
+        self.data.diag.history.record(&e);
     }
 
     /// [`MailboxLink::needs_service`](mailbox::MailboxLink::needs_service). Outside the

@@ -3,18 +3,19 @@
 //!
 //! Served here (everything else reads as the entry's default from the dictionary, i.e. the
 //! product's constants, [`crate::product`]: 0x1000, 0x1008..0x100A, 0x1018, 0x1C00):
-//! 0x1001 error register, 0x10F1 error settings, 0x1600../0x1A00../0x1C12/0x1C13 PDO
-//! configuration ([`ProcessData`]), 0x1C32/0x1C33 ([`SyncMonitor`]), 0x6401 AI values
-//! ([`Sampler`]), 0x6411 AO values, 0x6443/0x6444 fault configuration, and the
-//! manufacturer settings object ([`SETTINGS_INDEX`]), and for the CAN side the process-data
-//! source ([`PROCESS_DATA_SOURCE_INDEX`]) and 0x6423 ([`AI_INTERRUPT_ENABLE_INDEX`]).
+//! 0x1001 error register, 0x1003 error history, 0x10F1 error settings,
+//! 0x1600../0x1A00../0x1C12/0x1C13 PDO configuration ([`ProcessData`]), 0x1C32/0x1C33
+//! ([`SyncMonitor`]), 0x6401 AI values ([`Sampler`]), 0x6411 AO values, 0x6443/0x6444 fault
+//! configuration, and the manufacturer settings object ([`SETTINGS_INDEX`]), and for the CAN
+//! side the process-data source ([`PROCESS_DATA_SOURCE_INDEX`]) and 0x6423
+//! ([`AI_INTERRUPT_ENABLE_INDEX`]).
 //!
 //! Vetoes (the SDO server has already checked existence, access per state, length and the
 //! dictionary's min/max): PDO configuration and sync mode/cycle only in PREOP (0x08000022),
 //! and the PDO configuration not while EtherCAT runs process data whichever fieldbus asks;
 //! the process-data source only while neither fieldbus runs process data (0x08000022),
 //! unsupported sync modes, fault modes, filter modes and fault values outside 0..=0x7FFF
-//! (0x06090030).
+//! (0x06090030), and 0x1003:00 other than 0 (0x06090030, CiA 301).
 
 use super::diagnostics::{Diagnostics, EMCY_AO_OUT_OF_RANGE, ERR_MANUFACTURER};
 use super::entry_bytes::{channel, put_le};
@@ -201,6 +202,8 @@ impl ObjectAccess for AppData {
         // The application's values as a number and its length in bytes, copied in one place.
         let (value, len): (u32, usize) = match (index, sub) {
             (0x1001, 0) => (self.diag.register().into(), 1),
+            (0x1003, 0) => (self.diag.history.len().into(), 1),
+            (0x1003, _) => (self.diag.history.get(sub)?, 4),
             (0x10F1, 0) => (2, 1),
             (0x10F1, 1) => (self.diag.local_error_reaction, 4),
             (0x10F1, 2) => (self.sync.error_limit().into(), 2),
@@ -243,6 +246,7 @@ impl ObjectAccess for AppData {
         state: AlState,
     ) -> Result<(), SdoAbortCode> {
         match (index, sub) {
+            (0x1003, _) => self.diag.history.write(sub, data),
             (0x10F1, 1) => {
                 self.diag.local_error_reaction = le_u32(data)?;
                 Ok(())

@@ -592,6 +592,9 @@ fn watchdog_faults_outputs_and_goes_to_safeop() {
         Some(&DacAction::WriteAndUpdate(DacPair::new(0x2000, 0x400)))
     );
     assert_eq!(r.app.data().diag.register(), 0x11);
+    // It enters the error history (0x1003): code, 0x1001, first data byte.
+    let history = r.app.data().diag.history;
+    assert_eq!((history.len(), history.get(1)), (1, Ok(0x0011_8250)));
     // The Emergency goes out through SM1.
     r.poll();
     let emcy = r.esc.master_read_mailbox().unwrap();
@@ -604,6 +607,11 @@ fn watchdog_faults_outputs_and_goes_to_safeop() {
     assert_eq!(r.dac.len(), n);
     assert_eq!(r.request(0x18), (0x08, 0));
     assert_eq!(r.app.data().diag.register(), 0);
+    assert_eq!(
+        r.app.data().diag.history.len(),
+        1,
+        "the error reset is no error"
+    );
     assert_eq!(r.dac.len(), n);
     r.outputs(0x10, 0x20);
     assert_eq!(

@@ -16,6 +16,11 @@ pub const BOOTSTRAP_MAILBOX_SIZE: usize = 512;
 pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait for the mailbox.
 pub const EMERGENCY_QUEUE: usize = 4;
+/// Errors the pre-defined error field (0x1003) keeps. Each costs 4 B of RAM and a 28 B
+/// entry description in flash, and the flash budget sets the limit: four hold a fault and
+/// what followed it (e.g. the watchdog, the sync error, an output clamped), which the
+/// Emergency queue of the same depth could have had waiting at once.
+pub const ERROR_HISTORY: usize = 4;
 
 /// RxPDO mapping objects the module offers (0x1600, 0x1601); on CAN each has its RPDO
 /// communication parameter (0x1400, 0x1401).

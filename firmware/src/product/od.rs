@@ -18,7 +18,7 @@ use super::can::{
     AI_INTERRUPT_ENABLE_INDEX, COMM_DEFAULTS, HEARTBEAT_CONSUMERS, PROCESS_DATA_SOURCE_INDEX,
     SOURCE_CAN, SOURCE_ETHERCAT,
 };
-use super::capacity::{AI_CHANNELS, AO_CHANNELS, PDO_ENTRIES, RX_PDOS, TX_PDOS};
+use super::capacity::{AI_CHANNELS, AO_CHANNELS, ERROR_HISTORY, PDO_ENTRIES, RX_PDOS, TX_PDOS};
 use super::identity::{IDENTITY, NAMES};
 use super::layout::SYNC_MANAGERS;
 use super::sync::{
@@ -168,6 +168,14 @@ const fn assignment<const N: usize>(defaults: &[u16]) -> [EntryDesc; N] {
     out
 }
 
+/// 0x1003 (CiA 301 7.5.2.3, `coe_core::error_history`): sub 0 the number of errors, written
+/// 0 to clear the history (any state), subs 1.. the errors, newest first, read-only.
+static ERROR_FIELD: [EntryDesc; ERROR_HISTORY + 1] = {
+    let mut out = entries(0, &SUB_NAMES, U32, RO, &[]);
+    out[0] = out[0].with_access(RW);
+    out
+};
+
 /// The default mappings: both RxPDO mapping objects have the same ([`RX_DEFAULTS`]; the
 /// host tests read the dictionary's defaults back against the process data's).
 static RXPDO_DEFAULTS: [EntryDefault; AO_CHANNELS + 1] = mapping_defaults(&RXPDO_DEFAULT);
@@ -289,6 +297,7 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         "Error register",
         &[EntryDesc::new(0, "Error register", U8, RO.tx_mappable())],
     ),
+    ObjectDesc::array(0x1003, "Pre-defined error field", &ERROR_FIELD),
     CAN.sync_cob_id(),
     CAN.cycle_period(),
     ObjectDesc::var(
@@ -456,8 +465,8 @@ mod tests {
         let indices: Vec<u16> = OD.iter().map(|o| o.index).collect();
         assert!(indices.windows(2).all(|w| w[0] < w[1]), "{indices:x?}");
         for index in [
-            0x1000, 0x1001, 0x1008, 0x1009, 0x100A, 0x1018, 0x10F1, 0x1600, 0x1A00, 0x1C00, 0x1C12,
-            0x1C13, 0x1C32, 0x1C33, 0x6401, 0x6411, 0x6443, 0x6444,
+            0x1000, 0x1001, 0x1003, 0x1008, 0x1009, 0x100A, 0x1018, 0x10F1, 0x1600, 0x1A00, 0x1C00,
+            0x1C12, 0x1C13, 0x1C32, 0x1C33, 0x6401, 0x6411, 0x6443, 0x6444,
         ] {
             assert!(OD.find(index).is_some(), "{index:#06x} missing");
         }
