@@ -97,7 +97,8 @@ class Master(unittest.TestCase):
     def test_02_eds_imports_and_matches_the_device(self):
         self.assertEqual(self.eds_warnings, [], "python-canopen's EDS reader warned")
         self.reset_node()
-        live = {0x1001, 0x6401, 0x6411}  # the error register and the I/O change
+        live = {0x1001, 0x1003, 0x6401, 0x6411}  # the errors and the I/O change
+        errors = self.up(0x1003)
         checked = 0
         for index in self.od:
             if index < 0x1000:
@@ -107,6 +108,11 @@ class Master(unittest.TestCase):
                 obj[s] for s in obj.subindices
             ]
             for var in variables:
+                if var.index == 0x1003 and var.subindex > errors:
+                    # No error there: CiA 301's "no data available".
+                    self.assertEqual(self.abort_code(
+                        lambda: self.node.sdo.upload(0x1003, var.subindex)), 0x08000024)
+                    continue
                 raw = self.node.sdo.upload(var.index, var.subindex)
                 if var.data_type not in (0x09, 0x0A, 0x0F):
                     size = {1: 1, 2: 1, 3: 2, 4: 4, 5: 1, 6: 2, 7: 4}.get(var.data_type)
@@ -296,6 +302,7 @@ class Master(unittest.TestCase):
         self.assertIsNotNone(e, "no EMCY 0x8130 after the heartbeat stopped")
         self.assertEqual(e.data[0], 0x7F)
         self.assertTrue(e.register & 0x10, "communication bit of 0x1001")
+        heartbeat_loss = 0x8130 | e.register << 16 | 0x7F << 24
         time.sleep(0.05)
         # 0x1029:01 = 0: the node went to pre-operational.
         self.assertEqual(self.up(0x1001), e.register)
@@ -310,6 +317,18 @@ class Master(unittest.TestCase):
         self.assertIsNotNone(e, "no EMCY 0xFF01 for a negative output")
         self.assertEqual(e.data[0], 0x01)
         self.assertTrue(e.register & 0x80)
+        # 0x1003: the EMCYs newest first (code, 0x1001, first data byte); 0 clears it.
+        history = [self.up(0x1003, s) for s in range(1, self.up(0x1003) + 1)]
+        print("0x1003 " + " ".join(f"{v:#010x}" for v in history))
+        self.assertEqual(history[0], 0xFF01 | e.register << 16 | 0x01 << 24)
+        self.assertIn(heartbeat_loss, history)
+        self.assertEqual(self.abort_code(
+            lambda: self.node.sdo.download(0x1003, 0, b"\x01")), 0x06090030)
+        self.assertEqual(self.abort_code(
+            lambda: self.node.sdo.download(0x1003, 1, b"\0\0\0\0")), 0x06010002)
+        self.node.sdo.download(0x1003, 0, b"\x00")
+        self.assertEqual(self.up(0x1003), 0)
+        self.assertEqual(self.abort_code(lambda: self.node.sdo.upload(0x1003, 1)), 0x08000024)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,8 @@ capture_tests!(
 /// keeps its output (0x6443:02 = 0), AL status SAFEOP + error 0x001B, an Emergency 0x8250
 /// (RPDO timeout) with the communication bit in 0x1001; the inputs stay valid in SAFEOP.
 /// After the acknowledge the fault values stay until new outputs arrive in OP, and the
-/// Emergency "no error" reports the error register cleared.
+/// Emergency "no error" reports the error register cleared; 0x1003 keeps the 0x8250 until
+/// the master clears it.
 fn scenario_sm_watchdog(pcap: &str) -> PathBuf {
     let m = op_with(SM_SYNC, [Some(0x2000), None]);
     good_cycles(&m, 20, 0x4000, 0x7000);
@@ -59,6 +60,12 @@ fn scenario_sm_watchdog(pcap: &str) -> PathBuf {
         sdo_uint(&m, ERROR_REGISTER, 0),
         u32::from(ERR_COMMUNICATION)
     );
+    // 0x1003: the Emergency is the newest error (code, 0x1001, first data byte).
+    assert_eq!(sdo_uint(&m, ERROR_HISTORY, 0), 1);
+    assert_eq!(
+        sdo_uint(&m, ERROR_HISTORY, 1),
+        u32::from(ERR_COMMUNICATION) << 16 | u32::from(emcy::RPDO_TIMEOUT)
+    );
     // What the master gets back in SAFEOP: the inputs, working counter 3.
     assert_eq!(m.cycle(&ScriptedMaster::ao_image(1, 1)).unwrap().len(), 16);
     assert_eq!(
@@ -75,6 +82,22 @@ fn scenario_sm_watchdog(pcap: &str) -> PathBuf {
         "{e:?}"
     );
     assert_eq!(sdo_uint(&m, ERROR_REGISTER, 0), 0);
+    // The error reset is no error; writing 0 to 0x1003:00 clears the history, another
+    // value or a write to an error is refused.
+    assert_eq!(sdo_uint(&m, ERROR_HISTORY, 0), 1);
+    assert_eq!(
+        sdo_abort(m.sdo_download(ERROR_HISTORY, 0, &[1])),
+        0x0609_0030
+    );
+    assert_eq!(
+        sdo_abort(m.sdo_download(ERROR_HISTORY, 1, &[0; 4])),
+        0x0601_0002
+    );
+    assert_eq!(sdo_uint(&m, ERROR_HISTORY, 0), 1);
+    m.sdo_download(ERROR_HISTORY, 0, &[0])
+        .expect("clear 0x1003");
+    assert_eq!(sdo_uint(&m, ERROR_HISTORY, 0), 0);
+    assert_eq!(sdo_abort(m.sdo_upload(ERROR_HISTORY, 1)), 0x0800_0024);
     save_pcap(&m, pcap)
 }
 

@@ -7,8 +7,9 @@
 //! compared with what the device answers, boot-up, NMT start/stop/pre-operational/resets,
 //! heartbeat timing, SDO expedited and segmented both ways and the abort codes, PDO
 //! remapping in pre-operational, SYNC-driven TPDOs carrying the analog inputs, RPDOs
-//! driving the outputs, EMCY on a heartbeat loss and on an output out of range, and the
-//! loop-back AI1 -> master -> AO1 at a SYNC period. This side sets the analog inputs, then
+//! driving the outputs, EMCY on a heartbeat loss and on an output out of range (both then
+//! in the error history 0x1003, which the master clears), and the loop-back AI1 -> master
+//! -> AO1 at a SYNC period. This side sets the analog inputs, then
 //! checks what only the board sees: the DAC model's loads (the RPDO values, the fault
 //! values) and the loop-back's amplitude error and latency, which it prints.
 //!

@@ -9,7 +9,7 @@ use virtual_board::models::spi::SpiStats;
 use virtual_board::rig::board::BoardConfig;
 use virtual_board::rig::firmware_cpu::{FirmwareCpu, FirmwareStats};
 use virtual_board::rig::scripted::{state, AlStatus, MasterError, ScriptedMaster, Sync};
-use virtual_board::rig::sdo_client::Emergency;
+use virtual_board::rig::sdo_client::{Emergency, SdoError};
 
 /// A tiny reproducible generator (xorshift64*).
 pub struct Rng(u64);
@@ -51,6 +51,8 @@ pub const AO_ERROR_MODE: u16 = 0x6443;
 pub const AO_ERROR_VALUE: u16 = 0x6444;
 /// Error register (CiA 301 0x1001).
 pub const ERROR_REGISTER: u16 = 0x1001;
+/// Pre-defined error field (CiA 301 7.5.2.3): the Emergencies sent, newest at sub 1.
+pub const ERROR_HISTORY: u16 = 0x1003;
 /// Sync Manager 2 parameters (ETG.1020 0x1C32).
 pub const SM_OUTPUT_PARAMETER: u16 = 0x1C32;
 
@@ -175,6 +177,14 @@ pub fn sdo_uint(m: &ScriptedMaster, index: u16, sub: u8) -> u32 {
         .sdo_upload(index, sub)
         .unwrap_or_else(|e| panic!("upload {index:#06x}:{sub}: {e}"));
     d.iter().rev().fold(0u32, |v, b| v << 8 | u32::from(*b))
+}
+
+/// The abort code of an SDO transfer that must be refused.
+pub fn sdo_abort<T: std::fmt::Debug>(r: Result<T, SdoError>) -> u32 {
+    match r {
+        Err(SdoError::Abort { code, .. }) => code,
+        other => panic!("expected an SDO abort, got {other:?}"),
+    }
 }
 
 /// After a fault: the master stops its process data, acknowledges and goes back to OP.
