@@ -66,6 +66,11 @@ fn scenario_sm_watchdog(pcap: &str) -> PathBuf {
         sdo_uint(&m, ERROR_HISTORY, 1),
         u32::from(ERR_COMMUNICATION) << 16 | u32::from(emcy::RPDO_TIMEOUT)
     );
+    // Complete access: sub 0 (16 bits) and only the errors recorded.
+    let all = m
+        .sdo_upload_full(ERROR_HISTORY, 0, true)
+        .expect("complete access");
+    assert_eq!(all.data, [1, 0, 0x50, 0x82, 0x11, 0]);
     // What the master gets back in SAFEOP: the inputs, working counter 3.
     assert_eq!(m.cycle(&ScriptedMaster::ao_image(1, 1)).unwrap().len(), 16);
     assert_eq!(
