@@ -6,14 +6,14 @@
 //! newest at sub 1, each holding the Emergency error code in bits 0..15 and manufacturer-
 //! specific additional information in bits 16..31; a new error pushes the older ones one
 //! sub up and the oldest falls off when the field is full; the error reset (code 0x0000)
-//! is not an error and is not recorded. CiA 301 gives no value for a sub above the number
-//! of errors; it is answered with 0x08000024 "no data available" (the abort CiA 301 table
-//! 22 has for that case, and what other CiA 301 stacks answer there).
+//! is not an error and is not recorded. A sub above the number of errors holds nothing: it
+//! is answered with 0x08000024 "no data available" (CiA 301 table 22), as other CiA 301
+//! implementations answer it.
 //!
 //! The additional information used here: bits 16..23 the error register (0x1001) the
-//! Emergency carried, bits 24..31 its first manufacturer-specific byte (the layout of the
-//! Elmo CiA 301 implementation guide, "error code, error register, manufacturer-specific
-//! code"), so a CANopen tool shows which channel or node an error was about.
+//! Emergency carried, bits 24..31 its first manufacturer-specific byte (the split the Elmo
+//! CiA 301 implementation guide documents: error code, error register, manufacturer-specific
+//! byte), so a CANopen tool shows which channel or node an error was about.
 
 use crate::abort::SdoAbortCode;
 use crate::wire::EmergencyRepr;
