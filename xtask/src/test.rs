@@ -53,6 +53,14 @@ pub fn run(args: &Args) -> Result {
             "-D",
             "warnings",
         ]))?;
+        // The API documentation of the crates others reuse, and the firmware's: a broken
+        // link is a warning rustdoc alone sees.
+        let mut doc = cargo();
+        doc.args(["doc", "--no-deps", "--lib", "-p", "firmware"]);
+        for c in PORTABLE_CRATES {
+            doc.args(["-p", c]);
+        }
+        exec(doc.env("RUSTDOCFLAGS", "-D warnings"))?;
     }
     // The LPC1754 images first: release builds, checksum, CRP word and budgets verified on
     // the BINs; the co-simulator's system tests (tests/cosim) run these very programs (the

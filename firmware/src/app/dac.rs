@@ -1,4 +1,4 @@
-//! The AD5663 as the DAC task sees it: the [`DacAction`]s of the [`DacLatch`] carried out
+//! The AD5663 as the DAC task sees it: the [`DacAction`]s of the [`DacLatch`](super::outputs::DacLatch) carried out
 //! through the `ad5663` driver, generic over the SPI device and the LDAC pin (the board's
 //! SSP0 + GPIO, a mock in the tests).
 //!

@@ -239,7 +239,7 @@ impl SlaveApp {
 
     /// The ESC IRQ: reads the AL event bits once and serves AL control, watchdog, outputs
     /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1) when its
-    /// event bits say it has work ([`MailboxLink::needs_service`]).
+    /// event bits say it has work ([`mailbox::MailboxLink::needs_service`]).
     ///
     /// The event bits come from [`Pdi::low_events`]: on the SPI PDI a NOP with 2 address
     /// bytes, which shifts out 0x0220/0x0221 (AL control .. SM7). The 3-byte NOP would add

@@ -421,7 +421,7 @@ impl ProcessData {
         Ok(ao)
     }
 
-    /// Packs the input image from `values` (fast plan, else through [`TxSource`]) and
+    /// Packs the input image from `values` (fast plan, else through the slot-by-slot packer) and
     /// returns it (SM3 content).
     pub fn pack_values(&mut self, values: &SlotValues) -> Result<&[u8], SdoAbortCode> {
         let n = self.tx_layout.byte_len().min(MAX_IMAGE);

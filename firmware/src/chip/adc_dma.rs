@@ -67,7 +67,7 @@ pub struct RxAddresses {
     pub ssp_dr: u32,
     /// A half-word that swallows the start-up dummies.
     pub skip: u32,
-    /// The ring ([`RING_WORDS`] half-words).
+    /// The ring ([`crate::app::adc_dma::RING_WORDS`] half-words).
     pub ring: u32,
     /// Where the two ring items are stored.
     pub items: [u32; 2],
