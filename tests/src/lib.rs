@@ -69,6 +69,7 @@ pub mod rig {
 /// What `cargo xtask` runs on the board.
 pub mod tools {
     pub mod bus_cost;
+    pub mod dwarf;
     pub mod iface;
     pub mod image_figures;
     pub mod loopback;

@@ -10,8 +10,7 @@ use crate::image::Image;
 use crate::thumb;
 use std::collections::HashMap;
 use std::rc::Rc;
-
-type Reader = gimli::EndianRcSlice<gimli::RunTimeEndian>;
+use virtual_board::tools::dwarf::Reader;
 
 /// Function names and inline chains of an image, filled as addresses are asked for.
 pub struct CodeMap {
@@ -185,23 +184,7 @@ fn strip_hash(name: &str) -> &str {
 }
 
 fn load_dwarf(elf: &[u8]) -> Option<addr2line::Context<Reader>> {
-    use object::{Object, ObjectSection};
-    let file = object::File::parse(elf).ok()?;
-    let endian = if file.is_little_endian() {
-        gimli::RunTimeEndian::Little
-    } else {
-        gimli::RunTimeEndian::Big
-    };
-    let load = |id: gimli::SectionId| -> Result<Reader, gimli::Error> {
-        let data = file
-            .section_by_name(id.name())
-            .and_then(|s| s.uncompressed_data().ok())
-            .map(|d| Rc::<[u8]>::from(d.as_ref()))
-            .unwrap_or_else(|| Rc::from(&[][..]));
-        Ok(gimli::EndianRcSlice::new(data, endian))
-    };
-    let dwarf = gimli::Dwarf::load(load).ok()?;
-    addr2line::Context::from_dwarf(dwarf).ok()
+    virtual_board::tools::dwarf::context(&object::File::parse(elf).ok()?).ok()
 }
 
 #[cfg(test)]

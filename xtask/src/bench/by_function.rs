@@ -15,7 +15,7 @@ use super::cm3::{self, CpuReport};
 use crate::util::{cargo, Result};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use virtual_board::tools::dwarf::Reader;
 
 /// The regions of the process-data cycle, printed in this order (the JSON has all regions).
 const CYCLE_REGIONS: [&str; 9] = [
@@ -249,29 +249,12 @@ struct Dwarf {
     symbols: Vec<(u64, u64, String)>,
 }
 
-type Reader = gimli::EndianRcSlice<gimli::RunTimeEndian>;
-
 impl Dwarf {
     fn load(elf: &Path) -> Result<Self> {
-        use object::{Object, ObjectSection, ObjectSymbol, SymbolKind};
+        use object::{Object, ObjectSymbol, SymbolKind};
         let data = std::fs::read(elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
         let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
-        let endian = if file.is_little_endian() {
-            gimli::RunTimeEndian::Little
-        } else {
-            gimli::RunTimeEndian::Big
-        };
-        let load = |id: gimli::SectionId| -> std::result::Result<Reader, gimli::Error> {
-            let data = file
-                .section_by_name(id.name())
-                .and_then(|s| s.uncompressed_data().ok())
-                .map(|d| Rc::<[u8]>::from(d.as_ref()))
-                .unwrap_or_else(|| Rc::from(&[][..]));
-            Ok(gimli::EndianRcSlice::new(data, endian))
-        };
-        let dwarf =
-            gimli::Dwarf::load(load).map_err(|e| format!("{}: DWARF: {e}", elf.display()))?;
-        let context = addr2line::Context::from_dwarf(dwarf)
+        let context = virtual_board::tools::dwarf::context(&file)
             .map_err(|e| format!("{}: DWARF: {e}", elf.display()))?;
         let symbols = file
             .symbols()
