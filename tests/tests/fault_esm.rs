@@ -411,12 +411,8 @@ fn wrong_sync_manager_configuration() {
 
 /// An SDO download to `index:sub` that must be aborted with `code`.
 fn refused(m: &ScriptedMaster, index: u16, sub: u8, data: &[u8], code: u32, what: &str) {
-    match m.sdo_download(index, sub, data) {
-        Err(SdoError::Abort { code: c, .. }) => {
-            assert_eq!(c, code, "{what}: abort {c:#010x}, expected {code:#010x}")
-        }
-        other => panic!("{what}: {other:?}"),
-    }
+    let c = sdo_abort(m.sdo_download(index, sub, data));
+    assert_eq!(c, code, "{what}: abort {c:#010x}, expected {code:#010x}");
 }
 
 /// Wrong PDO mappings and assignments (ETG.1020 PDO configuration in PREOP): an unknown
