@@ -1,6 +1,6 @@
 //! Link setup of the two LPC1754 binaries.
 //!
-//! Each binary gets its own memory map (`firmware::boot::layout`): the application
+//! Each binary gets its own memory map (`firmware::platform::boot::layout`): the application
 //! (`analog-io`) `memory-app.x` (the application slot after the update header), the
 //! bootloader `memory-boot.x` (the first 12 KB, vectors with the checksum and the CRP word).
 //! cortex-m-rt's `link.x` includes `memory.x`, which the linker finds in the workspace root

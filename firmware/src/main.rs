@@ -19,7 +19,7 @@
 //! while EtherCAT delivers outputs in regular cycles, only if the call's bound ends early
 //! enough for the PDI work before the next cycle's SYNC0 edge. It makes one call per
 //! activation and pends itself again while work waits; EINT3's vector comes before CAN's,
-//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::app`, tested
+//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::stacks::ethercat`, tested
 //! on the host); the task bodies only read pins and pend each other:
 //!
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::latch_at_sync0`: LDAC
@@ -50,7 +50,9 @@
 //!   fits now.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+/// The hardware layer of the LPC1754 boards (register access, the only `unsafe`).
 #[cfg(target_os = "none")]
+#[path = "platform/hw/mod.rs"]
 mod hw;
 
 #[cfg(all(target_os = "none", feature = "rtt"))]
@@ -72,12 +74,12 @@ mod rtic_app {
     use crate::hw::wdt::Watchdog;
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
-    use firmware::app::can_task::{self, CanInbox};
-    use firmware::app::outputs::{DacLatch, OutputStage};
-    use firmware::app::pdi_task::{PdiTask, Wake};
-    use firmware::app::process_data::ProcessData;
-    use firmware::app::{AppConfig, SlaveApp};
-    use firmware::product::od;
+    use firmware::io::analog::outputs::{DacLatch, OutputStage};
+    use firmware::io::analog::process_data::ProcessData;
+    use firmware::products::analog_io::od;
+    use firmware::stacks::canopen::task::{self as can_task, CanInbox};
+    use firmware::stacks::ethercat::pdi_task::{PdiTask, Wake};
+    use firmware::stacks::ethercat::{AppConfig, SlaveApp};
     use lpc17xx_pac::Interrupt;
 
     /// Set by the PDI task before it pends TIMER1: "apply the staged outputs now" (free run,

@@ -4,8 +4,9 @@
 //! The sources are read as text: every `use` tree and every path in code that starts with
 //! `crate`, `super`, `self` or the name of a child module is resolved to the module it names
 //! (the longest prefix that is a module). Each file is one node; inline modules (`mod tests
-//! { .. }`) belong to their file. The library (`src/lib.rs`) and the binary (`src/main.rs`
-//! with `src/hw/`) are separate crates; paths into other crates are not followed.
+//! { .. }`) belong to their file. The library (`src/lib.rs`), the application
+//! (`src/main.rs`, with `src/platform/hw/` as its `hw`) and the bootloader
+//! (`src/platform/bootloader/`) are separate crates; paths into other crates are not followed.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -18,6 +19,7 @@ type ModPath = (Crate, Vec<String>);
 enum Crate {
     Lib,
     Bin,
+    Boot,
 }
 
 /// One source file: its module, and where it is.
@@ -50,12 +52,14 @@ fn module_of(src: &Path, file: &Path) -> ModPath {
     if !matches!(stem.as_str(), "mod" | "lib" | "main") {
         parts.push(stem.clone());
     }
-    let krate = if stem == "main" || parts.first().is_some_and(|p| p == "hw") {
-        Crate::Bin
-    } else {
-        Crate::Lib
-    };
-    (krate, parts)
+    // The binaries: the application (`main.rs`) with the hardware layer `platform/hw` as its
+    // `hw`, and the bootloader (`platform/bootloader`, which includes the same `hw`).
+    match parts.as_slice() {
+        [p, hw, ..] if p == "platform" && hw == "hw" => (Crate::Bin, parts[1..].to_vec()),
+        [p, b, ..] if p == "platform" && b == "bootloader" => (Crate::Boot, parts[2..].to_vec()),
+        _ if stem == "main" => (Crate::Bin, parts),
+        _ => (Crate::Lib, parts),
+    }
 }
 
 /// The text with comments, string and character literals blanked (newlines kept, so byte
@@ -366,7 +370,8 @@ fn file_node(files: &BTreeSet<ModPath>, m: &ModPath) -> ModPath {
 fn name(m: &ModPath) -> String {
     let root = match m.0 {
         Crate::Lib => "firmware",
-        Crate::Bin => "analog-io",
+        Crate::Bin => "application",
+        Crate::Boot => "bootloader",
     };
     std::iter::once(root.to_string())
         .chain(m.1.iter().cloned())

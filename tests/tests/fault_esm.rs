@@ -5,7 +5,7 @@
 
 mod fault_common;
 use fault_common::*;
-use firmware::product::od::MODULE_DESCRIPTION_INDEX;
+use firmware::products::analog_io::od::MODULE_DESCRIPTION_INDEX;
 use virtual_board::rig::scripted::{block, state, AlStatus, ScriptedMaster, Sync};
 use virtual_board::rig::sdo_client::{expedited_upload, request, sdo_request_bytes, SdoError};
 

@@ -5,7 +5,7 @@
 
 mod fault_common;
 use fault_common::*;
-use firmware::product::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use firmware::products::analog_io::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use std::path::PathBuf;
 use virtual_board::capture_tests;
 use virtual_board::rig::scripted::{block, state, ScriptedMaster, Sync};
@@ -169,12 +169,14 @@ fn cable_pulled_during_a_segmented_upload_in_op() {
 
 /// The objects the flood asks for, with their values.
 fn flood_objects() -> Vec<(u16, u8, Vec<u8>)> {
-    let id = firmware::product::identity::IDENTITY;
+    let id = firmware::products::analog_io::identity::IDENTITY;
     vec![
         (
             0x1000,
             0,
-            firmware::product::od::DEVICE_TYPE.to_le_bytes().to_vec(),
+            firmware::products::analog_io::od::DEVICE_TYPE
+                .to_le_bytes()
+                .to_vec(),
         ),
         (0x1018, 1, id.vendor_id.to_le_bytes().to_vec()),
         (0x1018, 2, id.product_code.to_le_bytes().to_vec()),
@@ -290,14 +292,16 @@ fn repeat_request_storm_returns_the_identical_last_reply() {
         (
             0x1000,
             0,
-            firmware::product::od::DEVICE_TYPE.to_le_bytes().to_vec()
+            firmware::products::analog_io::od::DEVICE_TYPE
+                .to_le_bytes()
+                .to_vec()
         )
     );
     assert_eq!(m.net_stats().lost_from_slave, 1);
     // The mailbox goes on.
     assert_eq!(
         upload(&m, 0x1018, 1),
-        firmware::product::identity::IDENTITY
+        firmware::products::analog_io::identity::IDENTITY
             .vendor_id
             .to_le_bytes()
     );
@@ -350,12 +354,14 @@ fn duplicate_writes_with_the_same_counter() {
     m.lose_replies(1);
     assert_eq!(
         upload(&m, 0x1018, 3),
-        firmware::product::identity::IDENTITY.revision.to_le_bytes()
+        firmware::products::analog_io::identity::IDENTITY
+            .revision
+            .to_le_bytes()
     );
     m.lose_frames(1);
     assert_eq!(
         upload(&m, 0x1018, 2),
-        firmware::product::identity::IDENTITY
+        firmware::products::analog_io::identity::IDENTITY
             .product_code
             .to_le_bytes()
     );

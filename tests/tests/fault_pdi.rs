@@ -44,7 +44,7 @@ fn eeprom_busy_at_start_up() {
     let info = m.init().unwrap();
     assert_eq!(
         info.identity[1],
-        firmware::product::identity::IDENTITY.product_code
+        firmware::products::analog_io::identity::IDENTITY.product_code
     );
     assert!(m.now_ns() >= load);
     let fw = firmware_stats(&m);

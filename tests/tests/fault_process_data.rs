@@ -263,7 +263,7 @@ fn sync0_missing_is_a_fatal_sync_error() {
 /// (0x1C32:0B) and the sync error takes the module to SAFEOP + 0x001A with its error values.
 #[test]
 fn sync0_too_fast() {
-    let min = firmware::product::sync::MIN_CYCLE_TIME_NS;
+    let min = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS;
     let m = master();
     m.configure_mailbox().unwrap();
     m.expect_state(state::PREOP).unwrap();

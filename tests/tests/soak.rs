@@ -481,12 +481,14 @@ impl Soak {
     /// An SDO upload between the cyclic frames; the value is right.
     fn sdo_upload(&mut self) {
         self.count("SDO exchange");
-        let id = firmware::product::identity::IDENTITY;
+        let id = firmware::products::analog_io::identity::IDENTITY;
         let (index, sub, want) = match self.rng.below(3) {
             0 => (
                 0x1000,
                 0,
-                firmware::product::od::DEVICE_TYPE.to_le_bytes().to_vec(),
+                firmware::products::analog_io::od::DEVICE_TYPE
+                    .to_le_bytes()
+                    .to_vec(),
             ),
             1 => (0x1018, 2, id.product_code.to_le_bytes().to_vec()),
             _ => (0x6444, 1, i32::from(FAULT_VALUES[0]).to_le_bytes().to_vec()),

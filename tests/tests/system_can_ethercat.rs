@@ -8,9 +8,9 @@
 use coe_core::canopen::{CanFrame, NmtCommand};
 use coe_core::SdoAbortCode;
 use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage};
-use firmware::app::scaling::ao_to_dac_code;
-use firmware::product::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
-use firmware::product::identity::NAMES;
+use firmware::io::analog::scaling::ao_to_dac_code;
+use firmware::products::analog_io::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
+use firmware::products::analog_io::identity::NAMES;
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;

@@ -17,7 +17,7 @@
 //! `cargo xtask test` runs it (its setup installs both) and it fails, naming what is
 //! missing, when it cannot run.
 
-use firmware::app::scaling::ao_to_dac_code;
+use firmware::io::analog::scaling::ao_to_dac_code;
 use std::path::PathBuf;
 use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -75,8 +75,8 @@ fn python_canopen_drives_the_board_over_socketcand() {
     let eds_path = eds_dir.join("module.eds");
     let mut eds = String::new();
     coe_core::eds::write_eds(
-        &firmware::product::device::DEVICE,
-        &firmware::product::can::EDS_INFO,
+        &firmware::products::analog_io::device::DEVICE,
+        &firmware::products::analog_io::can::EDS_INFO,
         &mut eds,
     )
     .unwrap();

@@ -13,9 +13,9 @@ use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{
     std::ethercat_now, DcSync, MainDevice, MainDeviceConfig, PduStorage, SubDeviceState,
 };
-use firmware::product::device::DEVICE;
-use firmware::product::identity::{IDENTITY, NAMES};
-use firmware::product::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use firmware::products::analog_io::device::DEVICE;
+use firmware::products::analog_io::identity::{IDENTITY, NAMES};
+use firmware::products::analog_io::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 //! mailbox access ([`virtual_board::rig::sdo_client::MailboxClient`]).
 
 use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage, SubDeviceRef};
-use firmware::product::device::DEVICE;
+use firmware::products::analog_io::device::DEVICE;
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;

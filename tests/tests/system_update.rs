@@ -15,11 +15,11 @@
 use coe_core::device::{MemoryWindow, SyncManagerDesc};
 use coe_core::wire::FoeErrorCode;
 use ethercrab::{std::ethercat_now, SubDeviceRef};
-use firmware::boot::header::Target;
-use firmware::boot::install::Stay;
-use firmware::product::device::DEVICE;
-use firmware::product::identity::UPDATE_TARGET;
-use firmware::product::layout::BOOTSTRAP_MAILBOX;
+use firmware::platform::boot::header::Target;
+use firmware::platform::boot::install::Stay;
+use firmware::products::analog_io::device::DEVICE;
+use firmware::products::analog_io::identity::UPDATE_TARGET;
+use firmware::products::analog_io::layout::BOOTSTRAP_MAILBOX;
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};

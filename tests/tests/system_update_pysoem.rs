@@ -9,8 +9,8 @@
 //! cannot run. As in `system_iface_veth.rs`, everything happens in a private network
 //! namespace of the test's own thread.
 
-use firmware::boot::header::Target;
-use firmware::product::identity::UPDATE_TARGET;
+use firmware::platform::boot::header::Target;
+use firmware::products::analog_io::identity::UPDATE_TARGET;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -11,7 +11,7 @@
 //! and next to the application's ELF (`release/`):
 //!
 //! - `analog-io.bin`: the application image from 0x3100, its vectors checked;
-//! - `analog-io.efw`: the update file, the header block (`firmware::boot::header`: identity,
+//! - `analog-io.efw`: the update file, the header block (`firmware::platform::boot::header`: identity,
 //!   hardware revision, version, length, CRC-32) and the application image;
 //! - `flash-image.bin`: what `cargo xtask flash` writes from address 0 (bootloader, update
 //!   file in the slot, the staging area's header erased).
@@ -22,9 +22,9 @@
 use crate::image::{self, Budget, Crp, Usage, BOOT_BUDGET, BUDGET};
 use crate::setup;
 use crate::util::{cargo, exec, root, Result};
-use firmware::boot::header::HeaderRepr;
-use firmware::boot::layout::APP_VECTORS;
-use firmware::product::identity::{NAMES, UPDATE_TARGET};
+use firmware::platform::boot::header::HeaderRepr;
+use firmware::platform::boot::layout::APP_VECTORS;
+use firmware::products::analog_io::identity::{NAMES, UPDATE_TARGET};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

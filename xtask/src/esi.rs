@@ -1,5 +1,5 @@
 //! `cargo xtask esi [--out DIR]`: the files a configuration tool needs, generated from the
-//! firmware's one device description (`firmware::product::device::DEVICE`): the ESI XML
+//! firmware's one device description (`firmware::products::analog_io::device::DEVICE`): the ESI XML
 //! (`<order code>.xml`, ETG.2000), validated against the ETG.2000 schema when the schema and
 //! `xmllint` are at hand, and the SII EEPROM image (`<order code>.bin`, the whole EEPROM:
 //! the generated image, then erased bytes 0xFF) for an EEPROM programmer or a master's
@@ -29,7 +29,7 @@ pub fn run(args: &Args) -> Result {
         .clone()
         .unwrap_or_else(|| root().join("target").join("esi"));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let desc = &firmware::product::device::DEVICE;
+    let desc = &firmware::products::analog_io::device::DEVICE;
     let xml = write_xml(desc, &dir)?;
     write_sii(desc, &dir)?;
     write_eds(desc, &dir)?;
@@ -54,8 +54,12 @@ fn write_xml(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
 /// Writes `<stem>.eds` into `dir`; returns its path.
 pub fn write_eds(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
     let mut eds = String::new();
-    coe_core::eds::write_eds(desc, &firmware::product::can::EDS_INFO, &mut eds)
-        .map_err(|e| e.to_string())?;
+    coe_core::eds::write_eds(
+        desc,
+        &firmware::products::analog_io::can::EDS_INFO,
+        &mut eds,
+    )
+    .map_err(|e| e.to_string())?;
     let path = dir.join(format!("{}.eds", file_stem(desc)));
     std::fs::write(&path, &eds).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("EDS: {} ({} bytes)", path.display(), eds.len());
@@ -112,21 +116,26 @@ mod tests {
 
     #[test]
     fn file_stem_keeps_safe_characters_only() {
-        let mut desc = firmware::product::device::DEVICE;
+        let mut desc = firmware::products::analog_io::device::DEVICE;
         desc.names.order_code = "AIO-8AI/2AO v1.0";
         assert_eq!(file_stem(&desc), "AIO-8AI_2AO_v1_0");
-        assert_eq!(file_stem(&firmware::product::device::DEVICE), "AIO-8AI2AO");
+        assert_eq!(
+            file_stem(&firmware::products::analog_io::device::DEVICE),
+            "AIO-8AI2AO"
+        );
     }
 
     #[test]
     fn the_module_esi_is_written() {
         let dir = std::env::temp_dir().join(format!("xtask-esi-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = write_xml(&firmware::product::device::DEVICE, &dir).unwrap();
+        let path = write_xml(&firmware::products::analog_io::device::DEVICE, &dir).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(text.starts_with("<?xml"));
-        let product = firmware::product::device::DEVICE.identity.product_code;
+        let product = firmware::products::analog_io::device::DEVICE
+            .identity
+            .product_code;
         assert!(text.contains(&format!("<Type ProductCode=\"#x{product:08X}\"")));
         assert!(text.trim_end().ends_with("</EtherCATInfo>"));
     }
@@ -135,7 +144,7 @@ mod tests {
     fn the_module_sii_is_written() {
         let dir = std::env::temp_dir().join(format!("xtask-sii-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let desc = &firmware::product::device::DEVICE;
+        let desc = &firmware::products::analog_io::device::DEVICE;
         let path = write_sii(desc, &dir).unwrap();
         let bin = std::fs::read(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
@@ -160,8 +169,8 @@ mod tests {
     /// what the firmware's sync monitor answers for them over SDO.
     #[test]
     fn the_minimum_cycle_is_one_figure() {
-        use firmware::product::sync::MIN_CYCLE_TIME_NS;
-        let desc = &firmware::product::device::DEVICE;
+        use firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS;
+        let desc = &firmware::products::analog_io::device::DEVICE;
         assert_eq!(desc.dc.min_cycle_ns, MIN_CYCLE_TIME_NS);
         let mut xml = String::new();
         coe_core::esi::write_esi(desc, &mut xml).unwrap();
@@ -185,7 +194,7 @@ mod tests {
                 .collect();
             assert_eq!(bytes, MIN_CYCLE_TIME_NS.to_le_bytes(), "{index}:05 = {hex}");
         }
-        let monitor = firmware::app::sync::SyncMonitor::new();
+        let monitor = firmware::stacks::ethercat::sync::SyncMonitor::new();
         for inputs in [false, true] {
             let mut buf = [0u8; 4];
             assert_eq!(monitor.read(inputs, 5, &mut buf), Ok(4));

@@ -566,9 +566,9 @@ mod tests {
                 },
                 crp: Crp::None(u32::MAX),
                 efw: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.efw"),
-                header: firmware::boot::header::HeaderRepr::for_image(
+                header: firmware::platform::boot::header::HeaderRepr::for_image(
                     &[],
-                    &firmware::product::identity::UPDATE_TARGET,
+                    &firmware::products::analog_io::identity::UPDATE_TARGET,
                     "0.1.0",
                 ),
                 image: PathBuf::from("/w/target/thumbv7m-none-eabi/release/flash-image.bin"),

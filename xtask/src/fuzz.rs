@@ -245,7 +245,7 @@ fn save<'a>(dir: &Path, inputs: impl Iterator<Item = &'a Vec<u8>>) -> Result {
 
 /// The firmware's SII EEPROM, as `cargo xtask esi` writes it.
 fn firmware_sii() -> Result<Vec<u8>> {
-    let desc = &firmware::product::device::DEVICE;
+    let desc = &firmware::products::analog_io::device::DEVICE;
     let mut eeprom = vec![0u8; desc.eeprom.size_bytes as usize];
     coe_core::sii::generate_eeprom(desc, &mut eeprom).map_err(|e| e.to_string())?;
     Ok(eeprom)

@@ -1,6 +1,6 @@
 //! The pure logic of the firmware images: ELF -> BIN, the LPC17xx vector checksum, the Code
 //! Read Protection word, the flash/RAM accounting against the budgets, and the files made of
-//! the two programs (`firmware::boot::layout`): the update file (`.efw`: the application slot,
+//! the two programs (`firmware::platform::boot::layout`): the update file (`.efw`: the application slot,
 //! header block then the application) and the flash image (bootloader, application slot, the
 //! staging area's header erased). No I/O here; the `build` and `size` commands feed it bytes.
 //!
@@ -11,8 +11,10 @@
 //! * The word at 0x2FC is the CRP: 0x12345678 CRP1, 0x87654321 CRP2, 0x43218765 CRP3
 //!   (permanent: no SWD, no ISP), 0x4E697370 NO_ISP; any other value = no protection.
 
-use firmware::boot::header::{HeaderRepr, Target};
-use firmware::boot::layout::{self, APP_SLOT, APP_VECTORS, BOOTLOADER, HEADER_BLOCK, STAGING};
+use firmware::platform::boot::header::{HeaderRepr, Target};
+use firmware::platform::boot::layout::{
+    self, APP_SLOT, APP_VECTORS, BOOTLOADER, HEADER_BLOCK, STAGING,
+};
 use flash_algo::crp;
 use object::elf;
 use object::read::elf::{FileHeader, ProgramHeader, SectionHeader};
@@ -47,7 +49,7 @@ pub const BUDGET: Budget = Budget {
     ram: 6 * 1024,
 };
 
-/// The budget of the bootloader: its region (`firmware::boot::layout::BOOTLOADER`); static RAM as the application's (the two
+/// The budget of the bootloader: its region (`firmware::platform::boot::layout::BOOTLOADER`); static RAM as the application's (the two
 /// never run at the same time).
 pub const BOOT_BUDGET: Budget = Budget {
     flash: layout::BOOTLOADER_BUDGET as u64,
@@ -603,14 +605,17 @@ mod tests {
         let mut app = vec![0x5A; 0x300];
         app[0..4].copy_from_slice(&0x1000_3FD8u32.to_le_bytes());
         app[4..8].copy_from_slice(&0x0000_3201u32.to_le_bytes());
-        let target = firmware::product::identity::UPDATE_TARGET;
+        let target = firmware::products::analog_io::identity::UPDATE_TARGET;
         let (efw, header) = update_file(&app, &target, "1.2.3").unwrap();
         assert_eq!(efw.len(), 256 + app.len());
         assert_eq!(&efw[256..], &app[..]);
         assert_eq!(&efw[..4], b"AEFW");
         assert_eq!(header.version_str(), Some("1.2.3"));
         assert_eq!(header.image_len, 0x300);
-        assert_eq!(header.image_crc, firmware::boot::crc32::crc32(&app));
+        assert_eq!(
+            header.image_crc,
+            firmware::platform::boot::crc32::crc32(&app)
+        );
         assert_eq!(header.check(&target), Ok(()));
         // Vectors of an image linked elsewhere are refused.
         let mut elsewhere = app.clone();

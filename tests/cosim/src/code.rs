@@ -194,8 +194,8 @@ mod tests {
     #[test]
     fn hashes_are_stripped() {
         assert_eq!(
-            strip_hash("firmware::app::SlaveApp::poll::h0123456789abcdef"),
-            "firmware::app::SlaveApp::poll"
+            strip_hash("firmware::stacks::ethercat::SlaveApp::poll::h0123456789abcdef"),
+            "firmware::stacks::ethercat::SlaveApp::poll"
         );
         assert_eq!(strip_hash("EINT3"), "EINT3");
     }

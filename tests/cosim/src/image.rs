@@ -4,13 +4,13 @@
 //! else the ROM stays in ISP and never starts the image) and the Code Read Protection word
 //! at 0x2FC.
 //!
-//! The release flash holds two programs (`firmware::boot::layout`): the bootloader from 0,
+//! The release flash holds two programs (`firmware::platform::boot::layout`): the bootloader from 0,
 //! and the update file (`.efw`: header block, then the application linked at 0x3100) in the
 //! application slot ([`Image::from_programs`]). A single ELF from 0 also loads
 //! ([`Image::from_elf`], for tests of the boot ROM's checks).
 
-use firmware::boot::header::{Header, HeaderRepr, Target};
-use firmware::boot::layout::{APP_SLOT, APP_VECTORS, HEADER_BLOCK};
+use firmware::platform::boot::header::{Header, HeaderRepr, Target};
+use firmware::platform::boot::layout::{APP_SLOT, APP_VECTORS, HEADER_BLOCK};
 use object::elf::PT_LOAD;
 use object::read::elf::{ElfFile32, ProgramHeader, SectionHeader};
 use object::{Endianness, Object, ObjectSection, ObjectSymbol};

@@ -101,7 +101,7 @@ fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
             }
             if args.node_id != sim::DEFAULT_NODE_ID {
                 return Err(format!(
-                    "the image's CANopen node-ID is {} (firmware::product::can): --node-id \
+                    "the image's CANopen node-ID is {} (firmware::products::analog_io::can): --node-id \
                      applies to the host-compiled application",
                     sim::DEFAULT_NODE_ID
                 ));

@@ -6,9 +6,9 @@
 //! must not fault and no model may report a problem (pins, power, clocks, bit rate).
 
 use coe_core::canopen::{CanFrame, NmtCommand};
-use firmware::app::scaling::ao_to_dac_code;
-use firmware::product::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
-use firmware::product::identity::NAMES;
+use firmware::io::analog::scaling::ao_to_dac_code;
+use firmware::products::analog_io::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
+use firmware::products::analog_io::identity::NAMES;
 use lpc1754_cosim::bench::{dc_run_with_can, CanLoad};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::run::{image_target, load_image};
@@ -119,7 +119,7 @@ fn the_image_is_a_canopen_node_on_can1() {
 #[test]
 fn dc_cycles_keep_every_sync0_with_can_traffic() {
     let image = load_image().expect("the release image");
-    let cycle_ns = u64::from(firmware::product::sync::MIN_CYCLE_TIME_NS);
+    let cycle_ns = u64::from(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS);
     let load = CanLoad {
         sync_every: 1_000_000 / cycle_ns,
         sdo_every: 2_500_000 / cycle_ns,

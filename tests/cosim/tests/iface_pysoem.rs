@@ -11,7 +11,7 @@
 mod common;
 
 use common::run_script_against_image;
-use firmware::product::identity::{IDENTITY, NAMES};
+use firmware::products::analog_io::identity::{IDENTITY, NAMES};
 use serde_json::Value;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;

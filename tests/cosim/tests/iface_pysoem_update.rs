@@ -13,7 +13,7 @@
 mod common;
 
 use common::{new_update_file, run_script_against_image};
-use firmware::product::identity::{NAMES, UPDATE_TARGET};
+use firmware::products::analog_io::identity::{NAMES, UPDATE_TARGET};
 use serde_json::Value;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;

@@ -8,9 +8,9 @@
 
 use ethercrab::error::{CoeAbortCode, Error, MailboxError};
 use ethercrab::{std::ethercat_now, PduStorage, SubDeviceState};
-use firmware::product::device::DEVICE;
-use firmware::product::identity::{IDENTITY, NAMES};
-use firmware::product::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
+use firmware::products::analog_io::device::DEVICE;
+use firmware::products::analog_io::identity::{IDENTITY, NAMES};
+use firmware::products::analog_io::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use futures_lite::future::{block_on, or};
 use lpc1754_cosim::bench::{al_status, master, step_to, Board};
 use lpc1754_cosim::cosim::Options;
@@ -124,7 +124,10 @@ fn boot_to_preop_sdo_sdo_info_and_segmented_upload() {
                 .await
                 .unwrap()
                 .expect("SDO Information");
-            let want: Vec<u16> = firmware::product::od::OD.iter().map(|o| o.index).collect();
+            let want: Vec<u16> = firmware::products::analog_io::od::OD
+                .iter()
+                .map(|o| o.index)
+                .collect();
             assert_eq!(all.to_vec(), want);
         },
         tx_rx_task(board.clone(), tx, rx),
@@ -142,7 +145,7 @@ fn dc_op_and_ten_thousand_cycles_with_dac_and_adc_checked() {
     let image = load_image().expect("the release image");
     let run = lpc1754_cosim::bench::dc_run(
         &image,
-        u64::from(firmware::product::sync::MIN_CYCLE_TIME_NS),
+        u64::from(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS),
         10_000,
         false,
     )

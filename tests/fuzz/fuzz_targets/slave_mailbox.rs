@@ -11,12 +11,12 @@
 #![no_main]
 
 use coe_core::wire::{Mailbox, MailboxRepr, MailboxType};
-use firmware::app::outputs::OutputStage;
-use firmware::app::process_data::ProcessData;
-use firmware::app::{AppConfig, SlaveApp};
+use firmware::io::analog::outputs::OutputStage;
+use firmware::io::analog::process_data::ProcessData;
+use firmware::stacks::ethercat::{AppConfig, SlaveApp};
 use firmware::fake_esc::FakeEsc;
-use firmware::product::layout::SYNC_MANAGERS;
-use firmware::product::od::OD;
+use firmware::products::analog_io::layout::SYNC_MANAGERS;
+use firmware::products::analog_io::od::OD;
 use libfuzzer_sys::fuzz_target;
 
 /// The process RAM of the register file: SyncManager buffers live there (an ESC's

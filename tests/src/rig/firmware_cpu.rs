@@ -1,6 +1,6 @@
-//! The firmware's own PDI task ([`firmware::app::pdi_task::PdiTask`] around the
-//! [`firmware::app::SlaveApp`]), DAC task ([`firmware::app::dac::OutputDac`] with the
-//! [`DacLatch`]) and ADC scan ([`firmware::app::adc_scan::SCAN_CONFIG`]) running on the
+//! The firmware's own PDI task ([`firmware::stacks::ethercat::pdi_task::PdiTask`] around the
+//! [`firmware::stacks::ethercat::SlaveApp`]), DAC task ([`firmware::io::analog::dac::OutputDac`] with the
+//! [`DacLatch`]) and ADC scan ([`firmware::io::analog::adc_scan::SCAN_CONFIG`]) running on the
 //! board's models through the real driver crates, with the interrupts in priority order on
 //! virtual time:
 //!
@@ -11,7 +11,7 @@
 //! | after every event  | PDI task background       | `PdiTask::run` (poll)                        |
 //! | SysTick (1 ms)     | `tick` -> PDI task        | `PdiTask::run` (poll)                        |
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
-//! | CAN frame received, CAN node deadline, PDI task left CAN work | CAN task (same priority as the PDI task) | [`firmware::app::can_task::run`] on the board's CAN bus ([`BusController`]) |
+//! | CAN frame received, CAN node deadline, PDI task left CAN work | CAN task (same priority as the PDI task) | [`firmware::stacks::canopen::task::run`] on the board's CAN bus ([`BusController`]) |
 //!
 //! Power-up follows the firmware's `init`: the DAC is set up first, then `init` waits for
 //! the ESC's EEPROM_LOADED pin, polled every 100 us for at most [`INIT_EEPROM_WAIT_NS`]
@@ -43,14 +43,14 @@ use crate::rig::board::{BoardIo, PdiCpu};
 use ad7689::Ad7689;
 use coe_core::canopen::CanFrame;
 use et1100::{Et1100, SpiPdi};
-use firmware::app::adc_scan::SCAN_CONFIG;
-use firmware::app::can_task::{self, CanController, CanInbox};
-use firmware::app::dac::OutputDac;
-use firmware::app::outputs::{DacAction, DacLatch, OutputStage};
-use firmware::app::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
-use firmware::app::process_data::ProcessData;
-use firmware::app::sampler::{Sample, Sampler};
-use firmware::app::{AppConfig, SlaveApp};
+use firmware::io::analog::adc_scan::SCAN_CONFIG;
+use firmware::io::analog::dac::OutputDac;
+use firmware::io::analog::outputs::{DacAction, DacLatch, OutputStage};
+use firmware::io::analog::process_data::ProcessData;
+use firmware::io::analog::sampler::{Sample, Sampler};
+use firmware::stacks::canopen::task::{self as can_task, CanController, CanInbox};
+use firmware::stacks::ethercat::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
+use firmware::stacks::ethercat::{AppConfig, SlaveApp};
 
 /// What the device description gives the firmware: the object dictionary, the SyncManager
 /// expectations, the default PDO configuration and the SII image.

@@ -2,10 +2,10 @@
 //! `lpc17xx-iap` model, shared so a test can look at it) and the boot request word between
 //! them, with the bootloader's reset sequence at every reset:
 //!
-//! - reset: [`firmware::boot::install::startup`] on the flash (install a staged update,
+//! - reset: [`firmware::platform::boot::install::startup`] on the flash (install a staged update,
 //!   check the application slot), then the application ([`FirmwareCpu`]) or, if a boot
 //!   request came or no valid application is there, the bootloader's slave
-//!   ([`firmware::boot::slave::BootSlave`] on the ESC through the same driver and SPI model);
+//!   ([`firmware::stacks::ethercat::boot_slave::BootSlave`] on the ESC through the same driver and SPI model);
 //! - the application asks for the bootloader (a master's INIT -> BOOT,
 //!   [`FirmwareCpu::bootloader_requested`]): request word set, reset;
 //! - the bootloader's BOOT -> INIT (or PREOP with a valid application): reset.
@@ -21,12 +21,12 @@ use crate::models::spi::EscSpi;
 use crate::rig::board::{BoardIo, PdiCpu};
 use crate::rig::firmware_cpu::{Device, FirmwareCpu};
 use et1100::{Et1100, SpiPdi};
-use firmware::boot::header::{HeaderRepr, Target};
-use firmware::boot::install::{check_image, startup, Startup};
-use firmware::boot::layout::APP_SLOT;
-use firmware::boot::slave::{BootSlave, Bootstrap};
-use firmware::product::identity::UPDATE_TARGET;
-use firmware::product::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
+use firmware::platform::boot::header::{HeaderRepr, Target};
+use firmware::platform::boot::install::{check_image, startup, Startup};
+use firmware::platform::boot::layout::APP_SLOT;
+use firmware::products::analog_io::identity::UPDATE_TARGET;
+use firmware::products::analog_io::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
+use firmware::stacks::ethercat::boot_slave::{BootSlave, Bootstrap};
 use lpc17xx_iap::model::FlashModel;
 use lpc17xx_iap::{Iap, IapEntry};
 use std::cell::RefCell;

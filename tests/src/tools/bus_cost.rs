@@ -25,7 +25,7 @@ const PD_OUT: u16 = 0x1100;
 const PD_IN: u16 = 0x1180;
 
 /// An object longer than the mailbox data area (the module description string of
-/// `firmware::product::od`), uploaded in segments.
+/// `firmware::products::analog_io::od`), uploaded in segments.
 const SEGMENTED_UPLOAD_INDEX: u16 = 0x2001;
 
 /// Address bytes of one access (2-byte addressing).
@@ -477,7 +477,7 @@ pub fn measure(target: Target, cycle_ns: u64, cycles: u64) -> Result<BusReport, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firmware::product::sync::MIN_CYCLE_TIME_NS;
+    use firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS;
 
     #[test]
     fn minimum_follows_the_spi_protocol() {

@@ -41,7 +41,7 @@ impl Rng {
 }
 
 /// The cycle of the campaign's process data: a round figure at or above the advertised minimum
-/// (`firmware::product::sync::MIN_CYCLE_TIME_NS`), which the firmware enforces.
+/// (`firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS`), which the firmware enforces.
 pub const CYCLE: u64 = 100_000;
 
 /// CiA 401 AO error mode (0x6443: 1 = go to the error value, 0 = keep) and error value

@@ -1,11 +1,11 @@
 //! The firmware's hot paths as benchmark scenarios, for a real Cortex-M3 instruction set
 //! (`cargo xtask bench` runs `src/main.rs` under QEMU with an instruction-counting plugin).
 //!
-//! Everything measured is the firmware's own code ([`firmware::app`], `coe-core`); only the
+//! Everything measured is the firmware's own code ([`firmware::stacks::ethercat`], `coe-core`); only the
 //! ESC is the register file of the firmware's tests ([`FakeEsc`], in RAM), so the counts are
 //! the application's CPU work without the SPI transfers (those are counted in bytes on the
 //! virtual board and converted to time separately). A [`Rig`] is brought to OP in DC SYNC0
-//! mode with the module's own description ([`firmware::product`]:
+//! mode with the module's own description ([`firmware::products::analog_io`]:
 //! default process data 2 AO in SM2, 8 AI in SM3), then each path is
 //! prepared (not measured), run (measured) and checked (not measured):
 //!
@@ -32,17 +32,17 @@ use core::hint::black_box;
 use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
 use et1100::{Et1100, SpiPdi};
-use firmware::app::adc_dma::{
+pub use firmware::fake_esc::FakeEsc;
+use firmware::io::analog::adc_dma::{
     words_written, HalfCounter, PositionError, ScanReader, HALF_WORDS, RING_WORDS,
 };
-use firmware::app::outputs::{DacAction, DacLatch, DacPair, OutputStage};
-use firmware::app::process_data::ProcessData;
-use firmware::app::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
-use firmware::app::AppConfig;
-use firmware::app::{PdiOutcome, SlaveApp};
-pub use firmware::fake_esc::FakeEsc;
-use firmware::product::capacity::{AI_CHANNELS as CHANNELS, MAILBOX_SIZE};
-use firmware::product::od::OD;
+use firmware::io::analog::outputs::{DacAction, DacLatch, DacPair, OutputStage};
+use firmware::io::analog::process_data::ProcessData;
+use firmware::io::analog::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
+use firmware::products::analog_io::capacity::{AI_CHANNELS as CHANNELS, MAILBOX_SIZE};
+use firmware::products::analog_io::od::OD;
+use firmware::stacks::ethercat::AppConfig;
+use firmware::stacks::ethercat::{PdiOutcome, SlaveApp};
 
 /// Ring length of the sampler scenario (one scan fits many times).
 pub const RING: usize = 64;

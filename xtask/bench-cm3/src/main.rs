@@ -19,9 +19,9 @@ fn main() {
 mod runner {
     use bench_cm3::{drain, driver_port, push_one, queue_scan, CheckFailed, DmaRig, Rig, RING};
     use core::hint::black_box;
-    use firmware::app::adc_dma::HalfCounter;
-    use firmware::app::outputs::DacAction;
-    use firmware::app::sampler::{PublishMode, SampleRing, Sampler};
+    use firmware::io::analog::adc_dma::HalfCounter;
+    use firmware::io::analog::outputs::DacAction;
+    use firmware::io::analog::sampler::{PublishMode, SampleRing, Sampler};
 
     /// Semihosting operations (ARM semihosting specification).
     const SYS_WRITE0: u32 = 0x04;
@@ -95,7 +95,7 @@ mod runner {
 
     fn run() -> Result<(), CheckFailed> {
         // DC SYNC0 at the module's shortest cycle, the cycle of the bench's bus-cost run.
-        let mut rig = Rig::new(firmware::product::sync::MIN_CYCLE_TIME_NS)?;
+        let mut rig = Rig::new(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS)?;
         for _ in 0..4 {
             rig.cycle()?;
         }

@@ -1,11 +1,11 @@
 //! The scenarios do what the benchmark claims they measure.
 
 use super::*;
-use firmware::app::sampler::SampleRing;
-use firmware::app::sync::SyncMode;
+use firmware::io::analog::sampler::SampleRing;
+use firmware::stacks::ethercat::sync::SyncMode;
 
 fn rig() -> Rig {
-    let mut r = Rig::new(firmware::product::sync::MIN_CYCLE_TIME_NS).unwrap();
+    let mut r = Rig::new(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS).unwrap();
     assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
     for _ in 0..4 {
         r.cycle().unwrap();

@@ -1,11 +1,11 @@
 //! The minimum cycle the module advertises (0x1C32:05/0x1C33:05, the ESI:
-//! `firmware::product::sync::MIN_CYCLE_TIME_NS`) against the minimum DC cycle the bench
+//! `firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS`) against the minimum DC cycle the bench
 //! measures: the constant must be at least the measured figure plus the product's margin
 //! (`MIN_CYCLE_MARGIN_PERCENT`), or a master that trusts it configures a cycle the module
 //! cannot hold.
 
 use super::report::{Group, Row, Verdict};
-use firmware::product::sync::{MIN_CYCLE_MARGIN_PERCENT, MIN_CYCLE_TIME_NS};
+use firmware::products::analog_io::sync::{MIN_CYCLE_MARGIN_PERCENT, MIN_CYCLE_TIME_NS};
 
 /// The advertised figure checked against a measurement.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,7 +49,7 @@ impl MinCycle {
     pub fn check(&self) -> crate::util::Result {
         if self.too_low() {
             return Err(format!(
-                "the advertised minimum cycle ({:.1} us, firmware::product::sync::MIN_CYCLE_TIME_NS) \
+                "the advertised minimum cycle ({:.1} us, firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS) \
                  is below the measured minimum DC cycle plus the margin ({:.1} us): see the table",
                 self.advertised_us,
                 self.required_us()
@@ -68,7 +68,7 @@ impl MinCycle {
         let verdict = if self.too_low() {
             Verdict::Missed(format!(
                 "advertised figure too low: a master may configure a cycle the module cannot \
-                 hold; set firmware::product::sync::MIN_CYCLE_TIME_NS to at least {:.0} us",
+                 hold; set firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS to at least {:.0} us",
                 self.suggestion_us()
             ))
         } else if self.advertised_us > self.suggestion_us() + 1.0 {

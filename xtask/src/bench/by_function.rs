@@ -36,7 +36,7 @@ pub trait Symbols {
     fn frames(&self, pc: u64) -> Vec<String>;
 }
 
-/// The crate a function's path names: `firmware` of `firmware::app::SlaveApp::poll`; for an
+/// The crate a function's path names: `firmware` of `firmware::stacks::ethercat::SlaveApp::poll`; for an
 /// impl `<A as B>::f` both A's and B's (the impl lives in one of them).
 fn crates_of(function: &str) -> Vec<&str> {
     fn first_segment(path: &str) -> Option<&str> {
@@ -450,9 +450,12 @@ mod tests {
 
     #[test]
     fn crates_come_from_the_path_and_both_sides_of_an_impl() {
-        assert_eq!(crates_of("firmware::app::SlaveApp::poll"), ["firmware"]);
         assert_eq!(
-            crates_of("firmware::app::mailbox::MailboxLink<S,_>::needs_service"),
+            crates_of("firmware::stacks::ethercat::SlaveApp::poll"),
+            ["firmware"]
+        );
+        assert_eq!(
+            crates_of("firmware::stacks::ethercat::mailbox::MailboxLink<S,_>::needs_service"),
             ["firmware"]
         );
         assert_eq!(

@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
     /// Only the advertised-minimum rule: the image's shortest sustained DC cycle on the
-    /// co-simulator (group 7) against firmware::product::sync::MIN_CYCLE_TIME_NS, with the
+    /// co-simulator (group 7) against firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS, with the
     /// least figure the rule allows (no QEMU; with --quick the short sweep).
     #[arg(long)]
     pub min_cycle: bool,
@@ -66,7 +66,7 @@ repeat from run to run; times follow from them with the constants printed under 
 /// DC cycle time of the process-data measurement and of the loop-back: the shortest the
 /// module accepts (its advertised minimum; the thesis asks for 20 kHz = 50 us, which the
 /// image does not sustain: group 3).
-const CYCLE_US: u32 = firmware::product::sync::MIN_CYCLE_TIME_NS / 1000;
+const CYCLE_US: u32 = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS / 1000;
 /// Loop-back frequencies (the thesis' 50, 500 and 1000 Hz).
 const FREQS_HZ: [f64; 3] = [50.0, 500.0, 1000.0];
 /// Periods shown per frequency in the plot.
@@ -201,11 +201,13 @@ fn register_name(addr: u16) -> String {
                 .map(|n| format!("SM{n} registers"))
         })
         .or_else(|| {
-            firmware::product::layout::SYNC_MANAGERS
+            firmware::products::analog_io::layout::SYNC_MANAGERS
                 .iter()
                 .position(|sm| sm.start == addr)
                 .map(|n| {
-                    let role = firmware::product::layout::SYNC_MANAGERS[n].role.esi_name();
+                    let role = firmware::products::analog_io::layout::SYNC_MANAGERS[n]
+                        .role
+                        .esi_name();
                     format!("SM{n} {role} buffer")
                 })
         });
@@ -271,7 +273,7 @@ fn bus_rows(bus: &BusReport) -> Vec<Row> {
         if pd {
             let limit = 1.1 * c.minimum_bytes as f64;
             let (out, inp) = bus.process_data_bytes;
-            let [_, _, sm2, sm3] = &firmware::product::layout::SYNC_MANAGERS;
+            let [_, _, sm2, sm3] = &firmware::products::analog_io::layout::SYNC_MANAGERS;
             let needed = [
                 ("read", sm2.start, usize::from(out)),
                 ("write", sm3.start, usize::from(inp)),
@@ -586,7 +588,7 @@ impl Footprint {
         let note = if self.has_app {
             String::new()
         } else {
-            "the image does not link the slave application yet (firmware::app and coe-core \
+            "the image does not link the slave application yet (firmware::stacks::ethercat and coe-core \
              are not wired into the RTIC binary), so this is the hardware layer alone"
                 .to_string()
         };

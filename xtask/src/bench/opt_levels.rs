@@ -12,7 +12,7 @@ use super::{cm3, model, Derived};
 use crate::build::{self, target_dir, Profile};
 use crate::image;
 use crate::util::Result;
-use firmware::boot::layout::APP_VECTORS;
+use firmware::platform::boot::layout::APP_VECTORS;
 use virtual_board::tools::bus_cost;
 use virtual_board::tools::sim;
 

@@ -1,9 +1,9 @@
 //! What the co-simulator's system tests share.
 #![allow(dead_code)]
 
-use firmware::boot::header::{HeaderRepr, Target};
-use firmware::boot::layout::HEADER_BLOCK;
-use firmware::product::identity::NAMES;
+use firmware::platform::boot::header::{HeaderRepr, Target};
+use firmware::platform::boot::layout::HEADER_BLOCK;
+use firmware::products::analog_io::identity::NAMES;
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::run::{image_path, image_target, load_image};
 use serde_json::Value;

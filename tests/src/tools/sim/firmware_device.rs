@@ -1,13 +1,13 @@
 //! The firmware's own device description on the board: its object dictionary, the
-//! [`AppConfig`](firmware::app::AppConfig) and default process data derived from it, and the
+//! [`AppConfig`](firmware::stacks::ethercat::AppConfig) and default process data derived from it, and the
 //! SII image generated from it by `coe_core::sii` (the image the ESC model loads and the
 //! master reads).
 
 use crate::rig::firmware_cpu::Device;
 use coe_core::device::DeviceDescription;
-use firmware::app::process_data::ProcessData;
-use firmware::app::AppConfig;
-use firmware::product::device::DEVICE;
+use firmware::io::analog::process_data::ProcessData;
+use firmware::products::analog_io::device::DEVICE;
+use firmware::stacks::ethercat::AppConfig;
 
 /// The SII EEPROM image of `desc`: the generated image, the rest of the EEPROM erased
 /// (0xFF) as on a programmed part.
@@ -17,7 +17,7 @@ pub fn sii_image(desc: &DeviceDescription) -> Result<Vec<u8>, coe_core::sii::Sii
     Ok(image)
 }
 
-/// The module as the firmware describes it (`firmware::product::device::DEVICE`).
+/// The module as the firmware describes it (`firmware::products::analog_io::device::DEVICE`).
 pub fn device() -> Result<Device, String> {
     let sii = sii_image(&DEVICE).map_err(|e| e.to_string())?;
     Ok(Device {

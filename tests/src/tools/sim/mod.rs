@@ -56,7 +56,7 @@ pub const DEFAULT_AMPLITUDE_V: f64 = 4.0;
 pub const DEFAULT_OFFSET_V: f64 = 5.0;
 
 /// The module's CANopen node-ID unless configured.
-pub const DEFAULT_NODE_ID: u8 = firmware::product::can::DEFAULT_NODE_ID;
+pub const DEFAULT_NODE_ID: u8 = firmware::products::analog_io::can::DEFAULT_NODE_ID;
 
 /// What `cargo xtask sim` does.
 #[derive(Clone, Debug, PartialEq)]
@@ -232,7 +232,7 @@ impl SimConfig {
 pub fn can_bit_rates() -> impl Iterator<Item = u32> {
     coe_core::eds::BIT_RATES_KBIT
         .iter()
-        .zip(firmware::product::can::EDS_INFO.bit_rates)
+        .zip(firmware::products::analog_io::can::EDS_INFO.bit_rates)
         .filter(|(_, on)| *on)
         .map(|(kbit, _)| u32::from(*kbit) * 1000)
 }

@@ -1,0 +1,787 @@
+//! Process data: the PDO mapping (0x1600.., 0x1A00..) and assignment (0x1C12, 0x1C13)
+//! configurable in PREOP, the process image layouts built from them at PREOP -> SAFEOP, the
+//! SM2/SM3 checks against them, and the per-cycle copy SM2 -> outputs, inputs -> SM3.
+//!
+//! The per-cycle copy has a fast path: when every mapped object is byte-aligned and one
+//! the application holds in a plain variable ([`Slot`]: AI, AO, error register), the plan
+//! ([`FastImage`]) is built once at PREOP -> SAFEOP and a cycle copies the values straight
+//! between the image and the application; any other layout (bit fields, gaps inside a
+//! byte) takes the generic bit-exact path through [`ObjectAccess`].
+//!
+//! Validation and bit-exact packing are coe-core's ([`coe_core::pdo`]); this module owns the
+//! configuration and decides the AL status codes:
+//! - an assignment or mapping that does not validate: 0x0025 invalid output mapping /
+//!   0x0024 invalid input mapping;
+//! - SM2 (SM3) not matching the device description (start, mode and direction bits) or
+//!   its length not the size of the assigned RxPDOs (TxPDOs), or enabled/disabled against
+//!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
+
+use super::scaling::adc_code_to_ai;
+use crate::products::analog_io::capacity::{
+    AI_CHANNELS, AO_CHANNELS, MAX_FIELDS, MAX_IMAGE, PDO_ENTRIES, RX_PDOS, TX_PDOS,
+};
+use crate::products::analog_io::od;
+use crate::stacks::entry_bytes::{channel, put};
+use coe_core::device::{sm_control, SyncManagerDesc};
+use coe_core::od::{ObjectAccess, ObjectDictionary};
+use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoEntry, PdoMapping};
+use coe_core::{AlState, AlStatusCode, SdoAbortCode};
+use et1100::SyncManager;
+
+/// One PDO mapping object.
+pub type Mapping = PdoMapping<PDO_ENTRIES>;
+
+/// A process-data object the application holds in a plain variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Slot {
+    /// 0x6401:n (INTEGER16), `n - 1`.
+    Ai(u8),
+    /// 0x6411:n (INTEGER16), `n - 1`.
+    Ao(u8),
+    /// 0x1001 (UNSIGNED8).
+    ErrorRegister,
+}
+
+impl Slot {
+    /// The slot of a mapped object of `bit_len` bits, if it has one.
+    pub fn of(index: u16, subindex: u8, bit_len: u8) -> Option<Self> {
+        let n = subindex.wrapping_sub(1);
+        match (index, bit_len) {
+            (0x6401, 16) if usize::from(n) < AI_CHANNELS => Some(Self::Ai(n)),
+            (0x6411, 16) if usize::from(n) < AO_CHANNELS => Some(Self::Ao(n)),
+            (0x1001, 8) if subindex == 0 => Some(Self::ErrorRegister),
+            _ => None,
+        }
+    }
+
+    /// Bytes in the image.
+    const fn len(self) -> usize {
+        match self {
+            Self::ErrorRegister => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// A run of the fast-path plan: `count` objects of one kind, channels `first`,
+/// `first + 1`, .. at consecutive places of the image from byte `offset` (an error
+/// register is a run of its own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Run {
+    /// Byte offset of the first object in the image.
+    pub offset: u8,
+    /// The first object's slot.
+    pub first: Slot,
+    /// Objects in the run.
+    pub count: u8,
+}
+
+impl Run {
+    /// The run's image bytes and, for the channel kinds, its channel range.
+    fn spans(&self) -> (core::ops::Range<usize>, core::ops::Range<usize>) {
+        let (o, n) = (usize::from(self.offset), usize::from(self.count));
+        let channels = match self.first {
+            Slot::Ai(i) | Slot::Ao(i) => usize::from(i)..usize::from(i) + n,
+            Slot::ErrorRegister => 0..0,
+        };
+        (o..o + n * self.first.len(), channels)
+    }
+
+    /// Whether `slot` at byte `offset` is the next object of this run.
+    fn continued_by(&self, offset: u8, slot: Slot) -> bool {
+        let next = usize::from(self.offset) + usize::from(self.count) * slot.len();
+        let n = self.count;
+        usize::from(offset) == next
+            && match (self.first, slot) {
+                (Slot::Ai(a), Slot::Ai(b)) | (Slot::Ao(a), Slot::Ao(b)) => {
+                    a.checked_add(n) == Some(b)
+                }
+                _ => false,
+            }
+    }
+}
+
+/// The fast-path plan of one process image: the mapped objects as runs of consecutive
+/// channels, so a cycle copies each run in one loop (the default mapping is one run per
+/// direction) instead of deciding per object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FastImage {
+    runs: [Run; MAX_FIELDS],
+    count: usize,
+}
+
+impl FastImage {
+    /// The plan of `layout`, or `None` if an object is not byte-aligned, has no slot, or is
+    /// not allowed in this direction (`allow`).
+    pub fn build(layout: &ImageLayout<MAX_FIELDS>, allow: fn(Slot) -> bool) -> Option<Self> {
+        let mut plan = Self {
+            runs: [Run {
+                offset: 0,
+                first: Slot::ErrorRegister,
+                count: 0,
+            }; MAX_FIELDS],
+            count: 0,
+        };
+        for field in layout.fields() {
+            let slot =
+                Slot::of(field.index, field.subindex, field.bit_len).filter(|s| allow(*s))?;
+            let offset = u8::try_from(field.bit_offset / 8).ok()?;
+            if field.bit_offset % 8 != 0 || usize::from(offset) + slot.len() > MAX_IMAGE {
+                return None;
+            }
+            let last = plan.count.checked_sub(1).and_then(|i| plan.runs.get_mut(i));
+            if let Some(run) = last.filter(|r| r.continued_by(offset, slot)) {
+                run.count += 1;
+                continue;
+            }
+            *plan.runs.get_mut(plan.count)? = Run {
+                offset,
+                first: slot,
+                count: 1,
+            };
+            plan.count += 1;
+        }
+        Some(plan)
+    }
+
+    /// The runs of the plan, in image order.
+    pub fn runs(&self) -> &[Run] {
+        self.runs.get(..self.count).unwrap_or(&[])
+    }
+}
+
+/// The values a [`Slot`] names, for one cycle (borrowed: packing copies each value once,
+/// straight into the image).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SlotValues<'a> {
+    /// Published analog-input conversion codes (the 0x6401 values are
+    /// [`adc_code_to_ai`] of them).
+    pub ai_codes: &'a [u16; AI_CHANNELS],
+    /// Analog outputs.
+    pub ao: &'a [i16; AO_CHANNELS],
+    /// Error register (0x1001).
+    pub error_register: u8,
+}
+
+/// The PDO configuration and the process images.
+#[derive(Debug, Clone)]
+pub struct ProcessData {
+    rx: [Mapping; RX_PDOS],
+    tx: [Mapping; TX_PDOS],
+    rx_assign: PdoAssignment<RX_PDOS>,
+    tx_assign: PdoAssignment<TX_PDOS>,
+    defaults: (
+        [Mapping; RX_PDOS],
+        [Mapping; TX_PDOS],
+        PdoAssignment<RX_PDOS>,
+        PdoAssignment<TX_PDOS>,
+    ),
+    rx_layout: ImageLayout<MAX_FIELDS>,
+    tx_layout: ImageLayout<MAX_FIELDS>,
+    rx_fast: Option<FastImage>,
+    tx_fast: Option<FastImage>,
+    outputs: [u8; MAX_IMAGE],
+    inputs: [u8; MAX_IMAGE],
+}
+
+/// The product's default mapping objects, built when compiling (copied, not built, at
+/// start-up).
+const PRODUCT_RX: [Mapping; RX_PDOS] = mappings(od::RX_MAPPINGS, od::RX_DEFAULTS);
+const PRODUCT_TX: [Mapping; TX_PDOS] = mappings(od::TX_MAPPINGS, od::TX_DEFAULTS);
+
+/// The mapping objects `indices` with their default `entries`.
+const fn mappings<const N: usize>(indices: [u16; N], entries: [&[PdoEntry]; N]) -> [Mapping; N] {
+    let mut out = [Mapping::new(0); N];
+    let mut i = 0;
+    while i < N {
+        out[i] = Mapping::with_entries(indices[i], entries[i]);
+        i += 1;
+    }
+    out
+}
+
+/// Bits a PDO (and an assignment) may hold.
+const MAX_BITS: u32 = (MAX_IMAGE * 8) as u32;
+
+impl ProcessData {
+    /// The product's default configuration: the mapping objects with their default entries
+    /// and the assignments, from the constants the dictionary's defaults of 0x1600../
+    /// 0x1A00../0x1C12/0x1C13 are made of ([`od::RX_DEFAULTS`] and friends); a host test
+    /// reads it back against the dictionary.
+    pub fn product_default() -> Self {
+        Self::new(
+            PRODUCT_RX,
+            PRODUCT_TX,
+            &od::RX_ASSIGN_DEFAULT,
+            &od::TX_ASSIGN_DEFAULT,
+        )
+    }
+
+    /// A configuration: the mapping objects (their indices name them) and the assigned
+    /// PDOs.
+    pub fn new(
+        rx: [Mapping; RX_PDOS],
+        tx: [Mapping; TX_PDOS],
+        rx_assign: &[u16],
+        tx_assign: &[u16],
+    ) -> Self {
+        let rx_assign = PdoAssignment::with_pdos(0x1C12, rx_assign);
+        let tx_assign = PdoAssignment::with_pdos(0x1C13, tx_assign);
+        Self {
+            rx,
+            tx,
+            rx_assign,
+            tx_assign,
+            defaults: (rx, tx, rx_assign, tx_assign),
+            rx_layout: ImageLayout::new(),
+            tx_layout: ImageLayout::new(),
+            rx_fast: None,
+            tx_fast: None,
+            outputs: [0; MAX_IMAGE],
+            inputs: [0; MAX_IMAGE],
+        }
+    }
+
+    /// Back to the default configuration (INIT).
+    pub fn reset(&mut self) {
+        let (rx, tx, ra, ta) = self.defaults;
+        *self = Self {
+            rx,
+            tx,
+            rx_assign: ra,
+            tx_assign: ta,
+            defaults: self.defaults,
+            rx_layout: ImageLayout::new(),
+            tx_layout: ImageLayout::new(),
+            rx_fast: None,
+            tx_fast: None,
+            outputs: [0; MAX_IMAGE],
+            inputs: [0; MAX_IMAGE],
+        };
+    }
+
+    /// Size in bytes of the assigned RxPDOs (SM2 length).
+    pub fn output_len(&self) -> usize {
+        (self.rx_assign.bit_len(&self.rx) as usize).div_ceil(8)
+    }
+
+    /// Size in bytes of the assigned TxPDOs (SM3 length).
+    pub fn input_len(&self) -> usize {
+        (self.tx_assign.bit_len(&self.tx) as usize).div_ceil(8)
+    }
+
+    /// True if `index:subindex` is in an assigned RxPDO.
+    pub fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
+        self.rx_assign.pdos().iter().any(|pdo| {
+            self.rx.iter().any(|m| {
+                m.index() == *pdo
+                    && m.entries()
+                        .iter()
+                        .any(|e| e.index == index && e.subindex == subindex)
+            })
+        })
+    }
+
+    /// True for the objects this module serves (0x16xx, 0x1Axx of the offered PDOs,
+    /// 0x1C12, 0x1C13).
+    pub fn owns(&self, index: u16) -> bool {
+        index == 0x1C12
+            || index == 0x1C13
+            || self.rx.iter().any(|m| m.index() == index)
+            || self.tx.iter().any(|m| m.index() == index)
+    }
+
+    /// SDO upload.
+    pub fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        match index {
+            0x1C12 => self.rx_assign.read_sub(sub, buf),
+            0x1C13 => self.tx_assign.read_sub(sub, buf),
+            _ => self
+                .rx
+                .iter()
+                .chain(self.tx.iter())
+                .find(|m| m.index() == index)
+                .ok_or(SdoAbortCode::ObjectDoesNotExist)?
+                .read_sub(sub, buf),
+        }
+    }
+
+    /// SDO download (PREOP only: 0x08000022 otherwise; the ETG.1020 rules of
+    /// [`PdoMapping::write_sub`] / [`PdoAssignment::write_sub`]).
+    pub fn write(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        state: AlState,
+        od: &ObjectDictionary,
+    ) -> Result<(), SdoAbortCode> {
+        if state != AlState::PreOp {
+            return Err(SdoAbortCode::DeviceState);
+        }
+        match index {
+            0x1C12 => self.rx_assign.write_sub(sub, data, &self.rx, MAX_BITS),
+            0x1C13 => self.tx_assign.write_sub(sub, data, &self.tx, MAX_BITS),
+            _ => {
+                let rx_pos = self.rx.iter().position(|m| m.index() == index);
+                let tx_pos = self.tx.iter().position(|m| m.index() == index);
+                let slot = match (rx_pos, tx_pos) {
+                    (Some(i), _) => self.rx.get_mut(i),
+                    (None, Some(i)) => self.tx.get_mut(i),
+                    (None, None) => None,
+                }
+                .ok_or(SdoAbortCode::ObjectDoesNotExist)?;
+                let old = *slot;
+                slot.write_sub(sub, data, od, MAX_BITS)?;
+                // A changed mapping must still fit the assignment that uses it.
+                if self.rx_assign.validate(&self.rx, MAX_BITS).is_err()
+                    || self.tx_assign.validate(&self.tx, MAX_BITS).is_err()
+                {
+                    if let Some(slot) = match (rx_pos, tx_pos) {
+                        (Some(i), _) => self.rx.get_mut(i),
+                        (None, Some(i)) => self.tx.get_mut(i),
+                        (None, None) => None,
+                    } {
+                        *slot = old;
+                    }
+                    return Err(SdoAbortCode::PdoLengthExceeded);
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// PREOP -> SAFEOP: validates the configuration, builds the image layouts and checks SM2
+    /// and SM3 against them. On error nothing changes.
+    pub fn prepare(
+        &mut self,
+        od: &ObjectDictionary,
+        sm2: &SyncManager,
+        sm3: &SyncManager,
+        expect2: &SyncManagerDesc,
+        expect3: &SyncManagerDesc,
+    ) -> Result<(), AlStatusCode> {
+        let valid = |maps: &[Mapping]| maps.iter().all(|m| m.validate(od, MAX_BITS).is_ok());
+        if !valid(&self.rx) || self.rx_assign.validate(&self.rx, MAX_BITS).is_err() {
+            return Err(AlStatusCode::InvalidOutputMapping);
+        }
+        if !valid(&self.tx) || self.tx_assign.validate(&self.tx, MAX_BITS).is_err() {
+            return Err(AlStatusCode::InvalidInputMapping);
+        }
+        let rx_layout = ImageLayout::build(&self.rx_assign, &self.rx)
+            .map_err(|_| AlStatusCode::InvalidOutputMapping)?;
+        let tx_layout = ImageLayout::build(&self.tx_assign, &self.tx)
+            .map_err(|_| AlStatusCode::InvalidInputMapping)?;
+        if rx_layout.byte_len() > MAX_IMAGE {
+            return Err(AlStatusCode::InvalidOutputMapping);
+        }
+        if tx_layout.byte_len() > MAX_IMAGE {
+            return Err(AlStatusCode::InvalidInputMapping);
+        }
+        if !sm_matches(sm2, expect2, rx_layout.byte_len()) {
+            return Err(AlStatusCode::InvalidOutputConfiguration);
+        }
+        if !sm_matches(sm3, expect3, tx_layout.byte_len()) {
+            return Err(AlStatusCode::InvalidInputConfiguration);
+        }
+        self.rx_fast = FastImage::build(&rx_layout, |s| matches!(s, Slot::Ao(_)));
+        self.tx_fast = FastImage::build(&tx_layout, |_| true);
+        self.rx_layout = rx_layout;
+        self.tx_layout = tx_layout;
+        self.inputs = [0; MAX_IMAGE];
+        Ok(())
+    }
+
+    /// The fast-path plans in effect (outputs, inputs); `None`: the generic path.
+    pub fn fast_plans(&self) -> (Option<&FastImage>, Option<&FastImage>) {
+        (self.rx_fast.as_ref(), self.tx_fast.as_ref())
+    }
+
+    /// The AO values of the output image: `ao` with every mapped AO replaced. The fast
+    /// plan when there is one, else [`ProcessData::unpack`] through `sink`.
+    pub fn unpack_ao(
+        &self,
+        ao: [i16; AO_CHANNELS],
+        state: AlState,
+    ) -> Result<[i16; AO_CHANNELS], SdoAbortCode> {
+        let Some(plan) = &self.rx_fast else {
+            let mut sink = RxSink { ao };
+            self.unpack(&mut sink, state)?;
+            return Ok(sink.ao);
+        };
+        let mut ao = ao;
+        for run in plan.runs() {
+            let (bytes, channels) = run.spans();
+            if let (Some(src), Some(dst)) = (self.outputs.get(bytes), ao.get_mut(channels)) {
+                for (value, b) in dst.iter_mut().zip(src.chunks_exact(2)) {
+                    *value = i16::from_le_bytes([b[0], b[1]]);
+                }
+            }
+        }
+        Ok(ao)
+    }
+
+    /// Packs the input image from `values` (fast plan, else through the slot-by-slot packer) and
+    /// returns it (SM3 content).
+    pub fn pack_values(&mut self, values: &SlotValues) -> Result<&[u8], SdoAbortCode> {
+        let n = self.tx_layout.byte_len().min(MAX_IMAGE);
+        let Some(plan) = &self.tx_fast else {
+            let mut source = TxSource {
+                ai: values.ai_codes.map(adc_code_to_ai),
+                ao: *values.ao,
+                error_register: values.error_register,
+            };
+            return self.pack(&mut source);
+        };
+        let image = self.inputs.get_mut(..n).unwrap_or(&mut []);
+        for run in plan.runs() {
+            let (bytes, channels) = run.spans();
+            let Some(dst) = image.get_mut(bytes) else {
+                continue;
+            };
+            match run.first {
+                Slot::Ai(_) => {
+                    if let Some(codes) = values.ai_codes.get(channels) {
+                        for (b, code) in dst.chunks_exact_mut(2).zip(codes) {
+                            b.copy_from_slice(&adc_code_to_ai(*code).to_le_bytes());
+                        }
+                    }
+                }
+                Slot::Ao(_) => {
+                    if let Some(ao) = values.ao.get(channels) {
+                        for (b, value) in dst.chunks_exact_mut(2).zip(ao) {
+                            b.copy_from_slice(&value.to_le_bytes());
+                        }
+                    }
+                }
+                Slot::ErrorRegister => dst.fill(values.error_register),
+            }
+        }
+        Ok(image)
+    }
+
+    /// The RxPDO image layout in effect (SAFEOP, OP).
+    pub fn rx_layout(&self) -> &ImageLayout<MAX_FIELDS> {
+        &self.rx_layout
+    }
+
+    /// The TxPDO image layout in effect.
+    pub fn tx_layout(&self) -> &ImageLayout<MAX_FIELDS> {
+        &self.tx_layout
+    }
+
+    /// The output image buffer (SM2 content) to read into.
+    pub fn output_image_mut(&mut self) -> &mut [u8] {
+        let n = self.rx_layout.byte_len().min(MAX_IMAGE);
+        self.outputs.get_mut(..n).unwrap_or(&mut [])
+    }
+
+    /// Unpacks the output image into `sink` (`ObjectAccess::write` per mapped object).
+    pub fn unpack<A: ObjectAccess + ?Sized>(
+        &self,
+        sink: &mut A,
+        state: AlState,
+    ) -> Result<(), SdoAbortCode> {
+        self.rx_layout.unpack(&self.outputs, sink, state)
+    }
+
+    /// Packs the inputs from `source` and returns the input image (SM3 content).
+    pub fn pack<A: ObjectAccess + ?Sized>(
+        &mut self,
+        source: &mut A,
+    ) -> Result<&[u8], SdoAbortCode> {
+        let n = self.tx_layout.byte_len().min(MAX_IMAGE);
+        let image = self.inputs.get_mut(..n).unwrap_or(&mut []);
+        self.tx_layout.pack(source, image)?;
+        Ok(image)
+    }
+
+    /// The direction of a mapping object this module holds.
+    pub fn direction(&self, index: u16) -> Option<PdoDirection> {
+        PdoDirection::of_mapping_index(index)
+    }
+}
+
+/// The object access the process-data unpacking uses: collects the 0x6411 values of one
+/// SM2 image (other mapped objects are ignored).
+struct RxSink {
+    ao: [i16; AO_CHANNELS],
+}
+
+impl ObjectAccess for RxSink {
+    fn read(&mut self, _: u16, _: u8, _: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        Err(SdoAbortCode::ReadOfWriteOnly)
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8], _: AlState) -> Result<(), SdoAbortCode> {
+        if index == 0x6411 {
+            if let (Ok(i), [a, b]) = (channel(sub, AO_CHANNELS), data) {
+                if let Some(slot) = self.ao.get_mut(i) {
+                    *slot = i16::from_le_bytes([*a, *b]);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The object access the process-data packing uses: the published AI values and the AO
+/// values (a snapshot, so packing does not borrow the application data).
+struct TxSource {
+    ai: [i16; AI_CHANNELS],
+    ao: [i16; AO_CHANNELS],
+    error_register: u8,
+}
+
+impl ObjectAccess for TxSource {
+    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        match index {
+            0x6401 => {
+                let i = channel(sub, AI_CHANNELS)?;
+                put(buf, &self.ai.get(i).copied().unwrap_or(0).to_le_bytes())
+            }
+            0x6411 => {
+                let i = channel(sub, AO_CHANNELS)?;
+                put(buf, &self.ao.get(i).copied().unwrap_or(0).to_le_bytes())
+            }
+            0x1001 => put(buf, &[self.error_register]),
+            _ => Err(SdoAbortCode::CannotBeMapped),
+        }
+    }
+
+    fn write(&mut self, _: u16, _: u8, _: &[u8], _: AlState) -> Result<(), SdoAbortCode> {
+        Err(SdoAbortCode::WriteOfReadOnly)
+    }
+}
+
+/// SM2/SM3 against the device description and the image length.
+fn sm_matches(sm: &SyncManager, expect: &SyncManagerDesc, len: usize) -> bool {
+    let mask = sm_control::MODE_MASK | sm_control::DIR_MASK;
+    if len == 0 {
+        return !sm.enabled() || sm.length == 0;
+    }
+    sm.enabled()
+        && sm.start == expect.start
+        && sm.control & mask == expect.control & mask
+        && usize::from(sm.length) == len
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::products::analog_io::device::DEVICE;
+    use coe_core::pdo::PdoEntry;
+    use std::vec::Vec;
+
+    /// A configuration of one RxPDO and one TxPDO, taken through PREOP -> SAFEOP.
+    fn prepared(rx: &[PdoEntry], tx: &[PdoEntry]) -> ProcessData {
+        let mut pd = ProcessData::new(
+            [Mapping::with_entries(0x1600, rx), Mapping::new(0x1601)],
+            [
+                Mapping::with_entries(0x1A00, tx),
+                Mapping::new(0x1A01),
+                Mapping::new(0x1A02),
+            ],
+            &[0x1600],
+            &[0x1A00],
+        );
+        let [_, _, e2, e3] = crate::products::analog_io::layout::SYNC_MANAGERS;
+        let sm = |e: &SyncManagerDesc, len: usize| SyncManager {
+            start: e.start,
+            length: len as u16,
+            control: e.control,
+            activate: SyncManager::ACTIVATE_ENABLE,
+            ..SyncManager::default()
+        };
+        let (sm2, sm3) = (sm(&e2, pd.output_len()), sm(&e3, pd.input_len()));
+        pd.prepare(&od::OD, &sm2, &sm3, &e2, &e3).unwrap();
+        pd
+    }
+
+    const VALUES: SlotValues = SlotValues {
+        ai_codes: &[0x0204, 0xFFFC, 0x0608, 8, 10, 12, 14, 0xF0F0],
+        ao: &[0x1122, -0x3344],
+        error_register: 0x81,
+    };
+
+    fn generic_pack(pd: &mut ProcessData) -> Vec<u8> {
+        let mut source = TxSource {
+            ai: VALUES.ai_codes.map(adc_code_to_ai),
+            ao: *VALUES.ao,
+            error_register: VALUES.error_register,
+        };
+        pd.pack(&mut source).unwrap().to_vec()
+    }
+
+    fn run(offset: u8, first: Slot, count: u8) -> Run {
+        Run {
+            offset,
+            first,
+            count,
+        }
+    }
+
+    /// Prepares `rx`/`tx`, checks the plans' runs, and that the fast path packs `packed`
+    /// and unpacks `[0x34, 0x12, 0xFE, 0xFF]` to `ao` as the generic path does.
+    fn check_fast_path(
+        (rx, rx_runs): (&[PdoEntry], &[Run]),
+        (tx, tx_runs): (&[PdoEntry], &[Run]),
+        packed: &[u8],
+        ao: [i16; AO_CHANNELS],
+    ) {
+        let mut pd = prepared(rx, tx);
+        let (fast_rx, fast_tx) = pd.fast_plans();
+        assert_eq!(fast_rx.unwrap().runs(), rx_runs);
+        assert_eq!(fast_tx.unwrap().runs(), tx_runs);
+        let fast = pd.pack_values(&VALUES).unwrap().to_vec();
+        assert_eq!(fast, packed);
+        assert_eq!(fast, generic_pack(&mut pd));
+
+        pd.output_image_mut()
+            .copy_from_slice(&[0x34, 0x12, 0xFE, 0xFF]);
+        assert_eq!(pd.unpack_ao([7, 7], AlState::Op).unwrap(), ao);
+        let mut sink = RxSink { ao: [7, 7] };
+        pd.unpack(&mut sink, AlState::Op).unwrap();
+        assert_eq!(sink.ao, ao);
+    }
+
+    #[test]
+    fn byte_aligned_layouts_take_the_fast_path_with_the_generic_result() {
+        let rx = [PdoEntry::new(0x6411, 2, 16), PdoEntry::new(0x6411, 1, 16)];
+        let tx = [
+            PdoEntry::new(0x6401, 8, 16),
+            PdoEntry::new(0x1001, 0, 8),
+            PdoEntry::new(0x0000, 0, 8),
+            PdoEntry::new(0x6401, 1, 16),
+        ];
+        check_fast_path(
+            (&rx, &[run(0, Slot::Ao(1), 1), run(2, Slot::Ao(0), 1)]),
+            (
+                &tx,
+                &[
+                    run(0, Slot::Ai(7), 1),
+                    run(2, Slot::ErrorRegister, 1),
+                    run(4, Slot::Ai(0), 1),
+                ],
+            ),
+            &[0x78, 0x78, 0x81, 0, 0x02, 0x01],
+            [-2, 0x1234],
+        );
+    }
+
+    #[test]
+    fn consecutive_channels_form_one_run() {
+        let rx = [PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)];
+        let tx = [
+            PdoEntry::new(0x6401, 1, 16),
+            PdoEntry::new(0x6401, 2, 16),
+            PdoEntry::new(0x1001, 0, 8),
+            PdoEntry::new(0x0000, 0, 8),
+            PdoEntry::new(0x6401, 5, 16),
+            PdoEntry::new(0x6401, 4, 16),
+            PdoEntry::new(0x6401, 6, 16),
+            PdoEntry::new(0x6401, 7, 16),
+        ];
+        check_fast_path(
+            (&rx, &[run(0, Slot::Ao(0), 2)]),
+            (
+                &tx,
+                &[
+                    run(0, Slot::Ai(0), 2),
+                    run(4, Slot::ErrorRegister, 1),
+                    run(6, Slot::Ai(4), 1),
+                    run(8, Slot::Ai(3), 1),
+                    run(10, Slot::Ai(5), 2),
+                ],
+            ),
+            &[2, 1, 0xFE, 0x7F, 0x81, 0, 5, 0, 4, 0, 6, 0, 7, 0],
+            [0x1234, -2],
+        );
+    }
+
+    #[test]
+    fn unaligned_layouts_fall_back_to_bit_packing() {
+        // A 4-bit gap shifts everything after it off the byte grid.
+        let rx = [
+            PdoEntry::new(0x0000, 0, 4),
+            PdoEntry::new(0x6411, 1, 16),
+            PdoEntry::new(0x0000, 0, 4),
+        ];
+        let tx = [
+            PdoEntry::new(0x0000, 0, 4),
+            PdoEntry::new(0x6401, 1, 16),
+            PdoEntry::new(0x0000, 0, 4),
+        ];
+        let mut pd = prepared(&rx, &tx);
+        assert_eq!(pd.fast_plans(), (None, None));
+        // 0x0102 shifted by 4 bits.
+        assert_eq!(pd.pack_values(&VALUES).unwrap(), &[0x20, 0x10, 0x00]);
+        pd.output_image_mut().copy_from_slice(&[0x40, 0x23, 0x01]);
+        assert_eq!(pd.unpack_ao([7, 7], AlState::Op).unwrap(), [0x1234, 7]);
+    }
+
+    #[test]
+    fn objects_without_a_slot_fall_back() {
+        assert_eq!(Slot::of(0x6401, 9, 16), None);
+        assert_eq!(Slot::of(0x6411, 0, 16), None);
+        assert_eq!(Slot::of(0x6401, 1, 8), None);
+        assert_eq!(Slot::of(0x1001, 1, 8), None);
+        assert_eq!(Slot::of(0x1001, 0, 8), Some(Slot::ErrorRegister));
+        // An AI in the outputs has no fast path.
+        let layout = ImageLayout::build(
+            &PdoAssignment::<RX_PDOS>::with_pdos(0x1C12, &[0x1600]),
+            &[Mapping::with_entries(
+                0x1600,
+                &[PdoEntry::new(0x6401, 1, 16)],
+            )],
+        )
+        .unwrap();
+        assert!(FastImage::build(&layout, |s| matches!(s, Slot::Ao(_))).is_none());
+        assert!(FastImage::build(&layout, |_| true).is_some());
+    }
+
+    #[test]
+    fn product_default_is_built_from_the_dictionary() {
+        // Every mapping object of the dictionary has a slot in the application, and only those.
+        assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
+        assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
+        let pd = ProcessData::product_default();
+        assert_eq!(pd.output_len(), 4);
+        assert_eq!(pd.input_len(), 16);
+        for object in DEVICE
+            .pdo_objects(PdoDirection::Rx)
+            .chain(DEVICE.pdo_objects(PdoDirection::Tx))
+        {
+            assert!(pd.owns(object.index), "{:#06x}", object.index);
+            let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();
+            let mut buf = [0u8; 4];
+            assert_eq!(pd.read(object.index, 0, &mut buf), Ok(1));
+            assert_eq!(usize::from(buf[0]), entries.len());
+            for (sub, entry) in (1..).zip(&entries) {
+                assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
+                assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
+            }
+        }
+        // The assignments: as many PDOs as the dictionary's defaults, the same ones.
+        for (assign, direction) in [(0x1C12, PdoDirection::Rx), (0x1C13, PdoDirection::Tx)] {
+            let pdos: Vec<u32> = DEVICE.assigned_pdos(direction).collect();
+            let mut buf = [0u8; 2];
+            assert_eq!(pd.read(assign, 0, &mut buf), Ok(1));
+            assert_eq!(usize::from(buf[0]), pdos.len(), "{assign:#06x}");
+            for (sub, pdo) in (1..).zip(&pdos) {
+                assert_eq!(pd.read(assign, sub, &mut buf), Ok(2));
+                assert_eq!(
+                    u32::from(u16::from_le_bytes(buf)),
+                    *pdo,
+                    "{assign:#06x}:{sub}"
+                );
+            }
+        }
+        let mut buf = [0u8; 2];
+        assert_eq!(pd.read(0x1C12, 1, &mut buf), Ok(2));
+        assert_eq!(u16::from_le_bytes(buf), 0x1600);
+        assert_eq!(pd.read(0x1C13, 1, &mut buf), Ok(2));
+        assert_eq!(u16::from_le_bytes(buf), 0x1A00);
+        assert!(pd.is_rx_mapped(0x6411, 2));
+    }
+}

@@ -1,0 +1,57 @@
+//! How the module synchronises: the modes it offers (ETG.1020 codes of 0x1C32:01/0x1C33:01)
+//! and the figures it advertises in 0x1C32/0x1C33 and the ESI. The application enforces
+//! them (`crate::stacks::ethercat::sync`).
+
+/// Sync mode code (0x1C32:01, 0x1C33:01): free run.
+pub const SYNC_MODE_FREE_RUN: u16 = 0;
+/// Sync mode code: synchronous with the SM event (0x1C32:01: SM2; 0x1C33:01: SM3).
+pub const SYNC_MODE_SM: u16 = 1;
+/// Sync mode code: DC SYNC0.
+pub const SYNC_MODE_DC_SYNC0: u16 = 2;
+/// Sync mode code of 0x1C33:01: inputs latched on the SM2 event (Beckhoff SSC
+/// `SYNCTYPE_SM2INT`).
+pub const SYNC_MODE_SM2_INPUTS: u16 = 0x22;
+
+/// Sync modes supported (0x1C32:04/0x1C33:04): b0 free run, b1 SM-synchronous, bits 4:2 =
+/// 001 DC SYNC0.
+pub const SUPPORTED_MODES: u16 = 0x0007;
+
+/// Shortest cycle the module handles: 0x1C32:05/0x1C33:05, the dictionary's default of
+/// both in the ESI, the device description's DC minimum, and the limit the application
+/// enforces on the SYNC0 cycle (AL status 0x0035) and on 0x1C32:02.
+///
+/// The rule: at least the shortest DC cycle with 2 AO + 8 AI that the release image sustains
+/// on the co-simulated LPC1754 (`cargo xtask bench`, group 3: no missed SYNC0, no stale
+/// output, no lost sample), plus [`MIN_CYCLE_MARGIN_PERCENT`]. The bench prints the figure
+/// and fails when this constant is below it; after any change of the firmware or of the
+/// co-simulator's time model, `cargo xtask bench --min-cycle` runs that rule alone (and says
+/// when the constant could be lower): set the constant here. The CAN window has a rule of its
+/// own: every kind of CANopen node call fits right after a cycle's outputs at this cycle
+/// (`app::can_window`, `every_kind_fits_after_the_outputs_at_the_advertised_minimum`): the
+/// SDO call's bound needs about 90 us.
+pub const MIN_CYCLE_TIME_NS: u32 = 90_000;
+/// Margin of [`MIN_CYCLE_TIME_NS`] over the measured minimum DC cycle, in percent: the
+/// measurement rests on a time model no board has confirmed (the co-simulator's flat cycles
+/// per instruction behind the flash accelerator).
+pub const MIN_CYCLE_MARGIN_PERCENT: u32 = 15;
+/// Outputs: SM2 event to outputs copied and staged (0x1C32:06): SM2 read over SPI (4.5 us)
+/// plus unpack and staging.
+pub const OUTPUT_CALC_COPY_NS: u32 = 8_000;
+/// Outputs: SYNC0 edge to both DAC outputs updated (0x1C32:09): the write path (two 24-bit
+/// frames, about 2.1 us at 25 MHz) bounds the LDAC path (about 0.3 us).
+pub const OUTPUT_DELAY_NS: u32 = 3_000;
+/// Inputs: latch to SM3 written (0x1C33:06): pack plus the 16-byte SM3 write (11.5 us).
+pub const INPUT_CALC_COPY_NS: u32 = 15_000;
+/// Shortest DC cycle at which the application reads changed outputs twice before it takes
+/// them (`crate::stacks::ethercat::confirm`, against a bit flipped on the SPI or SPI_SEL dropped in the
+/// middle of the SM2 read). The second read costs one more SPI access per cycle whose
+/// outputs changed, which the shortest cycles do not have; in SM-synchronous and free-run
+/// mode the outputs are always read twice when they change.
+///
+/// The rule, as for [`MIN_CYCLE_TIME_NS`]: at least the minimum DC cycle with the second
+/// read plus [`MIN_CYCLE_MARGIN_PERCENT`]. The bench does not check it: measured by hand
+/// with this constant set to 0 (`cargo xtask bench`, formula F1: 53.2 us, + 15 % = 61.2 us;
+/// README, Fault campaign); re-measure after a change of the cycle's code.
+pub const CONFIRM_OUTPUTS_MIN_CYCLE_NS: u32 = 62_000;
+/// Default Sync Error Counter Limit (0x10F1:02).
+pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;

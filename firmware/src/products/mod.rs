@@ -1,0 +1,3 @@
+//! The products.
+
+pub mod analog_io;

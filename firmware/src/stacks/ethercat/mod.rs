@@ -1,0 +1,927 @@
+//! The slave application: everything between the ESC registers, the converters and the
+//! CoE core that does not depend on the MCU.
+//!
+//! # Entry points and priorities
+//!
+//! | Caller (priority)          | Call                                   | State touched                   |
+//! |----------------------------|----------------------------------------|---------------------------------|
+//! | SYNC0 / DAC task (highest) | [`DacLatch::on_sync0`], [`DacLatch::apply_now`], [`DacLatch::preload`] | its `DacLatch` (local), `&OutputStage` (atomics) |
+//! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`]               | `SlaveApp` (local), the ESC, `&OutputStage` |
+//! | CAN task (middle, same as the PDI task) | [`SlaveApp::on_can_frame`], [`SlaveApp::poll_can`], [`SlaveApp::can_tx`] | same as the PDI task |
+//! | background / idle          | [`SlaveApp::poll`]                     | same as the PDI task (call it from that task, or lock) |
+//! | GPDMA interrupt (lowest)   | [`adc_dma::HalfCounter::on_terminal_count`] | the half count (atomic)    |
+//! | sampler task (`adc-irq`)   | [`sampler::SampleProducer::push`]      | its producer half (local)       |
+//!
+//! The tasks share only `&OutputStage` (lock-free atomics) and the ADC samples: by default
+//! the GPDMA's ring (the PDI task's [`adc_dma::ScanReader`] drains whole scans from it), with
+//! the `adc-irq` build the two halves of a [`sampler::SampleRing`] (heapless SPSC); nothing
+//! needs a lock. The PDI task drains the samples into [`SlaveApp::sampler_mut`] before
+//! calling in (or the harness calls
+//! [`SlaveApp::on_samples`]). When [`PdiOutcome::apply_outputs`] is set, the PDI task pends
+//! the DAC task, which calls [`DacLatch::apply_now`] (free run, SM-synchronous, faults). In
+//! DC mode the DAC task may [`DacLatch::preload`] the input registers when pended and only
+//! pulses LDAC at SYNC0. After each SYNC0 edge the PDI task's [`SlaveApp::poll`] should run
+//! (pend it) so the inputs of the cycle reach SM3 and the cycle monitor sees the edge.
+//!
+//! # A host harness (the virtual board) in a few lines
+//!
+//! ```text
+//! let stage = OutputStage::new();
+//! let mut latch = DacLatch::new();
+//! let mut app = SlaveApp::new(&OD, config, process_data);
+//! app.start(&mut esc)?;
+//! // IRQ line asserted:
+//! if app.on_pdi_irq(&mut esc, &stage, now_ns)?.apply_outputs {
+//!     dac.execute(latch.apply_now(&stage));
+//! }
+//! // SYNC0 edge:
+//! dac.execute(latch.on_sync0(&stage, edge_ns));
+//! app.poll(&mut esc, &stage, now_ns)?;
+//! ```
+
+pub mod boot_slave;
+pub mod confirm;
+pub mod mailbox;
+pub mod pdi_task;
+pub mod sync;
+
+use crate::io::analog::objects::{self, AppData};
+use crate::io::analog::outputs::OutputStage;
+pub use crate::io::analog::outputs::{DacAction, DacLatch, DacPair};
+use crate::io::analog::process_data::{ProcessData, SlotValues};
+use crate::io::analog::sampler::{Sample, Sampler};
+use crate::products::analog_io::can::{COMM_DEFAULTS, DEFAULT_NODE_ID};
+use crate::products::analog_io::capacity::MAX_IMAGE;
+use crate::products::analog_io::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
+use crate::products::analog_io::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
+use crate::stacks::canopen::window::{CallKind, CanWindow};
+use crate::stacks::canopen::{CanView, Node};
+use crate::stacks::diagnostics::{
+    EMCY_PDI_ERROR, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION,
+};
+use coe_core::canopen::{CanFrame, NmtState};
+use coe_core::device::{MemoryWindow, SyncManagerDesc};
+use coe_core::esm::{Esm, Transition};
+use coe_core::od::ObjectDictionary;
+use coe_core::{AlState, AlStatusCode};
+use confirm::Confirmed;
+use et1100::{
+    AlEvents, AlStatus, Et1100, Pdi, PdiResult, Register, SmMode, SyncManager, WatchdogStatus,
+};
+use mailbox::{mailbox_sm_ok, AppLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
+use sync::{check_sync, SyncInputs, SyncMode, SyncVerdict};
+
+/// What the device description fixes for the application.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AppConfig {
+    /// SM0..SM3 as the device description (SII/ESI) gives them. The mailboxes are checked
+    /// against start, length and control byte; the process-data SyncManagers against start
+    /// and control byte, their length follows the PDO configuration.
+    pub sm: [SyncManagerDesc; 4],
+    /// Explicit device ID for the ID request (`None`: not supported).
+    pub device_id: Option<u16>,
+    /// The bootstrap mailbox (master -> slave, slave -> master) the master must configure
+    /// for INIT -> BOOT, which resets the module into its bootloader; `None`: no BOOT state
+    /// (refused with 0x0013).
+    pub bootstrap: Option<(MemoryWindow, MemoryWindow)>,
+    /// The CANopen node-ID (1..=127).
+    pub can_node_id: u8,
+}
+
+impl AppConfig {
+    /// The configuration of the product ([`crate::products::analog_io`]): its SyncManager layout and
+    /// bootstrap mailbox, no explicit device ID.
+    pub const fn product() -> Self {
+        Self {
+            sm: SYNC_MANAGERS,
+            device_id: None,
+            bootstrap: Some(BOOTSTRAP_MAILBOX),
+            can_node_id: DEFAULT_NODE_ID,
+        }
+    }
+}
+
+/// What the PDI task must do after a call.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PdiOutcome {
+    /// Pend the DAC task: fresh outputs (free run, SM-synchronous) or fault values to apply
+    /// now ([`DacLatch::apply_now`]).
+    pub apply_outputs: bool,
+    /// An SM2 event (the master's outputs of a cycle) was served.
+    pub sm2_event: bool,
+    /// A master asked for BOOT on a well configured bootstrap mailbox: set the boot request
+    /// ([`crate::platform::boot::request`]) and reset the CPU; the bootloader takes it from there.
+    pub enter_bootloader: bool,
+}
+
+/// AL event bits always enabled.
+const BASE_EVENTS: AlEvents = AlEvents::AL_CONTROL
+    .union(AlEvents::SM_ACTIVATION)
+    .union(AlEvents::WATCHDOG);
+
+/// The slave application: the EtherCAT side (ESM, mailbox, process data over the PDI) and
+/// the CAN side (the CANopen node, [`can`]) on one dictionary.
+pub struct SlaveApp {
+    esm: Esm,
+    mailbox: AppLink,
+    can: Node,
+    /// When the CAN task may call the node (after the outputs of an EtherCAT cycle).
+    can_window: CanWindow,
+    data: AppData,
+    config: AppConfig,
+    /// The AL event mask last written to the ESC.
+    mask: Option<AlEvents>,
+    /// What the mask is made of (ESM state, output layout, the mailbox's wanted events) may
+    /// have changed since it was worked out: a cycle that changed none of it skips the work.
+    mask_stale: bool,
+    sync0_seen: u32,
+    /// Time of the next unconditional mailbox service (ns); never while in INIT.
+    mailbox_check_ns: u64,
+    /// The safety service has read the PDI error counter; the mailbox registers follow in
+    /// the next slot.
+    pdi_errors_read: bool,
+    /// Time of the background poll's next own event sample (ns).
+    event_sample_ns: u64,
+    /// Read changed outputs twice before taking them (decided at PREOP -> SAFEOP).
+    confirm_outputs: bool,
+    /// Buffers of the confirming reads of the outputs.
+    fresh: [u8; MAX_IMAGE],
+    again: [u8; MAX_IMAGE],
+    /// Output reads dropped because no two reads agreed.
+    rejected_reads: u16,
+    /// The ESC's PDI error counter and the dropped reads as last reported.
+    pdi_reported: (u8, u16),
+}
+
+impl SlaveApp {
+    /// An application in INIT over the dictionary `od` with the default PDO configuration
+    /// `pd`.
+    pub fn new(od: &'static ObjectDictionary, config: AppConfig, pd: ProcessData) -> Self {
+        Self {
+            esm: Esm::new()
+                .with_device_id(config.device_id)
+                .with_bootstrap(config.bootstrap.is_some()),
+            mailbox: AppLink::for_dictionary(od),
+            can: Node::new(config.can_node_id, od, &COMM_DEFAULTS),
+            can_window: CanWindow::new(),
+            data: AppData::new(od, pd),
+            config,
+            mask: None,
+            mask_stale: true,
+            sync0_seen: 0,
+            mailbox_check_ns: u64::MAX,
+            pdi_errors_read: false,
+            event_sample_ns: 0,
+            confirm_outputs: true,
+            fresh: [0; MAX_IMAGE],
+            again: [0; MAX_IMAGE],
+            rejected_reads: 0,
+            pdi_reported: (0, 0),
+        }
+    }
+
+    /// The ESM state.
+    pub fn state(&self) -> AlState {
+        self.esm.state()
+    }
+
+    /// The ESM (status word, error, code).
+    pub fn esm(&self) -> &Esm {
+        &self.esm
+    }
+
+    /// The application data (object values, outputs, sync monitor, PDO configuration).
+    pub fn data(&self) -> &AppData {
+        &self.data
+    }
+
+    /// The mailbox link.
+    pub fn mailbox(&self) -> &AppLink {
+        &self.mailbox
+    }
+
+    /// The CANopen node.
+    pub fn can_node(&self) -> &Node {
+        &self.can
+    }
+
+    /// The sampler (the PDI task drains the sample ring into it).
+    pub fn sampler_mut(&mut self) -> &mut Sampler {
+        &mut self.data.sampler
+    }
+
+    /// Adds samples directly (harnesses without a ring).
+    pub fn on_samples(&mut self, samples: &[Sample]) {
+        self.data.sampler.add_all(samples);
+    }
+
+    /// Power-up: AL status INIT without error, event mask.
+    pub fn start<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        self.write_status(esc)?;
+        self.update_mask(esc)
+    }
+
+    /// The ESC IRQ: reads the AL event bits once and serves AL control, watchdog, outputs
+    /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1) when its
+    /// event bits say it has work ([`mailbox::MailboxLink::needs_service`]).
+    ///
+    /// The event bits come from [`Pdi::low_events`]: on the SPI PDI a NOP with 2 address
+    /// bytes, which shifts out 0x0220/0x0221 (AL control .. SM7). The 3-byte NOP would add
+    /// 0x0222 (SyncManagers 8..15), which the ET1100 does not have, for one more byte on the
+    /// bus in every cycle.
+    pub fn on_pdi_irq<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiResult<PdiOutcome, P> {
+        let events = esc.low_events()?;
+        let mut out = PdiOutcome::default();
+        if events.contains(AlEvents::AL_CONTROL) {
+            let from = self.esm.state();
+            self.al_control(esc, stage, &mut out)?;
+            if from == AlState::Init && self.esm.state() == AlState::PreOp {
+                // INIT -> PREOP has just read the mailbox registers.
+                self.arm_mailbox_check(now_ns);
+            }
+        }
+        if events.contains(AlEvents::WATCHDOG) {
+            self.watchdog(esc, stage, &mut out)?;
+        }
+        if events.contains(AlEvents::SM2) {
+            self.outputs(esc, stage, now_ns, &mut out)?;
+            out.sm2_event = true;
+            self.can_window.on_output_event(now_ns);
+        }
+        let activation = events.contains(AlEvents::SM_ACTIVATION);
+        if activation {
+            // Reading the activate registers (SM0..SM3 in one access) clears the event.
+            let mut all = [0u8; 4 * SyncManager::SIZE];
+            esc.read(Register::SyncManager0.addr(), &mut all)?;
+        }
+        let mailbox_work = self.esm.state() != AlState::Init && self.mailbox_has_work(events);
+        if activation {
+            let how = Service::Registers { check_repeat: true };
+            self.serve_mailbox(esc, stage, now_ns, how, &mut out)?;
+        } else if mailbox_work {
+            self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
+        }
+        self.update_mask(esc)?;
+        Ok(out)
+    }
+
+    /// Background work: the cycle monitor (missed SM events at the SYNC0 edges), the
+    /// inputs outside SM-synchronous cycles, and the mailbox (waiting reply, SDO
+    /// Information fragments, Emergencies) when the event bits of the inputs write or the
+    /// waiting work call for it, else every [`SAFETY_SERVICE_MS`].
+    pub fn poll<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiResult<PdiOutcome, P> {
+        let mut out = PdiOutcome::default();
+        let state = self.esm.state();
+        let counts = stage.sync0_counts();
+        let new_edge = counts.edges != self.sync0_seen;
+        self.sync0_seen = counts.edges;
+        if new_edge {
+            self.can_window.on_sync0_polled(now_ns, counts.last_edge_lo);
+        } else {
+            self.can_window.on_tick_polled(now_ns);
+        }
+        if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
+            self.sync_error(esc, stage, AlStatusCode::SynchronizationError, &mut out)?;
+        }
+        let in_op = self.esm.state() == AlState::Op;
+        let sync0 = self.data.sync.on_sync0_time(now_ns, counts.edges, in_op);
+        if sync0 == SyncVerdict::FatalSyncError {
+            self.sync_error(esc, stage, AlStatusCode::FatalSyncError, &mut out)?;
+        }
+        let mut events = None;
+        if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
+            let mode = self.data.sync.mode();
+            let free = mode == SyncMode::FreeRun || !self.data.sync.armed();
+            if free || (mode == SyncMode::DcSync0 && new_edge) {
+                events = self.write_inputs(esc)?;
+            }
+        }
+        if state != AlState::Init {
+            // The event bits of the inputs write, else (every EVENT_SAMPLE_MS) a sample of
+            // its own; the IRQ serves the mailbox events as they come.
+            let events = match events {
+                Some(e) => e,
+                None if now_ns >= self.event_sample_ns => {
+                    self.event_sample_ns =
+                        now_ns.saturating_add(u64::from(EVENT_SAMPLE_MS) * 1_000_000);
+                    esc.low_events()?
+                }
+                None => AlEvents::empty(),
+            };
+            let work = self.mailbox_has_work(events);
+            // In DC mode the periodic register reads, the longest background work, belong
+            // to the PDI task's activation right after the outputs ([`Self::safety_service`]):
+            // anywhere else in the cycle they can hold the next SM2 event, and its DAC
+            // preload, past the SYNC0 edge. Without SM2 events (the master stopped) there
+            // are no outputs to delay: the poll runs them two SYNC0 cycles late.
+            let dc = self.data.sync.mode() == SyncMode::DcSync0 && self.data.sync.armed();
+            let late = || {
+                self.mailbox_check_ns
+                    .saturating_add(2 * u64::from(self.data.sync.sync0_cycle_ns()))
+            };
+            if self.safety_service_due(now_ns) && (!dc || now_ns >= late()) {
+                self.registers_service(esc, stage, now_ns, &mut out)?;
+            } else if work {
+                self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
+            }
+        }
+        self.update_mask(esc)?;
+        Ok(out)
+    }
+
+    // ------------------------------------------------------------------ ESM
+
+    /// Writes AL status code and AL status and reads them back, writing again what did not
+    /// arrive: the master must see the state the slave is in, and the SPI has no checksum.
+    fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        self.mask_stale = true;
+        self.data.running.ethercat = matches!(self.esm.state(), AlState::SafeOp | AlState::Op);
+        let (status, code) = (self.esm.status(), self.esm.status_code_word());
+        for _ in 0..confirm::MAX_READS {
+            esc.write_al_status(AlStatus(status), code)?;
+            // 0x0130..0x0135: status, reserved, code.
+            let mut back = [0u8; 6];
+            esc.read(Register::AlStatus.addr(), &mut back)?;
+            let got = (
+                u16::from_le_bytes([back[0], back[1]]),
+                u16::from_le_bytes([back[4], back[5]]),
+            );
+            if got == (status, code) {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// An Emergency of the application: into the error history (0x1003) and out on both
+    /// fieldbuses.
+    fn emergency(&mut self, e: coe_core::sdo_server::Emergency) {
+        self.mailbox.queue_emergency(e);
+        self.can.queue_emergency(e);
+        self.data.diag.history.record(&e);
+    }
+
+    /// [`MailboxLink::needs_service`](mailbox::MailboxLink::needs_service). Outside the
+    /// mailbox service, what the mailbox waits for changes only while SM1 is busy: then
+    /// the event bits (SM1 read, a request that waits) and a queued Emergency count.
+    fn mailbox_has_work(&mut self, events: AlEvents) -> bool {
+        if self.mailbox.sm1_busy() {
+            self.mask_stale = true;
+        }
+        self.mailbox.needs_service(events)
+    }
+
+    /// The AL event mask, worked out again only if what it is made of may have changed.
+    #[inline(always)]
+    fn update_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        match self.mask_stale {
+            true => self.write_mask(esc),
+            false => Ok(()),
+        }
+    }
+
+    fn write_mask<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        let mut mask = BASE_EVENTS;
+        let state = self.esm.state();
+        if state != AlState::Init {
+            mask |= self.mailbox.event_mask();
+        }
+        if matches!(state, AlState::SafeOp | AlState::Op) && self.data.pd.rx_layout().byte_len() > 0
+        {
+            mask |= AlEvents::SM2;
+        }
+        if self.mask != Some(mask) {
+            esc.set_event_mask(mask)?;
+            self.mask = Some(mask);
+        }
+        self.mask_stale = false;
+        Ok(())
+    }
+
+    fn al_control<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        // Read until two reads agree (a flipped bit would request a state the master never
+        // asked for); if none do, the last read stands and the master sees the outcome.
+        let (mut control, mut again) = ([0u8; 2], [0u8; 2]);
+        confirm::read_confirmed(&mut control, None, &mut again, |b| {
+            esc.read(Register::AlControl.addr(), b).map(drop)
+        })?;
+        let control = u16::from_le_bytes(control);
+        let had_error = self.esm.error();
+        let decision = self.esm.request(control);
+        if had_error && !self.esm.error() {
+            if let Some(e) = self.data.diag.clear(ERR_COMMUNICATION) {
+                self.emergency(e);
+            }
+        }
+        match decision {
+            Transition::Allowed {
+                from: AlState::Init,
+                to: AlState::Bootstrap,
+            } => {
+                // The state stays INIT: the bootloader reports BOOT once it serves the
+                // bootstrap mailbox, so no FoE request reaches an MCU that is resetting.
+                if self.bootstrap_mailbox_ok(esc)? {
+                    out.enter_bootloader = true;
+                } else {
+                    self.esm
+                        .fail(AlState::Init, AlStatusCode::InvalidMailboxConfigurationBoot);
+                }
+            }
+            Transition::Allowed { from, to } => {
+                match self.transition(esc, stage, from, to, out)? {
+                    Ok(()) => self.esm.complete(to),
+                    Err((state, code)) => self.esm.fail(state, code),
+                }
+                self.mailbox
+                    .on_state_change(&mut self.data, from, self.esm.state());
+                if self.esm.state() == AlState::Init {
+                    self.mailbox_check_ns = u64::MAX;
+                }
+            }
+            _ => {}
+        }
+        self.write_status(esc)
+    }
+
+    /// SM0/SM1 as the master configured them for BOOT, against the bootstrap mailbox.
+    fn bootstrap_mailbox_ok<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<bool, P> {
+        let Some((out, inp)) = self.config.bootstrap else {
+            return Ok(false);
+        };
+        let [sm0, sm1, ..] = self.config.sm;
+        let ok0 = mailbox_sm_ok(&esc.read_sm(0)?, out.start, out.len, sm0.control);
+        let ok1 = mailbox_sm_ok(&esc.read_sm(1)?, inp.start, inp.len, sm1.control);
+        Ok(ok0 && ok1)
+    }
+
+    /// Checks and actions of `from -> to`; `Err((state, code))` refuses it.
+    fn transition<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        from: AlState,
+        to: AlState,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<Result<(), (AlState, AlStatusCode)>, P> {
+        if from == AlState::Op {
+            // Leaving OP: safe outputs at once, stale outputs never come back.
+            self.data.outputs.enter_fault(stage);
+            self.data.sync.disarm();
+            out.apply_outputs = true;
+        }
+        match (from, to) {
+            (AlState::Init, AlState::PreOp) => {
+                let mut regs = [SyncManager::default(); 2];
+                for (n, slot) in (0..2u8).zip(regs.iter_mut()) {
+                    let sm = esc.read_sm(n)?;
+                    let expect = self.config.sm.get(usize::from(n)).copied();
+                    if !expect.is_some_and(|e| mailbox_sm_ok(&sm, e.start, e.len, e.control)) {
+                        return Ok(Err((
+                            AlState::Init,
+                            AlStatusCode::InvalidMailboxConfiguration,
+                        )));
+                    }
+                    *slot = sm;
+                }
+                self.mailbox.start(esc, regs[0], regs[1])?;
+                self.data.sync.reset();
+            }
+            (AlState::PreOp, AlState::SafeOp) => {
+                if let Err(code) = self.prepare_safeop(esc, stage)? {
+                    return Ok(Err((AlState::PreOp, code)));
+                }
+            }
+            (AlState::SafeOp, AlState::Op) => {
+                // Accepted before the first outputs arrive; the outputs stay safe until
+                // fresh process data come in OP.
+                self.data.sync.enter_op();
+            }
+            _ => {}
+        }
+        if matches!(to, AlState::Init | AlState::PreOp) {
+            stage.set_dc_mode(false);
+        }
+        Ok(Ok(()))
+    }
+
+    fn prepare_safeop<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+    ) -> PdiResult<Result<(), AlStatusCode>, P> {
+        let sm2 = esc.read_sm(2)?;
+        let sm3 = esc.read_sm(3)?;
+        let dc_activation = esc.sync_activation()?;
+        let sync0_cycle_ns = esc.sync0_cycle_ns()?;
+        let (requested, requested_inputs) = self.data.sync.requests();
+        let inputs = SyncInputs {
+            requested,
+            requested_inputs,
+            dc_activation,
+            sync0_cycle_ns,
+            has_outputs: self.data.pd.output_len() > 0,
+            sm2_three_buffer: sm2.mode() == SmMode::Buffered,
+        };
+        let mode = match check_sync(&inputs) {
+            Ok(mode) => mode,
+            Err(e) => return Ok(Err(e.al_status_code())),
+        };
+        if self.data.source == objects::OutputSource::Can && self.data.pd.output_len() > 0 {
+            // CAN drives the outputs (crate::products::analog_io::can): EtherCAT runs inputs only.
+            return Ok(Err(AlStatusCode::InvalidOutputConfiguration));
+        }
+        let [_, _, expect2, expect3] = self.config.sm;
+        let od = self.data.od();
+        if let Err(code) = self.data.pd.prepare(od, &sm2, &sm3, &expect2, &expect3) {
+            return Ok(Err(code));
+        }
+        self.data.sync.start(mode, sync0_cycle_ns);
+        self.confirm_outputs =
+            mode != SyncMode::DcSync0 || sync0_cycle_ns >= CONFIRM_OUTPUTS_MIN_CYCLE_NS;
+        stage.set_dc_mode(mode == SyncMode::DcSync0);
+        // Inputs are valid in SAFEOP.
+        self.write_inputs(esc)?;
+        Ok(Ok(()))
+    }
+
+    // ------------------------------------------------------------ faults
+
+    fn watchdog<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        let status = esc.watchdog_status()?;
+        if status == WatchdogStatus::Expired && self.esm.state() == AlState::Op {
+            self.local_error(esc, stage, AlStatusCode::SyncManagerWatchdog, out)?;
+            let e = self
+                .data
+                .diag
+                .raise(ERR_COMMUNICATION, EMCY_WATCHDOG, [0; 5]);
+            self.emergency(e);
+        }
+        Ok(())
+    }
+
+    /// A sync error (0x001A) or, SYNC0 gone, the fatal sync error (0x002C): Emergency, and
+    /// in OP SAFEOP with the fault values.
+    fn sync_error<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        code: AlStatusCode,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        let counter = self.data.sync.error_counter().to_le_bytes();
+        let e = self.data.diag.raise(
+            ERR_COMMUNICATION,
+            EMCY_SYNC_ERROR,
+            [counter[0], counter[1], 0, 0, 0],
+        );
+        self.emergency(e);
+        if self.esm.state() == AlState::Op {
+            self.local_error(esc, stage, code, out)?;
+        }
+        Ok(())
+    }
+
+    /// OP -> SAFEOP with `code`, fault outputs.
+    fn local_error<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        code: AlStatusCode,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        let from = self.esm.state();
+        self.data.outputs.enter_fault(stage);
+        self.data.sync.disarm();
+        out.apply_outputs = true;
+        self.esm.local_error(AlState::SafeOp, code);
+        self.mailbox
+            .on_state_change(&mut self.data, from, self.esm.state());
+        self.write_status(esc)
+    }
+
+    /// Reports a rise of the ESC's PDI error counter (0x030D, with its code 0x030E) or of the
+    /// dropped output reads with an Emergency, once per rise (the master may clear
+    /// 0x030D). Called with the periodic safety service.
+    fn report_pdi_errors<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
+        let mut b = [0u8; 2];
+        esc.read(Register::PdiErrorCounter.addr(), &mut b)?;
+        let (counter, rejected) = self.pdi_reported;
+        let rose = b[0] > counter || self.rejected_reads != rejected;
+        self.pdi_reported = (b[0], self.rejected_reads);
+        if rose {
+            let [lo, hi] = self.rejected_reads.to_le_bytes();
+            let e = self
+                .data
+                .diag
+                .report(EMCY_PDI_ERROR, [b[0], b[1], lo, hi, 0]);
+            self.emergency(e);
+        }
+        Ok(())
+    }
+
+    // ------------------------------------------------------------ process data
+
+    fn outputs<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        let state = self.esm.state();
+        if !matches!(state, AlState::SafeOp | AlState::Op) {
+            return Ok(());
+        }
+        let start = self.config.sm[2].start;
+        let image = self.data.pd.output_image_mut();
+        if image.is_empty() {
+            return Ok(());
+        }
+        if self.confirm_outputs {
+            // Taken only when two reads agree (or equal to what is staged already): a
+            // value the ESC never held must not reach the DAC.
+            let n = image.len();
+            let (Some(fresh), Some(again)) = (self.fresh.get_mut(..n), self.again.get_mut(..n))
+            else {
+                return Ok(());
+            };
+            let read = confirm::read_confirmed(fresh, Some(image), again, |b| {
+                esc.read_process_data(start, b).map(drop)
+            })?;
+            match read {
+                Confirmed::Same => {}
+                Confirmed::New => {
+                    // A few bytes: a loop costs less than the call into memcpy.
+                    for (to, from) in image.iter_mut().zip(fresh.iter()) {
+                        *to = *from;
+                    }
+                }
+                Confirmed::Unstable => {
+                    // Dropped: in DC mode the SYNC0 edge counts a missed SM event.
+                    self.rejected_reads = self.rejected_reads.wrapping_add(1);
+                    return Ok(());
+                }
+            }
+        } else {
+            esc.read_process_data(start, image)?;
+        }
+        let in_op = state == AlState::Op;
+        self.data
+            .sync
+            .on_sm2_event(now_ns, in_op, stage.sync0_counts());
+        if in_op {
+            if let Ok(ao) = self.data.pd.unpack_ao(self.data.outputs.values(), state) {
+                if let (_, Some(e)) = self.data.set_outputs(ao, true, stage) {
+                    self.emergency(e);
+                }
+                if self.data.sync.mode() != SyncMode::DcSync0 {
+                    out.apply_outputs = true;
+                }
+            }
+        }
+        if self.data.sync.mode() != SyncMode::DcSync0 {
+            self.write_inputs(esc)?;
+        }
+        Ok(())
+    }
+
+    /// Publishes the samples of the cycle and writes them to SM3; returns the AL event bits
+    /// of the write (`None` if nothing was written).
+    fn write_inputs<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<Option<AlEvents>, P> {
+        self.data.sampler.publish();
+        let ao = self.data.outputs.values();
+        let values = SlotValues {
+            ai_codes: self.data.sampler.codes(),
+            ao: &ao,
+            error_register: self.data.diag.register(),
+        };
+        let start = self.config.sm[3].start;
+        if let Ok(image) = self.data.pd.pack_values(&values) {
+            if !image.is_empty() {
+                return esc.write_process_data(start, image).map(Some);
+            }
+        }
+        Ok(None)
+    }
+
+    // ------------------------------------------------------------ mailbox
+
+    /// Whether the periodic safety service (the mailbox and PDI error registers read, every
+    /// [`SAFETY_SERVICE_MS`] from PREOP) is due.
+    pub fn safety_service_due(&self, now_ns: u64) -> bool {
+        now_ns >= self.mailbox_check_ns
+    }
+
+    /// The periodic safety service if it is due. The PDI task calls it right after the
+    /// outputs of a cycle are in, where it delays no SM2 event ([`Self::poll`] leaves it
+    /// there in DC mode).
+    pub fn safety_service<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiResult<PdiOutcome, P> {
+        let mut out = PdiOutcome::default();
+        if self.safety_service_due(now_ns) {
+            self.registers_service(esc, stage, now_ns, &mut out)?;
+        }
+        Ok(out)
+    }
+
+    /// The safety service, one access per call: the PDI error counter, then, in the next
+    /// call (the service is due until the mailbox registers are read), the mailbox from its
+    /// registers, which also sends an Emergency the first queued. In DC mode a cycle that
+    /// carried all three register reads had its next outputs late.
+    fn registers_service<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        if !self.pdi_errors_read {
+            self.report_pdi_errors(esc)?;
+            self.pdi_errors_read = true;
+            return Ok(());
+        }
+        let how = Service::Registers {
+            check_repeat: false,
+        };
+        self.serve_mailbox(esc, stage, now_ns, how, out)
+    }
+
+    /// The next safety service of the mailbox: [`SAFETY_SERVICE_MS`] after the registers were
+    /// read at `now_ns`.
+    fn arm_mailbox_check(&mut self, now_ns: u64) {
+        self.mailbox_check_ns = match self.esm.state() {
+            AlState::Init => u64::MAX,
+            _ => now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000),
+        };
+        // The next safety service starts with the PDI error counter again.
+        self.pdi_errors_read = false;
+    }
+
+    fn serve_mailbox<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &OutputStage,
+        now_ns: u64,
+        how: Service,
+        out: &mut PdiOutcome,
+    ) -> PdiResult<(), P> {
+        let state = self.esm.state();
+        self.mask_stale = true;
+        if matches!(how, Service::Registers { .. }) {
+            self.arm_mailbox_check(now_ns);
+        }
+        // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
+        let now_ms = crate::platform::div::div_u64_u32(now_ns >> 6, 15_625) as u32;
+        let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
+        // The CAN node's access: its communication objects, the rest the application's.
+        let mut access = self.can.access(&mut view, micros(now_ns));
+        self.mailbox.service(esc, state, &mut access, now_ms, how)?;
+        // SDO-written outputs take effect if EtherCAT drives the outputs and is in OP.
+        if let Some(values) = view.data.take_ao_written() {
+            let owner = view.data.source == objects::OutputSource::EtherCat;
+            view.stage_outputs(values, owner && state == AlState::Op);
+        }
+        if let Some(e) = view.emergency.take() {
+            self.emergency(e);
+        }
+        Ok(())
+    }
+
+    // ------------------------------------------------------------ CAN
+
+    /// A frame the CAN controller received at `now_ns`.
+    pub fn on_can_frame(
+        &mut self,
+        frame: &CanFrame,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiOutcome {
+        self.can_call(Some(frame), stage, now_ns)
+    }
+
+    /// The CAN node's next PDO step, or its timers when none is left, at `now_ns` (call
+    /// at [`SlaveApp::can_deadline_ns`] at the latest).
+    pub fn poll_can(&mut self, stage: &OutputStage, now_ns: u64) -> PdiOutcome {
+        self.can_call(None, stage, now_ns)
+    }
+
+    /// The next frame for the CAN controller (highest priority first).
+    pub fn can_tx(&mut self) -> Option<CanFrame> {
+        self.can.pop_tx()
+    }
+
+    /// The frame [`SlaveApp::can_tx`] would give, left in place.
+    pub fn peek_can_tx(&self) -> Option<CanFrame> {
+        self.can.peek_tx()
+    }
+
+    /// True if the CAN node has frames to send (cheap: the PDI task asks every activation).
+    pub fn has_can_tx(&self) -> bool {
+        self.can.has_tx()
+    }
+
+    /// The kind of the node call that serves received `frame`, or without one
+    /// [`SlaveApp::poll_can`] ([`CallKind`]).
+    pub fn can_call_kind(&self, frame: Option<&CanFrame>) -> CallKind {
+        let sync_id = self.can.params().sync.cob_id.can_id();
+        match frame {
+            Some(f) => CallKind::of_frame(f.id(), self.can.node_id(), sync_id),
+            None if self.can.has_steps() => CallKind::PdoStep,
+            None => CallKind::Timers,
+        }
+    }
+
+    /// True if the CAN node has PDO work left in steps (run before the next frame).
+    pub fn can_has_steps(&self) -> bool {
+        self.can.has_steps()
+    }
+
+    /// Whether a call of the CAN node of `kind` may start at `now_ns` ([`CanWindow`]); a
+    /// refusal is remembered as CAN work that waits.
+    pub fn admit_can_call(&mut self, kind: CallKind, now_ns: u64) -> bool {
+        self.can_window.admit(kind, now_ns)
+    }
+
+    /// CAN work was refused and the window is open now: pend the CAN task.
+    pub fn can_work_waiting(&self, now_ns: u64) -> bool {
+        self.can_window.work_waiting(now_ns)
+    }
+
+    /// CAN work was refused and waits for the window (whoever opens it pends the CAN task).
+    pub fn can_waiting(&self) -> bool {
+        self.can_window.waiting()
+    }
+
+    /// When [`SlaveApp::poll_can`] must run next (ns).
+    pub fn can_deadline_ns(&self) -> Option<u64> {
+        self.can
+            .next_deadline_us()
+            .map(|us| us.saturating_mul(1000))
+    }
+
+    /// A received frame into the CAN node, or without one its next PDO step or else its
+    /// timers, and what follows from it for the outputs and the other fieldbus: one
+    /// bounded piece of work per call, so the CAN window can admit it by its kind. (One body for both callers: in the image it
+    /// exists once.)
+    fn can_call(
+        &mut self,
+        frame: Option<&CanFrame>,
+        stage: &OutputStage,
+        now_ns: u64,
+    ) -> PdiOutcome {
+        let now_us = micros(now_ns);
+        let mut out = PdiOutcome::default();
+        if !self.data.running.ethercat {
+            // Without EtherCAT cycles the CAN side ends the sampling cycle (TPDOs and SDO
+            // reads see the newest inputs); with them it reads what their cycle published.
+            self.data.sampler.publish();
+        }
+        let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
+        match frame {
+            Some(frame) => self.can.receive(frame, &mut view, now_us),
+            None if self.can.has_steps() => _ = self.can.step(&mut view, now_us),
+            None => self.can.timers(&mut view, now_us),
+        }
+        let operational = self.can.state() == NmtState::Operational;
+        view.data.running.can = operational;
+        // SDO-written outputs take effect if CAN drives the outputs and is operational.
+        if let Some(values) = view.data.take_ao_written() {
+            let owner = view.data.source == objects::OutputSource::Can;
+            view.stage_outputs(values, owner && operational);
+        }
+        if let Some(e) = view.emergency.take() {
+            self.emergency(e);
+        }
+        out
+    }
+}
+
+/// Nanoseconds to microseconds (32-bit divisions only).
+fn micros(now_ns: u64) -> u64 {
+    crate::platform::div::div_u64_u32(now_ns, 1000)
+}
