@@ -1,7 +1,7 @@
 //! Link setup of the two LPC1754 binaries.
 //!
 //! Each binary gets its own memory map (`firmware::platform::boot::layout`): the application
-//! (`analog-io`) `memory-app.x` (the application slot after the update header), the
+//! (`application`) `memory-app.x` (the application slot after the update header), the
 //! bootloader `memory-boot.x` (the first 12 KB, vectors with the checksum and the CRP word).
 //! cortex-m-rt's `link.x` includes `memory.x`, which the linker finds in the workspace root
 //! (the directory it runs in, searched before any search path); that file includes
@@ -47,7 +47,7 @@ fn main() {
     }
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("set by cargo"));
     link(
-        "analog-io",
+        "application",
         &app,
         &out.join("application"),
         &["link.x", "defmt.x"],

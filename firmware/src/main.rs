@@ -1,10 +1,13 @@
-//! RTIC 2 application for the LPC1754 (a stub on the host; build with `cargo xtask build`).
+//! The image of an analog product: the RTIC 2 application for the LPC1754 boards (a stub on
+//! the host; build with `cargo xtask build --product NAME`). The product is the one whose
+//! cargo feature is on (`firmware::products::selected`): its application behind the EtherCAT
+//! slave application, and with the feature `canopen-node` (`analog-io-can`) the CAN task.
 //!
 //! | task            | binds / kind                 | prio | owns                                         |
 //! |-----------------|------------------------------|------|----------------------------------------------|
 //! | `sync0_dac`     | TIMER1 (CAP1.0, pend)        | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch`     |
-//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 2    | ET1100 (legacy SPI), sample consumer; `SlaveApp` with `can` |
-//! | `can`           | CAN (CAN1 receive, pend)     | 2    | CAN1 (P0.0/P0.1); `SlaveApp` with `pdi`      |
+//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 2    | ET1100 (legacy SPI), sample consumer; `SlaveApp` (shared with `can`) |
+//! | `can` (`canopen-node`) | CAN (CAN1 receive, pend) | 2 | CAN1 (P0.0/P0.1); `SlaveApp` with `pdi`      |
 //! | `adc_dma`       | DMA (TC per half ring)       | 1    | - (GPDMA path: counts ring halves)           |
 //! | `sampler`       | TIMER2 (MR1)                 | 1    | ADC front (`adc-irq`: sample producer)       |
 //! | `tick`          | SysTick, every 1 ms          | 1    | the MCU watchdog (fed every 10 ms); requests the PDI and CAN tasks' background work |
@@ -15,12 +18,14 @@
 //! of the PDI and CAN tasks, which run at the same priority and so never preempt each
 //! other (`#[lock_free]`); no resource needs a lock. The CAN task moves what CAN1 received
 //! into its inbox at every activation, but calls the CANopen node (one frame, one PDO step
-//! or its timers) only when the CAN window admits the call's kind (`app::can_window`):
+//! or its timers) only when the CAN window admits the call's kind (`stacks::canopen::window`):
 //! while EtherCAT delivers outputs in regular cycles, only if the call's bound ends early
 //! enough for the PDI work before the next cycle's SYNC0 edge. It makes one call per
 //! activation and pends itself again while work waits; EINT3's vector comes before CAN's,
-//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both). Each bus has one owner. What the tasks do is the slave application's logic (`firmware::stacks::ethercat`, tested
-//! on the host); the task bodies only read pins and pend each other:
+//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both).
+//! Each bus has one owner. What the tasks do is the slave application's logic
+//! (`firmware::stacks::ethercat`) and the product's (`firmware::products`), tested on the
+//! host; the task bodies only read pins and pend each other:
 //!
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::latch_at_sync0`: LDAC
 //!   pulse or write-and-update) before it reads the capture's time, records the edge, then
@@ -42,7 +47,7 @@
 //!   the application once the ESC's EEPROM is loaded, and a stuck IRQ line served. It
 //!   pends the CAN task as well: the node's timers (heartbeat, guarding, inhibit and event
 //!   timers, SYNC window) at 1 ms resolution and frames the PDI side queued (Emergencies).
-//! - A received CAN frame pends the CAN task (`can_task::run`): the frame into the inbox,
+//! - A received CAN frame pends the CAN task (`stacks::canopen::task::run`): the frame into the inbox,
 //!   one call of the node if the window admits it (its PDO steps first, its timers after
 //!   each frame), the node's frames into the free transmit buffers, and the DAC task
 //!   pended with the apply request when an RPDO brought outputs (`OutputSource::Can`).
@@ -65,6 +70,7 @@ use panic_probe as _;
 mod rtic_app {
     use crate::hw;
     use crate::hw::adc::{AdcFront, AdcSource};
+    // Unconditional: RTIC names the CAN task's resources' types outside its `cfg`.
     use crate::hw::can::Can1;
     use crate::hw::dac::Dac;
     use crate::hw::esc::Esc;
@@ -75,12 +81,24 @@ mod rtic_app {
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
     use firmware::io::analog::outputs::{DacLatch, OutputStage};
-    use firmware::io::analog::process_data::ProcessData;
-    use firmware::products::analog_io::od;
-    use firmware::stacks::canopen::task::{self as can_task, CanInbox};
+    use firmware::io::analog::AnalogApplication;
+    use firmware::products::selected as product;
+    #[cfg(feature = "canopen-node")]
+    use firmware::stacks::canopen::task as can_task;
+    use firmware::stacks::canopen::task::CanInbox;
     use firmware::stacks::ethercat::pdi_task::{PdiTask, Wake};
-    use firmware::stacks::ethercat::{AppConfig, SlaveApp};
+    use firmware::stacks::ethercat::SlaveApp;
     use lpc17xx_pac::Interrupt;
+
+    /// CAN1's bus timing at the product's bit rate, found when building: a rate the CAN clock
+    /// cannot time exactly does not build.
+    #[cfg(feature = "canopen-node")]
+    const CAN_TIMING: firmware::platform::chip::can::BitTiming =
+        match firmware::platform::chip::can::bit_timing(hw::PCLK_HZ, product::can::DEFAULT_BIT_RATE)
+        {
+            Some(t) => t,
+            None => panic!("no exact CAN bit timing for the default bit rate at PCLK"),
+        };
 
     /// Set by the PDI task before it pends TIMER1: "apply the staged outputs now" (free run,
     /// SM-synchronous, fault values), as opposed to a SYNC0 capture.
@@ -114,7 +132,9 @@ mod rtic_app {
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
         stage_pdi: &'static OutputStage,
+        #[cfg(feature = "canopen-node")]
         can: Can1,
+        #[cfg(feature = "canopen-node")]
         stage_can: &'static OutputStage,
         adc: AdcFront,
         wdt: Watchdog,
@@ -123,7 +143,7 @@ mod rtic_app {
     /// The PDI task's state besides the ESC: the slave application (which owns the
     /// `Sampler`) and the consumer half of the sample ring that feeds it.
     pub struct PdiSide {
-        task: PdiTask,
+        task: PdiTask<product::Application>,
         samples_out: AdcSource,
     }
 
@@ -148,7 +168,7 @@ mod rtic_app {
         if let Err(e) = clock_result {
             defmt::error!("clock setup failed: {}", e);
         }
-        defmt::info!("analog-io: clocks {}", board.clocks);
+        defmt::info!("{}: clocks {}", product::PRODUCT.name, board.clocks);
         let mut syst = cx.core.SYST;
         syst.set_clock_source(SystClkSource::Core);
         syst.set_reload((board.clocks.cclk_hz / TICK_HZ).saturating_sub(1));
@@ -165,6 +185,10 @@ mod rtic_app {
             mut wdt,
             can,
         } = board;
+        #[cfg(feature = "canopen-node")]
+        let can = can.start(CAN_TIMING);
+        #[cfg(not(feature = "canopen-node"))]
+        drop(can); // CAN1 stays in reset mode
 
         // Outputs to 0 V first: after an MCU-only reset the DAC still drives the old values.
         if dac.init().is_err() {
@@ -174,11 +198,7 @@ mod rtic_app {
         let (mut adc, samples_out) = hw::adc::split(adc);
         // Built in its static slot, not moved through the stack (2 KB).
         let pdi = cx.local.pdi_slot.write(PdiSide {
-            task: PdiTask::new(SlaveApp::new(
-                &od::OD,
-                AppConfig::product(),
-                ProcessData::product_default(),
-            )),
+            task: PdiTask::new(SlaveApp::new(product::CONFIG, product::application())),
             samples_out,
         });
         let ready = hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded, &sync0);
@@ -206,7 +226,9 @@ mod rtic_app {
                 esc_irq,
                 esc_eeprom_loaded,
                 stage_pdi: stage,
+                #[cfg(feature = "canopen-node")]
                 can,
+                #[cfg(feature = "canopen-node")]
                 stage_can: stage,
                 adc,
                 wdt,
@@ -275,8 +297,8 @@ mod rtic_app {
             now,
             wake,
             || esc_irq.still_asserted(),
-            |sampler| {
-                samples.drain_into(sampler);
+            |app| {
+                samples.drain_into(&mut app.analog().sampler);
             },
         );
         if done.apply_outputs {
@@ -292,15 +314,19 @@ mod rtic_app {
             hw::boot_request::enter_bootloader();
         }
         // CAN frames to send, or a CAN call the window refused that fits now.
-        let app = pdi.task.app();
-        if app.has_can_tx() || app.can_work_waiting(now) {
-            rtic::pend(Interrupt::CAN);
+        #[cfg(feature = "canopen-node")]
+        {
+            let can = &pdi.task.app().application().can;
+            if can.has_tx() || can.work_waiting(now) {
+                rtic::pend(Interrupt::CAN);
+            }
         }
     }
 
     /// CAN1 received a frame, or pended by the tick / the PDI task: received frames into
     /// the inbox, the node's frames and timers when the CAN window admits them, and
     /// transmissions.
+    #[cfg(feature = "canopen-node")]
     #[task(binds = CAN, priority = 2, local = [can, stage_can, inbox: CanInbox = CanInbox::new()], shared = [pdi])]
     fn can(cx: can::Context) {
         let can = cx.local.can;
@@ -334,6 +360,7 @@ mod rtic_app {
     #[task(binds = SysTick, priority = 1, local = [wdt, ticks: u32 = 0])]
     fn tick(cx: tick::Context) {
         request_pdi_poll();
+        #[cfg(feature = "canopen-node")]
         rtic::pend(Interrupt::CAN);
         *cx.local.ticks += 1;
         if *cx.local.ticks >= FEED_TICKS {
@@ -345,5 +372,5 @@ mod rtic_app {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    eprintln!("analog-io runs on the LPC1754: build it with `cargo xtask build`");
+    eprintln!("the application runs on the LPC1754: build it with `cargo xtask build`");
 }

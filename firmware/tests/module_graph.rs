@@ -155,6 +155,50 @@ fn code_only(text: &str) -> String {
     String::from_utf8(out).expect("blanking keeps UTF-8")
 }
 
+/// `code` (from [`code_only`]) with its test code blanked: the item after each
+/// `#[cfg(test)]` (an inline `mod tests { .. }`, a `mod tests;`, a function). Tests may take
+/// their fixtures from any module; the rules here are about the firmware's own code.
+fn without_test_code(code: &str) -> String {
+    const MARK: &str = "#[cfg(test)]";
+    let mut out: Vec<u8> = code.as_bytes().to_vec();
+    let mut from = 0;
+    while let Some(at) = code[from..].find(MARK).map(|p| from + p) {
+        let b = code.as_bytes();
+        let mut i = at;
+        let mut depth = 0usize;
+        while i < b.len() {
+            match b[i] {
+                b'{' => depth += 1,
+                b'}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        i += 1;
+                        break;
+                    }
+                }
+                b';' if depth == 0 => {
+                    i += 1;
+                    break;
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+        for c in &mut out[at..i] {
+            if *c != b'\n' {
+                *c = b' ';
+            }
+        }
+        from = i;
+    }
+    String::from_utf8(out).expect("blanking keeps UTF-8")
+}
+
+/// True for a file that only tests compile (`tests.rs`, declared `#[cfg(test)] mod tests;`).
+fn test_file(path: &Path) -> bool {
+    path.file_name().is_some_and(|n| n == "tests.rs")
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Token {
     Ident(String),
@@ -454,7 +498,13 @@ fn import_graph(src: &Path) -> BTreeMap<ModPath, BTreeMap<ModPath, String>> {
     let mut modules = file_nodes.clone();
     let parsed: Vec<_> = files
         .iter()
-        .map(|f| (f, paths_of(&code_only(&f.text))))
+        .map(|f| {
+            let code = match test_file(&f.path) {
+                true => String::new(),
+                false => without_test_code(&code_only(&f.text)),
+            };
+            (f, paths_of(&code))
+        })
         .collect();
     for (f, paths) in &parsed {
         for (_, _, inline) in paths {
@@ -510,6 +560,114 @@ fn no_module_imports_from_a_module_that_imports_from_it() {
         }
     }
     assert!(found.is_empty(), "\n{report}");
+}
+
+/// The library's layers, bottom up (`src/lib.rs`): a module imports only from its own
+/// layer and the ones below.
+const LAYERS: [&str; 4] = ["platform", "stacks", "io", "products"];
+
+/// Modules that import nothing from each other: the EtherCAT slave application holds no
+/// CAN code and the CANopen node no EtherCAT code; a product composes them.
+const APART: [(&str, &str); 2] = [
+    ("stacks::ethercat", "stacks::canopen"),
+    ("stacks::canopen", "stacks::ethercat"),
+];
+
+fn layer(m: &ModPath) -> Option<usize> {
+    let first = m.1.first()?;
+    LAYERS.iter().position(|l| l == first)
+}
+
+fn within(m: &ModPath, prefix: &str) -> bool {
+    let parts: Vec<&str> = prefix.split("::").collect();
+    m.0 == Crate::Lib && m.1.len() >= parts.len() && m.1.iter().zip(&parts).all(|(a, b)| a == b)
+}
+
+/// The imports that break the layering (or [`APART`]), one line each.
+fn layering_faults(graph: &BTreeMap<ModPath, BTreeMap<ModPath, String>>) -> Vec<String> {
+    let mut faults = Vec::new();
+    for (from, edges) in graph {
+        for (to, place) in edges {
+            if from.0 != Crate::Lib || to.0 != Crate::Lib {
+                continue;
+            }
+            if let (Some(a), Some(b)) = (layer(from), layer(to)) {
+                if b > a {
+                    faults.push(format!(
+                        "{} ({}) imports from {} ({}): {place}",
+                        name(from),
+                        LAYERS[a],
+                        name(to),
+                        LAYERS[b]
+                    ));
+                }
+            }
+            for (a, b) in APART {
+                if within(from, a) && within(to, b) {
+                    faults.push(format!("{} imports from {}: {place}", name(from), name(to)));
+                }
+            }
+        }
+    }
+    faults
+}
+
+#[test]
+fn each_layer_imports_only_from_the_layers_below() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let faults = layering_faults(&import_graph(&src));
+    assert!(faults.is_empty(), "\n{}", faults.join("\n"));
+}
+
+/// The layering check finds an import upwards and one between the stacks, and leaves test
+/// code alone.
+#[test]
+fn the_layering_check_finds_what_it_must() {
+    let dir = std::env::temp_dir().join(format!("module-layers-{}", std::process::id()));
+    let src = dir.join("src");
+    for d in ["platform", "stacks/ethercat", "stacks/canopen", "products"] {
+        std::fs::create_dir_all(src.join(d)).unwrap();
+    }
+    let files = [
+        (
+            "lib.rs",
+            "pub mod platform; pub mod stacks; pub mod products;",
+        ),
+        ("platform/mod.rs", "pub mod board; use crate::products::P;"),
+        (
+            "platform/board.rs",
+            "#[cfg(test)]\nmod tests { use crate::products::P; }",
+        ),
+        ("stacks/mod.rs", "pub mod ethercat; pub mod canopen;"),
+        (
+            "stacks/ethercat/mod.rs",
+            "use crate::stacks::canopen::Node;",
+        ),
+        ("stacks/canopen/mod.rs", "use crate::platform::board::B;"),
+        ("stacks/canopen/tests.rs", "use crate::products::P;"),
+        (
+            "products/mod.rs",
+            "use crate::stacks::ethercat::S; pub struct P;",
+        ),
+    ];
+    for (path, text) in files {
+        std::fs::write(src.join(path), text).unwrap();
+    }
+    let mut faults = layering_faults(&import_graph(&src));
+    std::fs::remove_dir_all(&dir).unwrap();
+    faults.sort();
+    let found: Vec<&str> = faults
+        .iter()
+        .map(|f| f.split(": /").next().unwrap_or(""))
+        .collect();
+    assert_eq!(
+        found,
+        [
+            "firmware::platform (platform) imports from firmware::products (products)",
+            "firmware::stacks::ethercat imports from firmware::stacks::canopen",
+        ],
+        "{faults:#?}"
+    );
 }
 
 /// The checker finds what it must: a pair, a longer circle, `super`, relative paths and

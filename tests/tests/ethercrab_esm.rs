@@ -215,7 +215,7 @@ static DEVICE: DeviceDescription = DeviceDescription {
         min_cycle_ns: 100_000,
         max_cycle_ns: 100_000_000,
     },
-    pdi: firmware::products::analog_io::device::PDI,
+    pdi: firmware::platform::board::PDI,
     eeprom: EepromDesc {
         size_bytes: 2048,
         station_alias: 0,

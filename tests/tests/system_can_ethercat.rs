@@ -9,8 +9,9 @@ use coe_core::canopen::{CanFrame, NmtCommand};
 use coe_core::SdoAbortCode;
 use ethercrab::{std::ethercat_now, MainDevice, MainDeviceConfig, PduStorage};
 use firmware::io::analog::scaling::ao_to_dac_code;
-use firmware::products::analog_io::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
-use firmware::products::analog_io::identity::NAMES;
+use firmware::products::analog_io_can;
+use firmware::products::analog_io_can::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
+use firmware::products::analog_io_can::identity::NAMES;
 use futures_lite::future::{block_on, or};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -51,7 +52,7 @@ fn tpdo_inputs(can: &CanMaster, board: &Board) -> Vec<i16> {
 
 #[test]
 fn ethercat_in_op_and_canopen_at_the_same_time() {
-    let target = sim::firmware_target().unwrap();
+    let target = sim::firmware_target_of(&analog_io_can::PRODUCT, NODE).unwrap();
     let board: Board = Rc::new(RefCell::new(target.into_board(|b| b.capture = false)));
     {
         let b = board.borrow();

@@ -75,8 +75,8 @@ fn python_canopen_drives_the_board_over_socketcand() {
     let eds_path = eds_dir.join("module.eds");
     let mut eds = String::new();
     coe_core::eds::write_eds(
-        &firmware::products::analog_io::device::DEVICE,
-        &firmware::products::analog_io::can::EDS_INFO,
+        &firmware::products::analog_io_can::device::DEVICE,
+        &firmware::products::analog_io_can::can::EDS_INFO,
         &mut eds,
     )
     .unwrap();
@@ -86,7 +86,7 @@ fn python_canopen_drives_the_board_over_socketcand() {
     let board_stop = stop.clone();
     let (port_tx, port_rx) = mpsc::channel();
     let board = std::thread::spawn(move || -> Result<BoardRecord, String> {
-        let target = sim::firmware_target_for(NODE_ID)?;
+        let target = sim::firmware_target_of(&firmware::products::analog_io_can::PRODUCT, NODE_ID)?;
         let mut server = SocketcandServer::bind(0).map_err(|e| e.to_string())?;
         let mut board = target.into_board(|b| b.capture = false);
         {

@@ -65,7 +65,7 @@ fn module(version: &str) -> Module {
 impl Module {
     fn version(&self) -> Option<String> {
         self.flash
-            .application()
+            .application(&firmware::products::analog_io::BOARD)
             .and_then(|h| h.version_str().map(str::to_owned))
     }
 
@@ -221,11 +221,14 @@ fn bad_files() -> [(
     Vec<u8>,
     FoeErrorCode,
     &'static str,
-); 5] {
-    let other_product = Target {
-        product_code: UPDATE_TARGET.product_code + 1,
+); 6] {
+    let other_board = Target {
+        board: UPDATE_TARGET.board + 1,
         ..UPDATE_TARGET
     };
+    // The CAN product's target: the same board design, but with the CAN transceiver fitted,
+    // which this module does not have.
+    let needs_can = firmware::products::analog_io_can::identity::UPDATE_TARGET;
     let other_revision = Target {
         hardware_revision: UPDATE_TARGET.hardware_revision + 1,
         ..UPDATE_TARGET
@@ -235,11 +238,18 @@ fn bad_files() -> [(
     *bad_crc.last_mut().unwrap() ^= 0x40;
     [
         (
-            "another product",
+            "another board",
             "analog-io.efw",
-            update_file(9_000, &other_product, "2.0.0"),
+            update_file(9_000, &other_board, "2.0.0"),
             FoeErrorCode::InvalidFirmware,
-            "other product code",
+            "other board",
+        ),
+        (
+            "a product needing a part the board lacks",
+            "analog-io-can.efw",
+            update_file(9_000, &needs_can, "2.0.0"),
+            FoeErrorCode::InvalidFirmware,
+            "board lacks a part",
         ),
         (
             "another hardware revision",
@@ -272,7 +282,7 @@ fn bad_files() -> [(
     ]
 }
 
-/// Files for another product or hardware revision, with a bad CRC, truncated, or not named
+/// Files for another board, a product the board cannot run or another hardware revision, with a bad CRC, truncated, or not named
 /// *.efw: each refused with its FoE error in BOOT; BOOT -> INIT then starts the old
 /// application, untouched.
 fn scenario_bad_files(pcap: &str) -> PathBuf {

@@ -26,16 +26,16 @@ use virtual_board::tools::sim::{firmware_device, tshark};
 /// The files the script writes: the refused ones first, the good one last.
 fn files(dir: &Path) -> (PathBuf, Vec<PathBuf>) {
     let good = update_file(25_000, &UPDATE_TARGET, "3.0.0");
-    let other_product = Target {
-        product_code: UPDATE_TARGET.product_code ^ 0x10,
+    let other_board = Target {
+        board: UPDATE_TARGET.board ^ 0x10,
         ..UPDATE_TARGET
     };
     let mut bad_crc = good.clone();
     bad_crc[5_000] ^= 1;
     let bad = [
         (
-            "other-product.efw",
-            update_file(25_000, &other_product, "3.0.0"),
+            "other-board.efw",
+            update_file(25_000, &other_board, "3.0.0"),
         ),
         ("bad-crc.efw", bad_crc),
         ("truncated.efw", good[..good.len() - 3_000].to_vec()),
@@ -93,7 +93,7 @@ fn run_in_namespace(good: PathBuf, bad: Vec<PathBuf>) -> Result<Outcome, String>
         Ok::<_, String>(Board {
             frames: stats.frames,
             version: flash
-                .application()
+                .application(&firmware::products::analog_io::BOARD)
                 .and_then(|h| h.version_str().map(str::to_owned)),
             boot_requests: log.boot_requests,
             installs: log.startups.iter().filter(|s| s.installed).count(),
@@ -159,7 +159,7 @@ fn pysoem_updates_the_module_over_a_veth_pair() {
     assert_eq!(
         writes,
         [
-            ("other-product.efw".to_owned(), false),
+            ("other-board.efw".to_owned(), false),
             ("bad-crc.efw".to_owned(), false),
             ("truncated.efw".to_owned(), false),
             ("analog-io.bin".to_owned(), false),

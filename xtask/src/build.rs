@@ -1,41 +1,48 @@
-//! `cargo xtask build`: the release images for the LPC1754.
+//! `cargo xtask build [--product NAME]`: the release images of the products
+//! (`firmware::products`), every product or the one named.
 //!
-//! Builds the two programs of `firmware` for thumbv7m-none-eabi (installing flip-link first
-//! if needed): the application (bin `analog-io`, linked at 0x3100 in the application slot,
-//! profile `release`) and the bootloader (bin `bootloader`, the first 12 KB, profile
-//! `bootloader`). Then, under `target/thumbv7m-none-eabi/` (or `$CARGO_TARGET_DIR`):
+//! Each product's image is the firmware's application binary built with the product's cargo
+//! feature and its release settings (`firmware::products::ImageBuild`: opt-level, machine
+//! outliner), and the bootloader of the product's board, built with the same feature
+//! (installing flip-link first if needed). Then, under `target/thumbv7m-none-eabi/` (or
+//! `$CARGO_TARGET_DIR`), named after the product:
 //!
-//! - `bootloader/bootloader.bin`: the vector checksum patched in (also into the ELF), read
-//!   back from disk and verified (checksum rule, vectors, CRP word);
+//! - `bootloader/NAME` and `bootloader/NAME.bin`: the bootloader of the product's board, the
+//!   vector checksum patched in (also into the ELF), read back from disk and verified
+//!   (checksum rule, vectors, CRP word);
+//! - `release/NAME` (the ELF) and `release/NAME.bin`: the application image from 0x3100, its
+//!   vectors checked;
+//! - `release/NAME.efw`: the update file, the header block
+//!   (`firmware::platform::boot::header`: identity, board, the board options it needs,
+//!   version, length, CRC-32) and the application image;
+//! - `release/NAME-flash-image.bin`: what `cargo xtask flash --product NAME` writes from
+//!   address 0 (bootloader, update file in the slot, the staging area's header erased).
 //!
-//! and next to the application's ELF (`release/`):
-//!
-//! - `analog-io.bin`: the application image from 0x3100, its vectors checked;
-//! - `analog-io.efw`: the update file, the header block (`firmware::platform::boot::header`: identity,
-//!   hardware revision, version, length, CRC-32) and the application image;
-//! - `flash-image.bin`: what `cargo xtask flash` writes from address 0 (bootloader, update
-//!   file in the slot, the staging area's header erased).
-//!
-//! It prints the paths, the update file's version and CRC, and both programs' flash and RAM
-//! against their budgets, and fails when either is over.
+//! It prints the paths, the update file's version and CRC, each product's flash and RAM
+//! against its budget and the bootloader's against its region, and fails when one is over.
 
-use crate::image::{self, Budget, Crp, Usage, BOOT_BUDGET, BUDGET};
+use crate::image::{self, Budget, Crp, Usage, BOOT_BUDGET};
 use crate::setup;
 use crate::util::{cargo, exec, root, Result};
 use firmware::platform::boot::header::HeaderRepr;
 use firmware::platform::boot::layout::APP_VECTORS;
-use firmware::products::analog_io::identity::{NAMES, UPDATE_TARGET};
+use firmware::products::{Product, PRODUCTS};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The firmware's target triple.
 pub const TARGET: &str = "thumbv7m-none-eabi";
-/// The application binary's name.
-pub const BIN: &str = "analog-io";
+/// The application binary (the image of the product whose feature is on).
+pub const BIN: &str = "application";
 /// The bootloader binary's name.
 pub const BOOT_BIN: &str = "bootloader";
 /// The cargo profile the bootloader is built with (the workspace's Cargo.toml says why).
 pub const BOOT_PROFILE: &str = "bootloader";
+/// The environment variable that gives the target's rustflags (replacing
+/// `.cargo/config.toml`'s), per product.
+const RUSTFLAGS_ENV: &str = "CARGO_TARGET_THUMBV7M_NONE_EABI_RUSTFLAGS";
+/// The machine outliner on every function (not only the "z" ones).
+const OUTLINER: &str = "-C llvm-args=-enable-machine-outliner=always";
 
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct Args {
@@ -43,6 +50,37 @@ pub struct Args {
     /// CRP3 locks SWD and ISP out FOR EVER.
     #[arg(long)]
     pub allow_crp: bool,
+    /// Only this product (default: `build` all, the other commands the default product).
+    #[arg(long, value_name = "NAME")]
+    pub product: Option<String>,
+}
+
+impl Args {
+    /// `product` with the other options default.
+    pub fn of(product: &'static Product) -> Self {
+        Self {
+            allow_crp: false,
+            product: Some(product.name.into()),
+        }
+    }
+
+    /// The product named, else the default one.
+    pub fn product(&self) -> Result<&'static Product> {
+        match &self.product {
+            Some(name) => product(name),
+            None => Ok(firmware::products::default()),
+        }
+    }
+}
+
+/// The product called `name`, or an error that lists them.
+pub fn product(name: &str) -> Result<&'static Product> {
+    firmware::products::find(name).ok_or_else(|| {
+        format!(
+            "no product {name:?}: the products are {}",
+            firmware::products::NAMES.join(", ")
+        )
+    })
 }
 
 /// One linked program.
@@ -56,16 +94,18 @@ pub struct Program {
     pub usage: Usage,
 }
 
-/// What a build produced.
+/// What a build of one product produced.
 #[derive(Debug, Clone)]
 pub struct Output {
+    /// The product.
+    pub product: &'static Product,
     /// The application's ELF.
     pub elf: PathBuf,
     /// The application's image (from 0x3100).
     pub bin: PathBuf,
     /// The application's memory use.
     pub usage: Usage,
-    /// The bootloader.
+    /// The bootloader of the product's board.
     pub boot: Program,
     /// The CRP level of the flash image (the bootloader's word at 0x2FC).
     pub crp: Crp,
@@ -75,6 +115,21 @@ pub struct Output {
     pub header: HeaderRepr,
     /// The whole flash content for a probe, from address 0.
     pub image: PathBuf,
+}
+
+impl Output {
+    /// The application's budget (the product's).
+    pub fn budget(&self) -> Budget {
+        budget_of(self.product)
+    }
+}
+
+/// A product's application budget.
+pub fn budget_of(product: &Product) -> Budget {
+    Budget {
+        flash: u64::from(product.budget.flash),
+        ram: u64::from(product.budget.ram),
+    }
 }
 
 /// The cargo target directory (honours `CARGO_TARGET_DIR`, relative to the workspace root).
@@ -92,22 +147,62 @@ pub fn target_dir() -> PathBuf {
     }
 }
 
-/// Where the ELF of the bootloader lands (its profile's directory beside `release`).
-pub fn boot_elf_path() -> PathBuf {
-    target_dir().join(TARGET).join(BOOT_PROFILE).join(BOOT_BIN)
+/// Where the bootloader of `product`'s board lands (its profile's directory beside
+/// `release`, named after the product).
+pub fn boot_elf_path(product: &Product) -> PathBuf {
+    target_dir()
+        .join(TARGET)
+        .join(BOOT_PROFILE)
+        .join(product.name)
 }
 
+/// `cargo xtask build`: every product (or the one named), then the report and the budgets.
 pub fn run(args: &Args) -> Result {
-    let out = build(args)?;
-    print_report(&out);
-    Ok(())
+    let products: Vec<&'static Product> = match &args.product {
+        Some(name) => vec![product(name)?],
+        None => PRODUCTS.to_vec(),
+    };
+    let mut outs = Vec::new();
+    for p in products {
+        outs.push(build_unchecked(&Args {
+            product: Some(p.name.into()),
+            ..args.clone()
+        })?);
+    }
+    for out in &outs {
+        print_report(out);
+    }
+    print_budgets(&outs);
+    outs.iter().try_for_each(check_budget)
+}
+
+/// Each product's flash and RAM against its budget, one line each.
+pub fn print_budgets(outs: &[Output]) {
+    println!("budgets:");
+    for out in outs {
+        let (u, b) = (&out.usage, out.budget());
+        println!(
+            "  {:<14} flash {:>6} B of {:>6} B ({:5.1} %, {:>5} B free)   static RAM {:>5} B of {:>5} B ({:5.1} %)   bootloader {:>5} B of {:>5} B",
+            out.product.name,
+            u.flash,
+            b.flash,
+            pct(u.flash, b.flash),
+            b.flash.saturating_sub(u.flash),
+            u.ram,
+            b.ram,
+            pct(u.ram, b.ram),
+            out.boot.usage.flash,
+            BOOT_BUDGET.flash,
+        );
+    }
 }
 
 /// The paths, the update file and both programs against their budgets.
 pub fn print_report(out: &Output) {
+    println!("{} ({}):", out.product.name, out.product.summary);
     println!("application:");
-    print_usage(&out.usage, &BUDGET);
-    println!("bootloader:");
+    print_usage(&out.usage, &out.budget());
+    println!("bootloader ({}):", out.product.board.name);
     print_usage(&out.boot.usage, &BOOT_BUDGET);
     println!("ELF:        {}", out.elf.display());
     println!("ELF:        {}", out.boot.elf.display());
@@ -120,60 +215,90 @@ pub fn print_report(out: &Output) {
         out.boot.bin.display()
     );
     println!(
-        "update:     {} (version {}, image {} B, CRC-32 {:#010x}, for vendor {:#x} product {:#x} hardware revision {})",
+        "update:     {} (version {}, image {} B, CRC-32 {:#010x}, vendor {:#x} product {:#x}, board {:#x} rev {} needing {:#x})",
         out.efw.display(),
         out.header.version_str().unwrap_or("?"),
         out.header.image_len,
         out.header.image_crc,
         out.header.vendor_id,
         out.header.product_code,
-        out.header.hardware_revision
+        out.header.board,
+        out.header.hardware_revision,
+        out.header.needs.0,
     );
     println!(
-        "flash:      {} (bootloader + application, what `cargo xtask flash` writes)",
-        out.image.display()
+        "flash:      {} (bootloader + application, what `cargo xtask flash --product {}` writes)",
+        out.image.display(),
+        out.product.name
     );
     println!("CRP:        {}", out.crp);
 }
 
-/// Builds, converts, verifies; no printing of the report.
+/// Builds, converts, verifies one product (`args.product`, else the default); no printing
+/// of the report.
 pub fn build(args: &Args) -> Result<Output> {
     let out = build_unchecked(args)?;
     check_budget(&out)?;
     Ok(out)
 }
 
-/// The budget verdict of both programs, printing the figures when over budget.
+/// The budget verdict of both programs of a product, printing the figures when over.
 pub fn check_budget(out: &Output) -> Result {
     for (name, usage, budget) in [
-        ("application", &out.usage, &BUDGET),
+        ("application", &out.usage, &out.budget()),
         ("bootloader", &out.boot.usage, &BOOT_BUDGET),
     ] {
         if let Err(e) = image::check_budget(usage, budget) {
             print_usage(usage, budget);
-            return Err(format!("{name}: {e}"));
+            return Err(format!("{} {name}: {e}", out.product.name));
         }
     }
     Ok(())
 }
 
-/// Overrides of the release profile for one build (`cargo --config` values) and the target
-/// directory they build in: a build with other settings keeps its artifacts apart from the
-/// normal ones (`bench --opt-levels`).
+/// Overrides of the release profile for one build (`cargo --config` values, the target's
+/// rustflags) and the target directory they build in.
 #[derive(Debug, Clone, Default)]
 pub struct Profile {
     /// `--config` values, e.g. `profile.release.opt-level="s"`.
     pub config: Vec<String>,
+    /// The target's rustflags (`None`: `.cargo/config.toml`'s).
+    pub rustflags: Option<String>,
     /// The target directory (`None`: [`target_dir`]).
     pub target_dir: Option<PathBuf>,
 }
 
 impl Profile {
+    /// The release settings of `product`'s image.
+    pub fn of(product: &Product) -> Self {
+        Self::with(product.build.opt_level, product.build.machine_outliner)
+    }
+
+    /// The release profile at `opt_level`, the machine outliner on or off.
+    pub fn with(opt_level: &str, outliner: bool) -> Self {
+        let level = match opt_level.parse::<u8>() {
+            Ok(n) => n.to_string(),
+            Err(_) => format!("\"{opt_level}\""),
+        };
+        Self {
+            config: vec![format!("profile.release.opt-level={level}")],
+            rustflags: Some(if outliner {
+                OUTLINER.into()
+            } else {
+                String::new()
+            }),
+            target_dir: None,
+        }
+    }
+
     /// `cargo` with the overrides applied.
     pub fn cargo(&self) -> Command {
         let mut cmd = cargo();
         if let Some(dir) = &self.target_dir {
             cmd.env("CARGO_TARGET_DIR", dir);
+        }
+        if let Some(flags) = &self.rustflags {
+            cmd.env(RUSTFLAGS_ENV, flags);
         }
         cmd
     }
@@ -196,60 +321,80 @@ impl Profile {
     }
 }
 
-/// Compiles and links the firmware binary with `profile`; returns the ELF (not yet patched).
-pub fn link(profile: &Profile) -> Result<PathBuf> {
+/// Compiles and links `product`'s application with `profile`; returns its ELF, copied to
+/// the product's name beside cargo's (not yet checked).
+pub fn link(product: &Product, profile: &Profile) -> Result<PathBuf> {
     setup::targets()?;
     setup::flip_link()?;
-    exec(release_log(
+    exec(features(
         profile
             .cargo()
             .args(["build", "--release", "-p", "firmware", "--bin", BIN])
             .args(["--target", TARGET])
             .args(profile.config_args()),
+        product,
     ))?;
-    Ok(profile.release_dir().join(BIN))
+    let dir = profile.release_dir();
+    copy(&dir.join(BIN), &dir.join(product.name))
 }
 
-/// The release images log nothing (`DEFMT_LOG=off`: the defmt frames and their strings
-/// cost about 0.8 KB of flash, the RTT transport another 0.7 KB and 1 KB of RAM, so the
-/// firmware's default `rtt` feature is left out); a `DEFMT_LOG` of the caller's (e.g.
-/// `error` or `info`, for an image read through a probe) is kept, with the transport.
-fn release_log(cmd: &mut Command) -> &mut Command {
+/// The product's feature alone; the images log nothing (`DEFMT_LOG=off`: the defmt frames
+/// and their strings cost about 0.8 KB of flash, the RTT transport another 0.7 KB and 1 KB of
+/// RAM, so the firmware's default `rtt` feature is left out); a `DEFMT_LOG` of the caller's
+/// (e.g. `error` or `info`, for an image read through a probe) is kept, with the transport.
+fn features<'a>(cmd: &'a mut Command, product: &Product) -> &'a mut Command {
+    cmd.arg("--no-default-features");
     if std::env::var_os("DEFMT_LOG").is_none() {
-        cmd.env("DEFMT_LOG", "off").arg("--no-default-features");
+        cmd.env("DEFMT_LOG", "off")
+            .args(["--features", product.name])
+    } else {
+        cmd.args(["--features", &format!("{},rtt", product.name)])
     }
-    cmd
 }
 
-/// Builds the bootloader with its own profile.
-fn build_bootloader() -> Result {
+/// Copies `from` to `to`; returns `to`.
+fn copy(from: &Path, to: &Path) -> Result<PathBuf> {
+    std::fs::copy(from, to)
+        .map_err(|e| format!("cannot copy {} to {}: {e}", from.display(), to.display()))?;
+    Ok(to.to_path_buf())
+}
+
+/// Builds the bootloader of `product`'s board with its own profile; returns its ELF, named
+/// after the product.
+fn build_bootloader(product: &Product) -> Result<PathBuf> {
     setup::targets()?;
     setup::flip_link()?;
-    exec(release_log(cargo().args([
-        "build",
-        "--profile",
-        BOOT_PROFILE,
-        "-p",
-        "firmware",
-        "--bin",
-        BOOT_BIN,
-        "--target",
-        TARGET,
-    ])))
+    exec(features(
+        cargo().args([
+            "build",
+            "--profile",
+            BOOT_PROFILE,
+            "-p",
+            "firmware",
+            "--bin",
+            BOOT_BIN,
+            "--target",
+            TARGET,
+        ]),
+        product,
+    ))?;
+    let dir = target_dir().join(TARGET).join(BOOT_PROFILE);
+    copy(&dir.join(BOOT_BIN), &boot_elf_path(product))
 }
 
 /// Like [`build`] but without the budget verdict (for `size`, which reports first).
 pub fn build_unchecked(args: &Args) -> Result<Output> {
-    let app = link(&Profile::default())?;
-    build_bootloader()?;
-    finish_unchecked(&app, args.allow_crp)
+    let product = args.product()?;
+    let app = link(product, &Profile::of(product))?;
+    build_bootloader(product)?;
+    finish_unchecked(product, &app, args.allow_crp)
 }
 
-/// The post-link steps with `app_elf` as the application (the cargo runner passes one): the
-/// bootloader is built, everything else as [`build`].
-pub fn finish(app_elf: &Path, allow_crp: bool) -> Result<Output> {
-    build_bootloader()?;
-    let out = finish_unchecked(app_elf, allow_crp)?;
+/// The post-link steps with `app_elf` as `product`'s application (the cargo runner passes
+/// one): the bootloader is built, everything else as [`build`].
+pub fn finish(product: &'static Product, app_elf: &Path, allow_crp: bool) -> Result<Output> {
+    build_bootloader(product)?;
+    let out = finish_unchecked(product, app_elf, allow_crp)?;
     check_budget(&out)?;
     Ok(out)
 }
@@ -289,8 +434,8 @@ fn program(elf: &Path, base: u64, checksum: bool) -> Result<(Program, Vec<u8>)> 
 }
 
 /// [`finish`] without the bootloader build and the budget verdict.
-fn finish_unchecked(app_elf: &Path, allow_crp: bool) -> Result<Output> {
-    let (boot, _) = program(&boot_elf_path(), image::FLASH.start, true)?;
+fn finish_unchecked(product: &'static Product, app_elf: &Path, allow_crp: bool) -> Result<Output> {
+    let (boot, _) = program(&boot_elf_path(product), image::FLASH.start, true)?;
     let (app, app_bin) = program(app_elf, u64::from(APP_VECTORS), false)?;
 
     // Verify what is on disk, not what is in memory.
@@ -304,18 +449,21 @@ fn finish_unchecked(app_elf: &Path, allow_crp: bool) -> Result<Output> {
         eprintln!("!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!");
         eprintln!();
     }
-    let (efw, header) = image::update_file(&app_bin, &UPDATE_TARGET, NAMES.software_version)
-        .map_err(|e| format!("application: {e}"))?;
+    let version = product.device.names.software_version;
+    let (efw, header) = image::update_file(&app_bin, &product.update, version)
+        .map_err(|e| format!("{} application: {e}", product.name))?;
     let efw_path = app_elf.with_extension("efw");
     write(&efw_path, &efw)?;
     let flash = image::flash_image(&boot_bin, &read(&efw_path)?).map_err(|e| e.to_string())?;
-    let image_path = app_elf.with_file_name("flash-image.bin");
+    let image_path = app_elf.with_file_name(format!("{}-flash-image.bin", product.name));
     write(&image_path, &flash)?;
     eprintln!(
-        "bootloader: {} bytes, vector checksum verified (words 0..7 sum to 0), CRP {crp}",
+        "{}: bootloader {} bytes, vector checksum verified (words 0..7 sum to 0), CRP {crp}",
+        product.name,
         boot_bin.len()
     );
     Ok(Output {
+        product,
         elf: app.elf,
         bin: app.bin,
         usage: app.usage,
@@ -355,5 +503,34 @@ pub fn print_usage(u: &Usage, budget: &Budget) {
             u.ahbsram,
             image::AHBSRAM.len
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn profiles_of_products() {
+        let p = Profile::with("s", true);
+        assert_eq!(p.config, ["profile.release.opt-level=\"s\""]);
+        assert_eq!(p.rustflags.as_deref(), Some(OUTLINER));
+        let p = Profile::with("3", false);
+        assert_eq!(p.config, ["profile.release.opt-level=3"]);
+        assert_eq!(p.rustflags.as_deref(), Some(""));
+        for product in PRODUCTS {
+            assert!(
+                ["s", "z", "1", "2", "3"].contains(&product.build.opt_level),
+                "{}",
+                product.name
+            );
+        }
+    }
+
+    #[test]
+    fn unknown_products_are_named_in_the_error() {
+        let e = product("analog-io-pro").unwrap_err();
+        assert!(e.contains("analog-io, analog-io-can"), "{e}");
+        assert_eq!(Args::default().product().unwrap().name, "analog-io");
     }
 }

@@ -1,5 +1,5 @@
 //! `cargo xtask esi [--out DIR]`: the files a configuration tool needs, generated from the
-//! firmware's one device description (`firmware::products::analog_io::device::DEVICE`): the ESI XML
+//! device description of each product (`firmware::products`, `--product NAME` for one): the ESI XML
 //! (`<order code>.xml`, ETG.2000), validated against the ETG.2000 schema when the schema and
 //! `xmllint` are at hand, and the SII EEPROM image (`<order code>.bin`, the whole EEPROM:
 //! the generated image, then erased bytes 0xFF) for an EEPROM programmer or a master's
@@ -9,6 +9,7 @@
 
 use crate::util::{display, have, root, Result};
 use coe_core::device::DeviceDescription;
+use coe_core::eds::EdsInfo;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -21,6 +22,9 @@ pub struct Args {
     /// Output directory (created if missing); default `target/esi` in the project.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Only this product's files (default: every product's).
+    #[arg(long, value_name = "NAME")]
+    pub product: Option<String>,
 }
 
 pub fn run(args: &Args) -> Result {
@@ -29,11 +33,21 @@ pub fn run(args: &Args) -> Result {
         .clone()
         .unwrap_or_else(|| root().join("target").join("esi"));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let desc = &firmware::products::analog_io::device::DEVICE;
-    let xml = write_xml(desc, &dir)?;
-    write_sii(desc, &dir)?;
-    write_eds(desc, &dir)?;
-    validate(&xml)
+    let products = match &args.product {
+        Some(name) => vec![crate::build::product(name)?],
+        None => firmware::products::PRODUCTS.to_vec(),
+    };
+    for product in products {
+        println!("{}:", product.name);
+        let desc = product.device;
+        let xml = write_xml(desc, &dir)?;
+        write_sii(desc, &dir)?;
+        if let Some(can) = &product.can {
+            write_eds(desc, &can.eds, &dir)?;
+        }
+        validate(&xml)?;
+    }
+    Ok(())
 }
 
 /// The file name of the device's files without extension ([`coe_core::eds::FileStem`]).
@@ -51,15 +65,11 @@ fn write_xml(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
     Ok(path)
 }
 
-/// Writes `<stem>.eds` into `dir`; returns its path.
-pub fn write_eds(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
+/// Writes `<stem>.eds` into `dir` (a product with CAN, the EDS's own facts `info`); returns
+/// its path.
+pub fn write_eds(desc: &DeviceDescription, info: &EdsInfo, dir: &Path) -> Result<PathBuf> {
     let mut eds = String::new();
-    coe_core::eds::write_eds(
-        desc,
-        &firmware::products::analog_io::can::EDS_INFO,
-        &mut eds,
-    )
-    .map_err(|e| e.to_string())?;
+    coe_core::eds::write_eds(desc, info, &mut eds).map_err(|e| e.to_string())?;
     let path = dir.join(format!("{}.eds", file_stem(desc)));
     std::fs::write(&path, &eds).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("EDS: {} ({} bytes)", path.display(), eds.len());
@@ -163,15 +173,26 @@ mod tests {
         assert_eq!(product, desc.identity.product_code);
     }
 
-    /// The minimum cycle the module promises is one figure everywhere a master can read it:
+    /// The minimum cycle a product promises is one figure everywhere a master can read it:
     /// the product's constant (which `cargo xtask bench` checks against its measurement), the
     /// device description's DC minimum, the ESI's defaults of 0x1C32:05 and 0x1C33:05, and
     /// what the firmware's sync monitor answers for them over SDO.
     #[test]
     fn the_minimum_cycle_is_one_figure() {
-        use firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS;
-        let desc = &firmware::products::analog_io::device::DEVICE;
-        assert_eq!(desc.dc.min_cycle_ns, MIN_CYCLE_TIME_NS);
+        use firmware::products::analog_io::sync::{AnalogFigures, MIN_CYCLE_TIME_NS};
+        for product in firmware::products::PRODUCTS {
+            the_minimum_cycle_is_one_figure_in(product.device, MIN_CYCLE_TIME_NS);
+        }
+        let monitor = firmware::stacks::ethercat::sync::SyncMonitor::<AnalogFigures>::new();
+        for inputs in [false, true] {
+            let mut buf = [0u8; 4];
+            assert_eq!(monitor.read(inputs, 5, &mut buf), Ok(4));
+            assert_eq!(u32::from_le_bytes(buf), MIN_CYCLE_TIME_NS);
+        }
+    }
+
+    fn the_minimum_cycle_is_one_figure_in(desc: &DeviceDescription, min_cycle_ns: u32) {
+        assert_eq!(desc.dc.min_cycle_ns, min_cycle_ns);
         let mut xml = String::new();
         coe_core::esi::write_esi(desc, &mut xml).unwrap();
         for index in ["#x1C32", "#x1C33"] {
@@ -192,13 +213,7 @@ mod tests {
                 .step_by(2)
                 .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
                 .collect();
-            assert_eq!(bytes, MIN_CYCLE_TIME_NS.to_le_bytes(), "{index}:05 = {hex}");
-        }
-        let monitor = firmware::stacks::ethercat::sync::SyncMonitor::new();
-        for inputs in [false, true] {
-            let mut buf = [0u8; 4];
-            assert_eq!(monitor.read(inputs, 5, &mut buf), Ok(4));
-            assert_eq!(u32::from_le_bytes(buf), MIN_CYCLE_TIME_NS);
+            assert_eq!(bytes, min_cycle_ns.to_le_bytes(), "{index}:05 = {hex}");
         }
     }
 }

@@ -118,6 +118,9 @@ pub struct Args {
     /// Explain a code the flash algorithm returned ("... failed with code N") and exit.
     #[arg(long, value_name = "CODE", value_parser = parse_code)]
     pub explain: Option<u32>,
+    /// The product to flash (its bootloader and application; default: the default product).
+    #[arg(long, value_name = "NAME")]
+    pub product: Option<String>,
 }
 
 impl Args {
@@ -131,6 +134,7 @@ impl Args {
             allow_crp_lock: false,
             dry_run: true,
             explain: None,
+            product: None,
         }
     }
 }
@@ -150,6 +154,10 @@ pub struct RunArgs {
     /// Build, check and generate everything, print the exact command, touch no probe.
     #[arg(long)]
     pub dry_run: bool,
+    /// The product the image is (its bootloader goes with it; with --elf, the product
+    /// whose feature built it; default: the default product).
+    #[arg(long, value_name = "NAME")]
+    pub product: Option<String>,
 }
 
 /// What both commands prepare before touching a probe.
@@ -170,7 +178,7 @@ pub fn run(args: &Args) -> Result {
                 .into(),
         );
     }
-    let p = prepare(None, args.allow_crp_lock)?;
+    let p = prepare(args.product.as_deref(), None, args.allow_crp_lock)?;
     match args.backend {
         Backend::ProbeRs => {
             let cmds = probe_rs_flash_commands(&p, args.probe.as_ref(), args.chip_erase);
@@ -206,7 +214,11 @@ pub fn run(args: &Args) -> Result {
 /// `cargo xtask run`: flash with probe-rs (the bootloader and the given or built
 /// application), reset, and show the application's defmt log over RTT.
 pub fn run_and_monitor(args: &RunArgs) -> Result {
-    let p = prepare(args.elf.as_deref(), args.allow_crp_lock)?;
+    let p = prepare(
+        args.product.as_deref(),
+        args.elf.as_deref(),
+        args.allow_crp_lock,
+    )?;
     let [download, _, reset] = probe_rs_flash_commands(&p, args.probe.as_ref(), false);
     let mut attach = probe_rs("attach", &p.description, args.probe.as_ref());
     attach.arg(&p.image.elf);
@@ -221,12 +233,14 @@ pub fn run_and_monitor(args: &RunArgs) -> Result {
 }
 
 /// Image, algorithm and description, all checked.
-fn prepare(elf: Option<&Path>, allow_crp_lock: bool) -> Result<Prepared> {
+fn prepare(product: Option<&str>, elf: Option<&Path>, allow_crp_lock: bool) -> Result<Prepared> {
+    let args = build::Args {
+        allow_crp: allow_crp_lock,
+        product: product.map(String::from),
+    };
     let image = match elf {
-        Some(elf) => build::finish(elf, allow_crp_lock)?,
-        None => build::build(&build::Args {
-            allow_crp: allow_crp_lock,
-        })?,
+        Some(elf) => build::finish(args.product()?, elf, allow_crp_lock)?,
+        None => build::build(&args)?,
     };
     // The algorithm that may write a lock value only for an image that carries one (and was
     // allowed to by xtask build); every other image gets the refusing one.
@@ -556,12 +570,13 @@ mod tests {
     fn prepared() -> Prepared {
         Prepared {
             image: build::Output {
+                product: firmware::products::default(),
                 elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io"),
                 bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.bin"),
                 usage: Usage::default(),
                 boot: build::Program {
-                    elf: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/bootloader"),
-                    bin: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/bootloader.bin"),
+                    elf: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/analog-io"),
+                    bin: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/analog-io.bin"),
                     usage: Usage::default(),
                 },
                 crp: Crp::None(u32::MAX),
@@ -571,7 +586,9 @@ mod tests {
                     &firmware::products::analog_io::identity::UPDATE_TARGET,
                     "0.1.0",
                 ),
-                image: PathBuf::from("/w/target/thumbv7m-none-eabi/release/flash-image.bin"),
+                image: PathBuf::from(
+                    "/w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin",
+                ),
             },
             description: PathBuf::from("/w/target/probe-rs/LPC1754.yaml"),
         }
@@ -624,17 +641,17 @@ mod tests {
         let common = "--chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --probe 0d28:0204:ABC";
         assert_eq!(
             quoted(&d),
-            format!("probe-rs download {common} --chip-erase --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/flash-image.bin")
+            format!("probe-rs download {common} --chip-erase --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin")
         );
         assert_eq!(
             quoted(&v),
-            format!("probe-rs verify {common} --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/flash-image.bin")
+            format!("probe-rs verify {common} --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin")
         );
         assert_eq!(quoted(&r), format!("probe-rs reset {common}"));
         let [d, ..] = probe_rs_flash_commands(&prepared(), None, false);
         assert_eq!(
             quoted(&d),
-            "probe-rs download --chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/flash-image.bin"
+            "probe-rs download --chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin"
         );
     }
 
@@ -644,7 +661,7 @@ mod tests {
         let c = openocd_command(&prepared(), Some(&sel), "interface/jlink.cfg");
         assert_eq!(
             quoted(&c),
-            "openocd -f interface/jlink.cfg -c 'adapter serial ABC' -f target/lpc17xx.cfg -c 'program {/w/target/thumbv7m-none-eabi/release/flash-image.bin} 0x00000000 verify reset exit'"
+            "openocd -f interface/jlink.cfg -c 'adapter serial ABC' -f target/lpc17xx.cfg -c 'program {/w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin} 0x00000000 verify reset exit'"
         );
     }
 

@@ -301,13 +301,15 @@ impl MailboxFrames {
             .collect()
     }
 
-    /// Inputs of the `slave_mailbox` target: each request written (op 0, length, frame)
-    /// and its reply read (op 3); 16 requests per input.
+    /// Inputs of the `slave_mailbox` target: the product (first byte, the products in
+    /// turn), then each request written (op 0, length, frame) and its reply read (op 3);
+    /// 16 requests per input.
     fn master_sessions(&self) -> Vec<Vec<u8>> {
         self.requests
             .chunks(16)
-            .map(|chunk| {
-                let mut input = Vec::new();
+            .enumerate()
+            .map(|(i, chunk)| {
+                let mut input = vec![(i % 2) as u8];
                 for f in chunk.iter().filter(|f| f.len() <= 255) {
                     input.extend_from_slice(&[0, f.len() as u8]);
                     input.extend_from_slice(f);

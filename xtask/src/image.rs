@@ -42,13 +42,6 @@ pub const AHBSRAM: Region = Region {
     len: 16 * 1024,
 };
 
-/// The budget of the application image (brief section 6: application <= 48 KB of the
-/// 128 KB flash; static RAM <= 6 KB).
-pub const BUDGET: Budget = Budget {
-    flash: layout::APP_BUDGET as u64,
-    ram: 6 * 1024,
-};
-
 /// The budget of the bootloader: its region (`firmware::platform::boot::layout::BOOTLOADER`); static RAM as the application's (the two
 /// never run at the same time).
 pub const BOOT_BUDGET: Budget = Budget {
@@ -616,7 +609,7 @@ mod tests {
             header.image_crc,
             firmware::platform::boot::crc32::crc32(&app)
         );
-        assert_eq!(header.check(&target), Ok(()));
+        assert_eq!(header.check(&firmware::products::analog_io::BOARD), Ok(()));
         // Vectors of an image linked elsewhere are refused.
         let mut elsewhere = app.clone();
         elsewhere[4..8].copy_from_slice(&0x0000_0301u32.to_le_bytes());
@@ -668,7 +661,7 @@ mod tests {
         assert_eq!(u.ram, 56 + 100 + 1_200);
         assert_eq!(u.ahbsram, 4_096);
         assert_eq!(u.image_end, 0x2DF8 + 56);
-        check_budget(&u, &BUDGET).unwrap();
+        check_budget(&u, &crate::build::budget_of(firmware::products::default())).unwrap();
         let small = Budget {
             flash: 1_000,
             ram: 100,

@@ -22,8 +22,9 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> Result {
+    let product = args.sim.product()?;
     if args.image {
-        return run_image();
+        return run_image(product);
     }
     cli::run(
         &args.sim,
@@ -31,7 +32,7 @@ pub fn run(args: &Args) -> Result {
             if echo {
                 return Ok(Some(Target::echo()));
             }
-            match sim::firmware_target_for(args.sim.node_id) {
+            match sim::firmware_target_of(product, args.sim.node_id) {
                 Ok(t) => Ok(Some(t)),
                 Err(why) => {
                     println!("{why}");
@@ -55,9 +56,9 @@ fn forwarded_args() -> Vec<String> {
         .collect()
 }
 
-/// Builds the image, then runs the co-simulator's binary with it.
-fn run_image() -> Result {
-    let out = build::build(&build::Args::default())?;
+/// Builds `product`'s image, then runs the co-simulator's binary with it.
+fn run_image(product: &'static firmware::products::Product) -> Result {
+    let out = build::build(&build::Args::of(product))?;
     crate::setup::cosim()?;
     exec(
         cargo()

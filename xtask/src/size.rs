@@ -15,6 +15,9 @@ pub struct Args {
     /// Accept a protecting CRP word (see `build --allow-crp`).
     #[arg(long)]
     pub allow_crp: bool,
+    /// The product whose image to look at (default: the default product).
+    #[arg(long, value_name = "NAME")]
+    pub product: Option<String>,
 }
 
 /// One symbol with its crate and memory.
@@ -141,7 +144,9 @@ pub fn by_crate(symbols: &[Symbol]) -> Vec<(String, u64, u64)> {
 pub fn run(args: &Args) -> Result {
     let out = build::build_unchecked(&build::Args {
         allow_crp: args.allow_crp,
+        product: args.product.clone(),
     })?;
+    println!("product: {} ({})", out.product.name, out.product.summary);
     let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
     let sections = image::sections(&data).map_err(|e| e.to_string())?;
     println!("sections:");
@@ -154,7 +159,7 @@ pub fn run(args: &Args) -> Result {
         println!("  {:<16} {:#010x} {:>7} B{lma}", s.name, s.addr, s.size);
     }
     println!("application:");
-    print_usage(&out.usage, &image::BUDGET);
+    print_usage(&out.usage, &out.budget());
     println!("bootloader:");
     print_usage(&out.boot.usage, &image::BOOT_BUDGET);
 

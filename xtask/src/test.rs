@@ -15,12 +15,14 @@ const PYTHON_CANOPEN_TEST: &str = "python_canopen_drives_the_board_over_socketca
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
 /// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, SOEM
-/// updating the module's firmware on the virtual board and on the image, each on a veth pair.
-const ROOT_TESTS: [&str; 4] = [
+/// updating the module's firmware on the virtual board and on the image, and the CAN
+/// product's image after refused files, each on a veth pair.
+const ROOT_TESTS: [&str; 5] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
     "pysoem_updates_the_image_over_a_veth_pair",
+    "pysoem_updates_the_can_image_after_refused_files",
 ];
 
 /// The `no_std` crates that must build for every embedded target.
@@ -62,11 +64,17 @@ pub fn run(args: &Args) -> Result {
         }
         exec(doc.env("RUSTDOCFLAGS", "-D warnings"))?;
     }
-    // The LPC1754 images first: release builds, checksum, CRP word and budgets verified on
-    // the BINs; the co-simulator's system tests (tests/cosim) run these very programs (the
-    // bootloader and the update file are found next to the application's ELF).
-    let image = build::build(&build::Args::default())?;
-    build::print_report(&image);
+    // The LPC1754 images of every product first: release builds, checksum, CRP word and
+    // budgets verified on the BINs; the co-simulator's system tests (tests/cosim) run these
+    // very programs (each product's bootloader and update file are found beside its
+    // application's ELF, the products' ELFs beside the default one's).
+    let mut images = Vec::new();
+    for product in firmware::products::PRODUCTS {
+        images.push(build::build(&build::Args::of(product))?);
+    }
+    images.iter().for_each(build::print_report);
+    build::print_budgets(&images);
+    let image = &images[0];
     exec(
         cargo()
             .args(["test", "--workspace"])
@@ -87,15 +95,24 @@ pub fn run(args: &Args) -> Result {
         cmd.env("RUSTFLAGS", "-D warnings");
         exec(&mut cmd)?;
     }
-    // The fallback ADC path (one interrupt per sample instead of the GPDMA), so it cannot rot,
-    // and the bootloader's own hardware code, which only this target compiles.
-    exec(
-        cargo()
-            .args(["clippy", "--release", "-p", "firmware", "--bin", build::BIN])
-            .args(["--bin", build::BOOT_BIN])
-            .args(["--target", build::TARGET, "--features", "adc-irq"])
-            .args(["--", "-D", "warnings"]),
-    )?;
+    // The images' own code, which only this target compiles, per product (its tasks), the
+    // bootloader's hardware code, and the fallback ADC path (one interrupt per sample
+    // instead of the GPDMA) with the last product, so none can rot.
+    for (i, product) in firmware::products::PRODUCTS.iter().enumerate() {
+        let last = i + 1 == firmware::products::PRODUCTS.len();
+        let features = match last {
+            true => format!("{},adc-irq", product.name),
+            false => product.name.to_string(),
+        };
+        exec(
+            cargo()
+                .args(["clippy", "--release", "-p", "firmware", "--bin", build::BIN])
+                .args(["--bin", build::BOOT_BIN])
+                .args(["--target", build::TARGET, "--no-default-features"])
+                .args(["--features", &features])
+                .args(["--", "-D", "warnings"]),
+        )?;
+    }
     // The benchmark in its short form, so the command cannot rot (needs qemu-system-arm,
     // which setup installs; it fails, not skips, without it).
     bench::run(&bench::Args {

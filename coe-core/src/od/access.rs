@@ -35,3 +35,25 @@ pub trait ObjectAccess {
         false
     }
 }
+
+/// A borrowed access is an access: an application can hand out `&mut self` where a view of
+/// its objects is asked for.
+impl<T: ObjectAccess + ?Sized> ObjectAccess for &mut T {
+    fn read(&mut self, index: u16, subindex: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        (**self).read(index, subindex, buf)
+    }
+
+    fn write(
+        &mut self,
+        index: u16,
+        subindex: u8,
+        data: &[u8],
+        state: AlState,
+    ) -> Result<(), SdoAbortCode> {
+        (**self).write(index, subindex, data, state)
+    }
+
+    fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
+        (**self).is_rx_mapped(index, subindex)
+    }
+}

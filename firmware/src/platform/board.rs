@@ -1,7 +1,79 @@
-//! The analog front end of the board: converters' reference, the input divider and the
-//! output amplifier, and the terminal full scale they give. The conversions between
-//! converter codes, process values and volts are the application's
-//! (`crate::io::analog::scaling`).
+//! The boards: what the hardware is, as data. One design today, the LPC1754 + ET1100 board
+//! of the thesis with an AD7689 and an AD5663, in two assemblies (with and without the CAN
+//! transceiver on CAN1); each product names the board it is built for
+//! (`crate::products`).
+//!
+//! A board says who makes it, which design and revision it is and what is fitted
+//! ([`Board`]); the bootloader built for a board accepts the update files of every product
+//! that runs on it (`crate::platform::boot::header`). The analog front end and the ESC's
+//! wiring are the design's, the same in both assemblies.
+
+use coe_core::device::{PdiConfig, PinDriver, SyncPin, PDI_SPI_SLAVE};
+
+/// A board as the images and the bootloader know it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Board {
+    /// For people (tools, the update file's errors).
+    pub name: &'static str,
+    /// The ETG vendor ID of the maker: every product on the board carries it.
+    pub vendor_id: u32,
+    /// The board design: same MCU, memory map and wiring, so the same images run on it.
+    pub design: u32,
+    /// The design's revision (0x1009 names it).
+    pub revision: u32,
+    /// The parts fitted that a product may need ([`Options`]).
+    pub options: Options,
+}
+
+/// Assembly options of a board: parts a design may or may not carry. A product needs some
+/// ([`Options::CAN_TRANSCEIVER`] for CANopen on CAN1); a board has some.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Options(pub u32);
+
+impl Options {
+    /// None.
+    pub const NONE: Self = Self(0);
+    /// A CAN transceiver on CAN1 (P0.0/P0.1).
+    pub const CAN_TRANSCEIVER: Self = Self(1 << 0);
+
+    /// True if every option of `needed` is in `self`.
+    pub const fn covers(self, needed: Self) -> bool {
+        needed.0 & !self.0 == 0
+    }
+}
+
+/// Vendor ID of the boards and their products.
+///
+/// PLACEHOLDER: 0 is not an ETG-assigned vendor ID. A product must replace it with the
+/// manufacturer's own ID from the EtherCAT Technology Group before it ships (the thesis
+/// board borrowed Beckhoff's ID 2; this project must not). This is the only place it is set.
+pub const VENDOR_ID: u32 = 0x0000_0000;
+
+/// The design code of the LPC1754 + ET1100 analog board.
+pub const LPC1754_ANALOG: u32 = 0x0000_1754;
+
+/// The thesis board: LPC1754 + ET1100 (SPI PDI) + AD5663 + AD7689, revision A, no CAN
+/// transceiver.
+pub const THESIS: Board = Board {
+    name: "LPC1754 + ET1100 analog board rev A",
+    vendor_id: VENDOR_ID,
+    design: LPC1754_ANALOG,
+    revision: 1,
+    options: Options::NONE,
+};
+
+/// The thesis board with the CAN transceiver fitted on CAN1.
+pub const THESIS_CAN: Board = Board {
+    name: "LPC1754 + ET1100 analog board rev A with CAN",
+    options: Options::CAN_TRANSCEIVER,
+    ..THESIS
+};
+
+/// Analog inputs (AD7689 channels).
+pub const AI_CHANNELS: usize = 8;
+/// Analog outputs (AD5663 channels).
+pub const AO_CHANNELS: usize = 2;
 
 /// Reference voltage of the AD7689 and the AD5663 (external 2.5 V), in microvolts.
 pub const REFERENCE_UV: u32 = 2_500_000;
@@ -10,3 +82,49 @@ pub const REFERENCE_UV: u32 = 2_500_000;
 pub const FRONT_END_GAIN: u32 = 4;
 /// Terminal full scale in microvolts (10 V): `REFERENCE_UV * FRONT_END_GAIN`.
 pub const FULL_SCALE_UV: u32 = REFERENCE_UV * FRONT_END_GAIN;
+
+/// The ESC's PDI on the board: SPI mode 3, SPI_IRQ push-pull active low (falling-edge GPIO
+/// interrupt on P0.22), SYNC0 push-pull active high into the CAP1.0 timer capture, 1 us
+/// SYNC pulses (hardware-facts 10.C: SII words 0x0E05 / 0x0603 / 0x0064).
+pub const PDI: PdiConfig = PdiConfig {
+    pdi_type: PDI_SPI_SLAVE,
+    enhanced_link_detect: true,
+    dc_sync_unit: true,
+    dc_latch_unit: true,
+    spi_mode: 3,
+    irq: PinDriver::PushPullActiveLow,
+    sel_active_high: false,
+    miso_late_sample: false,
+    sync0: SyncPin {
+        driver: PinDriver::PushPullActiveHigh,
+        output: true,
+        to_al_event: false,
+    },
+    sync1: SyncPin {
+        driver: PinDriver::PushPullActiveLow,
+        output: false,
+        to_al_event: false,
+    },
+    sync_pulse_10ns: 100,
+    extended: 0,
+};
+
+/// Bytes of the SII EEPROM (16 Kbit).
+pub const EEPROM_BYTES: u32 = 2048;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_can_assembly_covers_what_the_plain_one_has() {
+        assert!(THESIS_CAN.options.covers(Options::CAN_TRANSCEIVER));
+        assert!(THESIS_CAN.options.covers(THESIS.options));
+        assert!(!THESIS.options.covers(Options::CAN_TRANSCEIVER));
+        assert!(THESIS.options.covers(Options::NONE));
+        assert_eq!(
+            (THESIS.design, THESIS.revision),
+            (THESIS_CAN.design, THESIS_CAN.revision)
+        );
+    }
+}

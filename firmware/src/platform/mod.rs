@@ -6,12 +6,14 @@
 //! | [`chip`]      | the LPC17xx as data: register formats and plans (DMA lists, CAN timing) |
 //! | [`board`]     | the boards: converters, front end, the ESC's wiring, assembly options   |
 //! | [`boot`]      | the bootloader's logic: flash map, update file, install, staging        |
+//! | [`adc_scan`]  | the board's AD7689 scan: CFG word and frame pipeline                    |
 //! | [`div`]       | 64-by-32-bit division with the Cortex-M3's `UDIV`                      |
 //! | [`timebase`]  | a 64-bit time base from a 32-bit timer                                 |
 //!
 //! The binaries add the hardware layer (`platform/hw`, register access, the only `unsafe`)
 //! and the bootloader program (`platform/bootloader`).
 
+pub mod adc_scan;
 pub mod board;
 pub mod boot;
 pub mod chip;

@@ -2,9 +2,14 @@
 //! Emergencies sent (0x1003, CiA 301 7.5.2.3), the Emergency codes the module sends (CiA 301
 //! table 21, CiA 402 0x8700) and the error settings (0x10F1).
 
-use crate::products::analog_io::capacity::ERROR_HISTORY;
 use coe_core::error_history::ErrorHistory;
 use coe_core::sdo_server::Emergency;
+
+/// Errors the pre-defined error field (0x1003) keeps. Each costs 4 B of RAM and a 28 B
+/// entry description in flash, and the flash budget sets the limit: four hold a fault and
+/// what followed it (e.g. the watchdog, the sync error, an output clamped), which the
+/// Emergency queue of the same depth could have had waiting at once.
+pub const ERROR_HISTORY: usize = 4;
 
 /// 0x1001 bit 0: generic error (set whenever any other bit is).
 pub const ERR_GENERIC: u8 = 0x01;
@@ -55,7 +60,9 @@ impl Diagnostics {
         self.register
     }
 
-    /// Sets `bits` and returns the Emergency that reports `code` with `data`.
+    /// Sets `bits` and returns the Emergency that reports `code` with `data`. (Out of line,
+    /// as [`Self::clear`]: several callers in both stacks, none on the process-data path.)
+    #[inline(never)]
     pub fn raise(&mut self, bits: u8, code: u16, data: [u8; 5]) -> Emergency {
         self.register |= bits | ERR_GENERIC;
         self.report(code, data)
@@ -72,6 +79,7 @@ impl Diagnostics {
     }
 
     /// Clears `bits`; returns the "no error" Emergency if the register became 0.
+    #[inline(never)]
     pub fn clear(&mut self, bits: u8) -> Option<Emergency> {
         if self.register & bits == 0 {
             return None;

@@ -4,7 +4,8 @@
 use coe_core::SdoAbortCode;
 
 /// Copies `bytes` to the front of `buf`; returns their length (0x05040005 if `buf` is
-/// shorter).
+/// shorter). (Out of line: every object access ends here.)
+#[inline(never)]
 pub fn put(buf: &mut [u8], bytes: &[u8]) -> Result<usize, SdoAbortCode> {
     buf.get_mut(..bytes.len())
         .ok_or(SdoAbortCode::OutOfMemory)?

@@ -236,6 +236,18 @@ impl Image {
         Ok(image)
     }
 
+    /// The product whose update file the application slot holds (by its header's product
+    /// code), if any.
+    pub fn product(&self) -> Option<&'static firmware::products::Product> {
+        let slot = APP_SLOT.start as usize;
+        let block = self.flash.get(slot..slot + HEADER_BLOCK as usize)?;
+        let header = HeaderRepr::parse(&Header::new_unchecked(block)).ok()?;
+        firmware::products::PRODUCTS
+            .iter()
+            .copied()
+            .find(|p| p.update.product_code == header.product_code)
+    }
+
     /// Word `i` of the flash.
     pub fn word(&self, addr: usize) -> u32 {
         u32::from_le_bytes(self.flash[addr..addr + 4].try_into().expect("4 bytes"))
@@ -324,6 +336,8 @@ impl Image {
             vendor_id: old.vendor_id,
             product_code: old.product_code,
             hardware_revision: old.hardware_revision,
+            board: old.board,
+            needs: old.needs,
         };
         let mut new = HeaderRepr::for_image(image, &target, "");
         new.version = old.version;

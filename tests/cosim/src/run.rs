@@ -10,9 +10,10 @@ use virtual_board::models::esc::SyncEdge;
 use virtual_board::rig::board::{BoardIo, PdiCpu};
 use virtual_board::tools::sim::{firmware_device, Target};
 
-/// The environment variable that names the release ELF of the application (`cargo xtask
-/// test` sets it after building the images); the update file (`analog-io.efw`) is beside
-/// it and the bootloader's ELF at [`bootloader_path`], as `cargo xtask build` writes them.
+/// The environment variable that names the release ELF of the default product's application
+/// (`cargo xtask test` sets it after building the images); the update file (`analog-io.efw`)
+/// is beside it, the other products' ELFs and update files too ([`image_path_of`]), and the
+/// bootloader's ELF at [`bootloader_path`], as `cargo xtask build` writes them.
 pub const IMAGE_ENV: &str = "LPC1754_IMAGE";
 
 /// The release ELF of the application: `$LPC1754_IMAGE`, else `cargo xtask build`'s output
@@ -27,7 +28,14 @@ pub fn image_path() -> PathBuf {
         .map(PathBuf::from)
         .map(|d| if d.is_absolute() { d } else { root.join(d) })
         .unwrap_or_else(|| root.join("target"));
-    target.join("thumbv7m-none-eabi/release/analog-io")
+    target
+        .join("thumbv7m-none-eabi/release")
+        .join(firmware::products::default().name)
+}
+
+/// The release ELF of the product `name`: beside [`image_path`]'s.
+pub fn image_path_of(name: &str) -> PathBuf {
+    image_path().with_file_name(name)
 }
 
 fn read(path: &Path) -> Result<Vec<u8>, String> {
@@ -39,22 +47,30 @@ fn read(path: &Path) -> Result<Vec<u8>, String> {
     })
 }
 
-/// Loads the release flash: the bootloader, and the update file with the application ELF
-/// it carries, with a clear message when one is missing.
+/// Loads the release flash of the default product: the bootloader, and the update file
+/// with the application ELF it carries, with a clear message when one is missing.
 pub fn load_image() -> Result<Image, String> {
     let app = image_path();
     load_programs(&app, &app.with_extension("efw"))
 }
 
-/// The bootloader's ELF that goes with the application's `app_elf`: `cargo xtask build`
-/// builds it with its own cargo profile, `bootloader`, so it lies in that profile's
-/// directory beside the application's (`release/analog-io`, `bootloader/bootloader`).
+/// [`load_image`] of the product `name`.
+pub fn load_image_of(name: &str) -> Result<Image, String> {
+    let app = image_path_of(name);
+    load_programs(&app, &app.with_extension("efw"))
+}
+
+/// The bootloader's ELF that goes with the application's `app_elf` (the bootloader of the
+/// product's board): `cargo xtask build` builds it with its own cargo profile,
+/// `bootloader`, and names it after the product in that profile's directory beside the
+/// application's (`release/analog-io`, `bootloader/analog-io`).
 pub fn bootloader_path(app_elf: &Path) -> PathBuf {
     let profiles = app_elf.parent().and_then(Path::parent);
+    let name = app_elf.file_name().unwrap_or_default();
     profiles
         .unwrap_or(Path::new(""))
         .join("bootloader")
-        .join("bootloader")
+        .join(name)
 }
 
 /// Loads the bootloader that goes with `app_elf` ([`bootloader_path`]) and the update file
@@ -97,11 +113,12 @@ impl PdiCpu for BoardCpu {
 }
 
 /// The image on the co-simulator as the sim's PDI side, with the SII image generated from
-/// the firmware's description (the same as the host-compiled target's). Fails as the boot
-/// ROM would (wrong vector checksum) before any board exists.
+/// the description of the product it is (the same as the host-compiled target's). Fails as
+/// the boot ROM would (wrong vector checksum) before any board exists.
 pub fn image_target(image: Image, options: Options) -> Result<(Target, CosimHandle), String> {
     let crp = image.boot_rom_check().map_err(|e| e.to_string())?;
-    let device = firmware_device::device()?;
+    let product = image.product().unwrap_or(firmware::products::default());
+    let device = firmware_device::device_of(product, virtual_board::tools::sim::DEFAULT_NODE_ID)?;
     let handle = CosimHandle(Rc::new(RefCell::new(None)));
     let h = handle.clone();
     let image = Rc::new(image);
@@ -129,8 +146,8 @@ mod tests {
     #[test]
     fn the_bootloader_is_in_its_profile_directory_beside_the_application() {
         assert_eq!(
-            bootloader_path(Path::new("/t/thumbv7m-none-eabi/release/analog-io")),
-            Path::new("/t/thumbv7m-none-eabi/bootloader/bootloader")
+            bootloader_path(Path::new("/t/thumbv7m-none-eabi/release/analog-io-can")),
+            Path::new("/t/thumbv7m-none-eabi/bootloader/analog-io-can")
         );
     }
 }

@@ -1,4 +1,4 @@
-//! The release image as a CANopen node: its CAN1 driver (`firmware/src/hw/can.rs`) on the
+//! The release image of `analog-io-can` as a CANopen node: its CAN1 driver (`firmware/src/platform/hw/can.rs`) on the
 //! co-simulator's CAN1 model, attached to the virtual board's CAN bus, with a CANopen master
 //! on another port of the bus ([`virtual_board::rig::can_master::CanMaster`]) and no
 //! EtherCAT master at all. Boot-up, SDO (expedited and segmented), heartbeat period, SYNC
@@ -7,11 +7,12 @@
 
 use coe_core::canopen::{CanFrame, NmtCommand};
 use firmware::io::analog::scaling::ao_to_dac_code;
-use firmware::products::analog_io::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
-use firmware::products::analog_io::identity::NAMES;
+use firmware::products::analog_io_can;
+use firmware::products::analog_io_can::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
+use firmware::products::analog_io_can::identity::NAMES;
 use lpc1754_cosim::bench::{dc_run_with_can, CanLoad};
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_target, load_image};
+use lpc1754_cosim::run::{image_target, load_image_of};
 use virtual_board::models::adc::Signal;
 
 use virtual_board::rig::can_master::CanMaster;
@@ -27,7 +28,8 @@ fn u32_of(v: &[u8]) -> u32 {
 
 #[test]
 fn the_image_is_a_canopen_node_on_can1() {
-    let image = load_image().expect("the release image");
+    let image =
+        load_image_of(analog_io_can::PRODUCT.name).expect("the release image of analog-io-can");
     let (target, handle) = image_target(image, Options::default()).expect("boot ROM checks");
     let mut board = target.into_board(|b| b.capture = false);
     for (i, v) in AI_VOLTS.iter().enumerate() {
@@ -118,7 +120,8 @@ fn the_image_is_a_canopen_node_on_can1() {
 /// cycle time, no output pair may miss its SYNC0 edge and every CAN request is answered.
 #[test]
 fn dc_cycles_keep_every_sync0_with_can_traffic() {
-    let image = load_image().expect("the release image");
+    let image =
+        load_image_of(analog_io_can::PRODUCT.name).expect("the release image of analog-io-can");
     let cycle_ns = u64::from(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS);
     let load = CanLoad {
         sync_every: 1_000_000 / cycle_ns,

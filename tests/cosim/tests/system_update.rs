@@ -2,8 +2,11 @@
 //! LPC1754 co-simulator: the real application resets into the real bootloader on a
 //! master's INIT -> BOOT, the bootloader takes an update file over FoE into the staging
 //! area through the IAP ROM (the `lpc17xx-iap` flash model), and its reset sequence
-//! installs it and starts the new application. Files with a bad CRC, truncated or for
-//! another product are refused first, and the old application still runs after them.
+//! installs it and starts the new application. Files with a bad CRC, truncated, for
+//! another board or for a product the board cannot run (the CAN product's file on the
+//! board without the CAN transceiver) are refused first, and the old application still runs
+//! after them. One product is updated into another where the board can run both: the CAN
+//! product's board takes the default product's release file (`docs/book/products.md`).
 //!
 //! The new application is the release application with another software version: the
 //! version string (0x100A) patched in its image and the update header made for the patched
@@ -22,11 +25,14 @@ use firmware::platform::boot::layout::{APP_SLOT, HEADER_BLOCK, STAGING};
 use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{NAMES, UPDATE_TARGET};
 use firmware::products::analog_io::layout::BOOTSTRAP_MAILBOX;
+use firmware::products::{analog_io, analog_io_can};
 use futures_lite::future::{block_on, or};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::image::Image;
 use lpc1754_cosim::machine::ResetCause;
-use lpc1754_cosim::run::{image_target, load_image, CosimHandle};
+use lpc1754_cosim::run::{
+    image_path, image_path_of, image_target, load_image, load_image_of, CosimHandle,
+};
 use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
@@ -85,13 +91,29 @@ async fn preop<S>(sd: &ethercrab::SubDeviceRef<'_, S>) {
     preop.unwrap();
 }
 
-/// The software version (0x100A) as the running application answers it on the standard
-/// mailbox.
-async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>) -> String {
+/// An SDO client on the standard mailbox, its counter from 1: one per start of an
+/// application.
+fn sdo_client() -> SdoClient<128> {
     let (out, inp) = (DEVICE.sync_managers[0], DEVICE.sync_managers[1]);
-    let mut client = SdoClient::<128>::new(out.start, inp.start, 1);
-    let up = client.upload(sd, 0x100A, 0).await.unwrap();
+    SdoClient::new(out.start, inp.start, 1)
+}
+
+/// The software version (0x100A) as the running application answers it.
+async fn software_version<S>(sd: &ethercrab::SubDeviceRef<'_, S>) -> String {
+    let up = sdo_client().upload(sd, 0x100A, 0).await.unwrap();
     String::from_utf8(up.data).unwrap()
+}
+
+/// The product code (0x1018:02) and the device name (0x1008) as the running application
+/// answers them.
+async fn identity<S>(sd: &ethercrab::SubDeviceRef<'_, S>) -> (u32, String) {
+    let mut client = sdo_client();
+    let code = client.upload(sd, 0x1018, 2).await.unwrap().data;
+    let name = client.upload(sd, 0x1008, 0).await.unwrap().data;
+    (
+        u32::from_le_bytes(code[..4].try_into().unwrap()),
+        String::from_utf8(name).unwrap(),
+    )
 }
 
 #[test]
@@ -101,13 +123,16 @@ fn foe_update_of_the_release_programs() {
     let last = bad_crc.len() - 1;
     bad_crc[last] ^= 0x01;
     let truncated = new[..new.len() - 1000].to_vec();
-    let other_product = new_update_file(
+    let other_board = new_update_file(
         NEW_VERSION,
         &Target {
-            product_code: UPDATE_TARGET.product_code + 1,
+            board: UPDATE_TARGET.board + 1,
             ..UPDATE_TARGET
         },
     );
+    // The CAN product's release file: the same board design, but it needs the CAN
+    // transceiver this board does not have.
+    let can_product = read_update_file(analog_io_can::PRODUCT.name);
     let (board, handle) = image_board();
     let storage = Box::new(Storage::new());
     let (md, tx, rx) = main_device(&storage, 0);
@@ -136,9 +161,10 @@ fn foe_update_of_the_release_programs() {
             for (file, expected) in [
                 (&bad_crc, (FoeErrorCode::InvalidChecksum, "image CRC wrong")),
                 (&truncated, (FoeErrorCode::InvalidChecksum, "truncated")),
+                (&other_board, (FoeErrorCode::InvalidFirmware, "other board")),
                 (
-                    &other_product,
-                    (FoeErrorCode::InvalidFirmware, "other product code"),
+                    &can_product,
+                    (FoeErrorCode::InvalidFirmware, "board lacks a part"),
                 ),
             ] {
                 match foe.write(&sd, "analog-io.efw", 0, file).await {
@@ -203,6 +229,76 @@ fn foe_update_of_the_release_programs() {
     assert!(facts.reports.is_empty(), "{}", facts.summary());
     let spi = board.borrow().esc().borrow().spi_stats.clone();
     assert_eq!(spi.errors, 0, "ET1100 SPI protocol errors");
+}
+
+/// A product's release update file (`cargo xtask build`).
+fn read_update_file(product: &str) -> Vec<u8> {
+    let path = image_path_of(product).with_extension("efw");
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// One product updated into another on the same board: the CAN product's image (its
+/// bootloader built for the board with the CAN transceiver) takes the default product's
+/// release file over FoE, and the application answering afterwards is the default
+/// product's (its product code in 0x1018:02 and its device name), while the bootloader and
+/// the SII stay the board's.
+#[test]
+fn the_can_board_takes_the_default_products_update() {
+    let file = read_update_file(analog_io::PRODUCT.name);
+    assert_eq!(
+        image_path().with_extension("efw"),
+        image_path_of(analog_io::PRODUCT.name).with_extension("efw")
+    );
+    let (board, handle) =
+        board_of(load_image_of(analog_io_can::PRODUCT.name).expect("the CAN image"));
+    let storage = Box::new(Storage::new());
+    let (md, tx, rx) = main_device(&storage, 0);
+    block_on(or(
+        async {
+            let group = md
+                .init_single_group::<2, 64>(ethercat_now)
+                .await
+                .expect("init");
+            let sd = group.subdevice(&md, 0).unwrap();
+            let names = analog_io_can::identity::NAMES;
+            assert_eq!(
+                identity(&sd).await,
+                (
+                    analog_io_can::identity::IDENTITY.product_code,
+                    names.device_name.into()
+                )
+            );
+            enter_boot(&sd, BOOTSTRAP_MAILBOX.0, BOOTSTRAP_MAILBOX.1)
+                .await
+                .unwrap();
+            let mut foe = FoeClient::<{ BOOTSTRAP_MAILBOX.0.len as usize }>::new(
+                BOOTSTRAP_MAILBOX.0.start,
+                BOOTSTRAP_MAILBOX.1.start,
+            );
+            foe.write(&sd, "analog-io.efw", 0, &file).await.unwrap();
+            request_state(&sd, 0x01).await.unwrap();
+            configure_mailbox(&sd, standard(0), standard(1))
+                .await
+                .unwrap();
+            preop(&sd).await;
+            assert_eq!(
+                identity(&sd).await,
+                (
+                    analog_io::identity::IDENTITY.product_code,
+                    analog_io::identity::NAMES.device_name.into()
+                )
+            );
+        },
+        tx_rx_task(board.clone(), tx, rx),
+    ));
+    let installed = slot_header(&handle).expect("an application");
+    assert_eq!(
+        installed.product_code,
+        analog_io::identity::IDENTITY.product_code
+    );
+    let facts = handle.with(|c| c.facts()).unwrap();
+    assert!(facts.fault.is_none(), "{}", facts.summary());
+    assert!(facts.reports.is_empty(), "{}", facts.summary());
 }
 
 /// A staged update installed by the bootloader at reset while the co-simulator stops the

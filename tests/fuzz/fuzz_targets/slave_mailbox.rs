@@ -1,7 +1,9 @@
 //! Fuzz target: the firmware's slave application (ESM, mailbox link, SDO server, process
 //! data) behind the register-file ESC, driven by a master whose every move comes from the
 //! fuzzer: mailbox frames, reads of the reply, repeat requests, AL control values,
-//! SyncManager registers, outputs, watchdog expiry, DC settings and time.
+//! SyncManager registers, outputs, watchdog expiry, DC settings and time. The first byte's
+//! low bit picks the product: `analog-io`, or `analog-io-can` (its objects and the CANopen
+//! node's behind the same slave application).
 //!
 //! The master starts as real masters do (mailbox SyncManagers from the device description,
 //! INIT -> PREOP), so the fuzzer begins inside the mailbox. After every move the application
@@ -11,19 +13,24 @@
 #![no_main]
 
 use coe_core::wire::{Mailbox, MailboxRepr, MailboxType};
-use firmware::io::analog::outputs::OutputStage;
-use firmware::io::analog::process_data::ProcessData;
-use firmware::stacks::ethercat::{AppConfig, SlaveApp};
 use firmware::fake_esc::FakeEsc;
+use firmware::io::analog::outputs::OutputStage;
 use firmware::products::analog_io::layout::SYNC_MANAGERS;
-use firmware::products::analog_io::od::OD;
+use firmware::products::{analog_io, analog_io_can};
+use firmware::stacks::ethercat::application::Application;
+use firmware::stacks::ethercat::SlaveApp;
 use libfuzzer_sys::fuzz_target;
 
 /// The process RAM of the register file: SyncManager buffers live there (an ESC's
 /// SyncManagers cannot map its registers).
 const PROCESS_RAM: core::ops::Range<usize> = 0x1000..0x2000;
 
-fn serve(app: &mut SlaveApp, esc: &mut FakeEsc, stage: &OutputStage, now: u64) {
+fn serve<A: Application<Stage = OutputStage>>(
+    app: &mut SlaveApp<A>,
+    esc: &mut FakeEsc,
+    stage: &OutputStage,
+    now: u64,
+) {
     let _ = app.on_pdi_irq(&mut esc.driver(), stage, now);
     let _ = app.poll(&mut esc.driver(), stage, now);
     let (status, code) = esc.al_status();
@@ -56,9 +63,21 @@ fn into_read_mailbox(esc: &FakeEsc, start: u16, len: u16) -> bool {
 }
 
 fuzz_target!(|data: &[u8]| {
+    match data.split_first() {
+        Some((pick, rest)) if pick & 1 == 1 => run(
+            SlaveApp::new(analog_io_can::CONFIG, analog_io_can::application()),
+            rest,
+        ),
+        _ => run(
+            SlaveApp::new(analog_io::CONFIG, analog_io::application()),
+            data.get(1..).unwrap_or(&[]),
+        ),
+    }
+});
+
+fn run<A: Application<Stage = OutputStage>>(mut app: SlaveApp<A>, data: &[u8]) {
     let mut esc = FakeEsc::new();
     let stage = OutputStage::new();
-    let mut app = SlaveApp::new(&OD, AppConfig::product(), ProcessData::product_default());
     let _ = app.start(&mut esc.driver());
     for (n, sm) in SYNC_MANAGERS.iter().enumerate().take(2) {
         esc.master_sm(n as u8, sm.start, sm.len, sm.control, true);
@@ -159,4 +178,4 @@ fuzz_target!(|data: &[u8]| {
         }
         serve(&mut app, &mut esc, &stage, now);
     }
-});
+}

@@ -1,6 +1,6 @@
 //! The firmware's own PDI task ([`firmware::stacks::ethercat::pdi_task::PdiTask`] around the
 //! [`firmware::stacks::ethercat::SlaveApp`]), DAC task ([`firmware::io::analog::dac::OutputDac`] with the
-//! [`DacLatch`]) and ADC scan ([`firmware::io::analog::adc_scan::SCAN_CONFIG`]) running on the
+//! [`DacLatch`]) and ADC scan ([`firmware::platform::adc_scan::SCAN_CONFIG`]) running on the
 //! board's models through the real driver crates, with the interrupts in priority order on
 //! virtual time:
 //!
@@ -43,29 +43,202 @@ use crate::rig::board::{BoardIo, PdiCpu};
 use ad7689::Ad7689;
 use coe_core::canopen::CanFrame;
 use et1100::{Et1100, SpiPdi};
-use firmware::io::analog::adc_scan::SCAN_CONFIG;
 use firmware::io::analog::dac::OutputDac;
 use firmware::io::analog::outputs::{DacAction, DacLatch, OutputStage};
-use firmware::io::analog::process_data::ProcessData;
 use firmware::io::analog::sampler::{Sample, Sampler};
-use firmware::stacks::canopen::task::{self as can_task, CanController, CanInbox};
+use firmware::io::analog::AnalogApplication;
+use firmware::platform::adc_scan::SCAN_CONFIG;
+use firmware::products::{analog_io, analog_io_can, Product};
+use firmware::stacks::canopen::task::{self as can_task, CanController, CanHost, CanInbox};
 use firmware::stacks::ethercat::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
-use firmware::stacks::ethercat::{AppConfig, SlaveApp};
+use firmware::stacks::ethercat::{AppConfig, Application, SlaveApp};
 
-/// What the device description gives the firmware: the object dictionary, the SyncManager
-/// expectations, the default PDO configuration and the SII image.
+/// A product as the board runs it: which one, its CANopen node-ID where it has CAN, and the
+/// SII image the board's EEPROM holds ([`Device::of`]).
 #[derive(Clone)]
 pub struct Device {
     /// For the user.
     pub description: String,
-    /// The object dictionary.
-    pub od: &'static coe_core::od::ObjectDictionary,
-    /// SyncManagers and device ID.
-    pub config: AppConfig,
-    /// The default PDO configuration.
-    pub process_data: ProcessData,
+    /// The product.
+    pub product: &'static Product,
+    /// The CANopen node-ID (products with CAN).
+    pub node_id: u8,
     /// The SII EEPROM image.
     pub sii: Vec<u8>,
+    /// The product's tasks at power-up.
+    tasks: PowerUp,
+}
+
+impl Device {
+    /// `product` with the CANopen node-ID `node_id`, on a board whose EEPROM holds `sii`;
+    /// an error for a product the harness does not run.
+    pub fn of(
+        product: &'static Product,
+        node_id: u8,
+        sii: Vec<u8>,
+        description: String,
+    ) -> Result<Self, String> {
+        Ok(Self {
+            description,
+            product,
+            node_id,
+            sii,
+            tasks: tasks_of(product)?,
+        })
+    }
+
+    /// The same module running the application of `product` (an update installed another
+    /// product's image; the EEPROM keeps its SII).
+    pub fn running(&self, product: &'static Product) -> Result<Self, String> {
+        Ok(Self {
+            product,
+            tasks: tasks_of(product)?,
+            ..self.clone()
+        })
+    }
+}
+
+/// The ESC as the application sees it.
+type Esc = Et1100<SpiPdi<EscSpi>>;
+
+/// What the harness needs of a product's application beyond the slave application's: how
+/// it powers up, and the CAN task's host where the product has a CANopen node.
+pub trait HostedApplication:
+    Application<Stage = OutputStage> + AnalogApplication + Sized + 'static
+{
+    /// The slave application's configuration.
+    const CONFIG: AppConfig;
+    /// The application at power-up.
+    fn power_up(node_id: u8) -> Self;
+    /// The CAN task's host, if the product runs a CANopen node.
+    fn can_host(app: &mut SlaveApp<Self>) -> Option<&mut dyn CanHost<Stage = OutputStage>>;
+    /// The node as the tasks look at it, if the product has one.
+    fn can_state(app: &SlaveApp<Self>, now_ns: u64) -> Option<CanState>;
+}
+
+/// The CANopen node as the harness's tasks see it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CanState {
+    /// Frames wait for the controller.
+    pub has_tx: bool,
+    /// A call the window refused fits now.
+    pub work_waiting: bool,
+    /// A call the window refused waits.
+    pub waiting: bool,
+    /// When the node's timers must run (ns).
+    pub deadline_ns: Option<u64>,
+}
+
+impl HostedApplication for analog_io::Application {
+    const CONFIG: AppConfig = analog_io::CONFIG;
+
+    fn power_up(_: u8) -> Self {
+        analog_io::application()
+    }
+
+    fn can_host(_: &mut SlaveApp<Self>) -> Option<&mut dyn CanHost<Stage = OutputStage>> {
+        None
+    }
+
+    fn can_state(_: &SlaveApp<Self>, _: u64) -> Option<CanState> {
+        None
+    }
+}
+
+impl HostedApplication for analog_io_can::Application {
+    const CONFIG: AppConfig = analog_io_can::CONFIG;
+
+    fn power_up(node_id: u8) -> Self {
+        analog_io_can::application_with_node_id(node_id)
+    }
+
+    fn can_host(app: &mut SlaveApp<Self>) -> Option<&mut dyn CanHost<Stage = OutputStage>> {
+        Some(app)
+    }
+
+    fn can_state(app: &SlaveApp<Self>, now_ns: u64) -> Option<CanState> {
+        let can = &app.application().can;
+        Some(CanState {
+            has_tx: can.has_tx(),
+            work_waiting: can.work_waiting(now_ns),
+            waiting: can.waiting(),
+            deadline_ns: can.deadline_ns(),
+        })
+    }
+}
+
+/// How a product's tasks start, with the CANopen node-ID.
+type PowerUp = fn(u8) -> Box<dyn Tasks>;
+
+/// A product's PDI task (and its CAN task's host), behind one interface.
+pub trait Tasks {
+    fn start(&mut self, esc: &mut Esc, ready: bool) -> bool;
+    fn started(&self) -> bool;
+    fn bus_errors(&self) -> u32;
+    fn run(
+        &mut self,
+        esc: &mut Esc,
+        stage: &OutputStage,
+        now_ns: u64,
+        wake: Wake,
+        still_asserted: &mut dyn FnMut() -> bool,
+        drain: &mut dyn FnMut(&mut Sampler),
+    ) -> Done;
+    fn can_host(&mut self) -> Option<&mut dyn CanHost<Stage = OutputStage>>;
+    fn can_state(&self, now_ns: u64) -> Option<CanState>;
+}
+
+impl<A: HostedApplication> Tasks for PdiTask<A> {
+    fn start(&mut self, esc: &mut Esc, ready: bool) -> bool {
+        PdiTask::start(self, esc, ready)
+    }
+
+    fn started(&self) -> bool {
+        PdiTask::started(self)
+    }
+
+    fn bus_errors(&self) -> u32 {
+        PdiTask::bus_errors(self)
+    }
+
+    fn run(
+        &mut self,
+        esc: &mut Esc,
+        stage: &OutputStage,
+        now_ns: u64,
+        wake: Wake,
+        still_asserted: &mut dyn FnMut() -> bool,
+        drain: &mut dyn FnMut(&mut Sampler),
+    ) -> Done {
+        PdiTask::run(self, esc, stage, now_ns, wake, still_asserted, |app| {
+            drain(&mut app.analog().sampler)
+        })
+    }
+
+    fn can_host(&mut self) -> Option<&mut dyn CanHost<Stage = OutputStage>> {
+        A::can_host(self.app_mut())
+    }
+
+    fn can_state(&self, now_ns: u64) -> Option<CanState> {
+        A::can_state(self.app(), now_ns)
+    }
+}
+
+/// How the tasks of `product` start (the products the virtual board runs: the analog ones).
+fn tasks_of(product: &Product) -> Result<PowerUp, String> {
+    fn task<A: HostedApplication>(node_id: u8) -> Box<dyn Tasks> {
+        Box::new(PdiTask::new(SlaveApp::new(A::CONFIG, A::power_up(node_id))))
+    }
+    let name = product.name;
+    if name == analog_io::PRODUCT.name {
+        Ok(task::<analog_io::Application>)
+    } else if name == analog_io_can::PRODUCT.name {
+        Ok(task::<analog_io_can::Application>)
+    } else {
+        Err(format!(
+            "the virtual board does not run the product {name:?}"
+        ))
+    }
 }
 
 /// Frames after power-up whose results are discarded: two carry the CFG, the third may
@@ -96,9 +269,6 @@ impl CanController for BusController {
         true
     }
 }
-
-/// The ESC as the application sees it.
-type Esc = Et1100<SpiPdi<EscSpi>>;
 
 /// The firmware's SysTick period: the PDI task's background work is requested this often.
 pub const TICK_NS: u64 = 1_000_000;
@@ -141,7 +311,7 @@ pub struct FirmwareCpu {
     esc: Esc,
     dac: OutputDac<DacSpi, LdacPin>,
     adc: Ad7689<AdcSpi>,
-    task: PdiTask,
+    task: Box<dyn Tasks>,
     stage: OutputStage,
     latch: DacLatch,
     pending: Vec<Sample>,
@@ -165,13 +335,13 @@ impl FirmwareCpu {
     /// write the scan CFG, and the PDI task starts the application (AL status INIT, event
     /// mask) once the ESC's PDI is operational.
     pub fn new(io: BoardIo, device: &Device, adc_period_ns: u64) -> Self {
-        let app = SlaveApp::new(device.od, device.config, device.process_data.clone());
+        let task = (device.tasks)(device.node_id);
         let Ok(dac) = OutputDac::new(io.dac.clone(), io.ldac.clone());
         let mut cpu = Self {
             esc: Et1100::new(SpiPdi::new(io.esc.clone())),
             dac,
             adc: Ad7689::new(io.adc.clone()),
-            task: PdiTask::new(app),
+            task,
             stage: OutputStage::new(),
             latch: DacLatch::new(),
             pending: Vec::new(),
@@ -217,11 +387,6 @@ impl FirmwareCpu {
     /// Whether the PDI task has started the application.
     pub fn started(&self) -> bool {
         self.task.started()
-    }
-
-    /// The application (state, data, mailbox).
-    pub fn app(&self) -> &SlaveApp {
-        self.task.app()
     }
 
     /// The output stage shared by the PDI and DAC tasks.
@@ -280,13 +445,14 @@ impl FirmwareCpu {
             sampler.add_all(pending);
             pending.clear();
         };
+        let mut drain = drain;
         let done = self.task.run(
             &mut self.esc,
             &self.stage,
             io.now_ns(),
             wake,
-            || line.irq(),
-            drain,
+            &mut || line.irq(),
+            &mut drain,
         );
         // The board calls `on_irq` again while the line stays asserted (bounded), which
         // is what `pend_again` asks for.
@@ -301,20 +467,22 @@ impl FirmwareCpu {
     /// True if the CAN node has frames for the controller, its deadline has come, or the
     /// CAN window has opened on work it held back.
     fn can_due(&self, now_ns: u64) -> bool {
-        let app = self.task.app();
-        app.has_can_tx()
-            || app.can_work_waiting(now_ns)
-            || (!app.can_waiting() && app.can_deadline_ns().is_some_and(|t| t <= now_ns))
+        self.task.can_state(now_ns).is_some_and(|s| {
+            s.has_tx || s.work_waiting || (!s.waiting && s.deadline_ns.is_some_and(|t| t <= now_ns))
+        })
     }
 
     /// The CAN task, activated again while it asks to (one received frame each), at most
     /// [`MAX_CAN_RUNS`] times in a row.
     fn can_task(&mut self, io: &BoardIo) {
         for _ in 0..MAX_CAN_RUNS {
+            let Some(host) = self.task.can_host() else {
+                return;
+            };
             let out = can_task::run(
                 &mut self.can,
                 &mut self.can_inbox,
-                self.task.app_mut(),
+                host,
                 &self.stage,
                 io.now_ns(),
             );
@@ -377,8 +545,10 @@ impl PdiCpu for FirmwareCpu {
             None => {
                 let next = self.next_cnv_ns.min(self.next_tick_ns);
                 // Work the CAN window held back waits for the PDI task or the tick.
-                let app = self.task.app();
-                let can = app.can_deadline_ns().filter(|_| !app.can_waiting());
+                let can = self
+                    .task
+                    .can_state(0)
+                    .and_then(|s| s.deadline_ns.filter(|_| !s.waiting));
                 Some(can.map_or(next, |t| t.min(next)))
             }
         }

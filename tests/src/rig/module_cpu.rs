@@ -10,8 +10,10 @@
 //!   [`FirmwareCpu::bootloader_requested`]): request word set, reset;
 //! - the bootloader's BOOT -> INIT (or PREOP with a valid application): reset.
 //!
-//! What runs as the application is always this build's firmware: a flashed image is data
-//! (its header and CRC are checked, its code is not run; the image co-simulator in
+//! What runs as the application is always this build's firmware of the product whose
+//! product code the installed image's header carries (an update may install another
+//! product: the board's bootloader takes any product for its board): a flashed image is
+//! data (its header and CRC are checked, its code is not run; the image co-simulator in
 //! tests/cosim runs the real binaries). The bootloader polls without interrupts, so while it
 //! runs the CPU is one that runs continuously ([`PdiCpu::runs_continuously`]): one round
 //! of its main loop each time the board's clock moves.
@@ -21,11 +23,12 @@ use crate::models::spi::EscSpi;
 use crate::rig::board::{BoardIo, PdiCpu};
 use crate::rig::firmware_cpu::{Device, FirmwareCpu};
 use et1100::{Et1100, SpiPdi};
+use firmware::platform::board::Board;
 use firmware::platform::boot::header::{HeaderRepr, Target};
 use firmware::platform::boot::install::{check_image, startup, Startup};
-use firmware::platform::boot::layout::APP_SLOT;
-use firmware::products::analog_io::identity::UPDATE_TARGET;
-use firmware::products::analog_io::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
+use firmware::platform::boot::layout::{APP_SLOT, BOOTSTRAP_MAILBOX};
+use firmware::products::analog_io::layout::SYNC_MANAGERS;
+use firmware::products::PRODUCTS;
 use firmware::stacks::ethercat::boot_slave::{BootSlave, Bootstrap};
 use lpc17xx_iap::model::FlashModel;
 use lpc17xx_iap::{Iap, IapEntry};
@@ -60,9 +63,9 @@ impl SharedFlash {
         Self(Rc::new(RefCell::new(model)))
     }
 
-    /// The header of the valid application in the slot, if there is one.
-    pub fn application(&self) -> Option<HeaderRepr> {
-        check_image(&Iap::new(self.clone(), CCLK_KHZ), APP_SLOT, &UPDATE_TARGET).ok()
+    /// The header of the valid application in the slot for `board`, if there is one.
+    pub fn application(&self, board: &Board) -> Option<HeaderRepr> {
+        check_image(&Iap::new(self.clone(), CCLK_KHZ), APP_SLOT, board).ok()
     }
 
     /// What broke a rule of the IAP ROM so far (empty when all was well).
@@ -103,7 +106,7 @@ struct BootCpu {
 }
 
 impl BootCpu {
-    fn new(io: &BoardIo, iap: Iap<SharedFlash>, application_valid: bool) -> Self {
+    fn new(io: &BoardIo, board: Board, iap: Iap<SharedFlash>, application_valid: bool) -> Self {
         let bootstrap = Bootstrap {
             out: BOOTSTRAP_MAILBOX.0,
             inp: BOOTSTRAP_MAILBOX.1,
@@ -112,7 +115,7 @@ impl BootCpu {
         };
         Self {
             esc: Et1100::new(SpiPdi::new(io.esc.clone())),
-            slave: BootSlave::new(iap, UPDATE_TARGET, bootstrap, application_valid),
+            slave: BootSlave::new(iap, board, bootstrap, application_valid),
             started: false,
             reset: false,
         }
@@ -144,6 +147,8 @@ enum Program {
 /// The module's CPU: the program that runs now and what survives a reset.
 pub struct ModuleCpu {
     io: BoardIo,
+    /// The board (its bootloader's): the first product's, whatever an update installs.
+    board: Board,
     device: Device,
     adc_period_ns: u64,
     program: Program,
@@ -158,6 +163,7 @@ impl ModuleCpu {
     pub fn new(io: BoardIo, device: Device, adc_period_ns: u64, flash: SharedFlash) -> Self {
         let mut cpu = Self {
             io,
+            board: *device.product.board,
             device,
             adc_period_ns,
             program: Program::Reset,
@@ -181,10 +187,21 @@ impl ModuleCpu {
     /// The reset sequence with the flash `iap` reaches, then the program it chooses.
     fn reset_with(&mut self, mut iap: Iap<SharedFlash>) {
         let requested = core::mem::take(&mut self.boot_request);
-        let s = startup(&mut iap, &UPDATE_TARGET, requested);
+        let board = self.board;
+        let s = startup(&mut iap, &board, requested);
         self.log.borrow_mut().startups.push(s);
+        // The application of the product the installed image is (the board keeps running
+        // the last one when the harness does not run that product).
+        if let Ok(header) = &s.application {
+            let installed = PRODUCTS
+                .iter()
+                .find(|p| p.update.product_code == header.product_code);
+            if let Some(device) = installed.and_then(|p| self.device.running(p).ok()) {
+                self.device = device;
+            }
+        }
         self.program = if s.stay.is_some() {
-            let boot = BootCpu::new(&self.io, iap, s.application.is_ok());
+            let boot = BootCpu::new(&self.io, board, iap, s.application.is_ok());
             Program::Bootloader(Box::new(boot))
         } else {
             let app = FirmwareCpu::new(self.io.clone(), &self.device, self.adc_period_ns);

@@ -43,7 +43,7 @@ use std::rc::Rc;
 
 /// Mailbox size the master's SDO client is built for (the module's; checked against the
 /// SII at [`ScriptedMaster::init`]).
-pub const MBX: usize = firmware::products::analog_io::capacity::MAILBOX_SIZE;
+pub const MBX: usize = firmware::stacks::ethercat::mailbox::MAILBOX_SIZE;
 
 /// The station address the master gives the (only) slave.
 pub const STATION: u16 = 0x1001;

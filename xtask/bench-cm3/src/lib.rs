@@ -37,11 +37,10 @@ use firmware::io::analog::adc_dma::{
     words_written, HalfCounter, PositionError, ScanReader, HALF_WORDS, RING_WORDS,
 };
 use firmware::io::analog::outputs::{DacAction, DacLatch, DacPair, OutputStage};
-use firmware::io::analog::process_data::ProcessData;
 use firmware::io::analog::sampler::{PublishMode, Sample, SampleConsumer, SampleProducer, Sampler};
-use firmware::products::analog_io::capacity::{AI_CHANNELS as CHANNELS, MAILBOX_SIZE};
-use firmware::products::analog_io::od::OD;
-use firmware::stacks::ethercat::AppConfig;
+use firmware::platform::board::AI_CHANNELS as CHANNELS;
+use firmware::products::analog_io::{self, Application, CONFIG};
+use firmware::stacks::ethercat::mailbox::MAILBOX_SIZE;
 use firmware::stacks::ethercat::{PdiOutcome, SlaveApp};
 
 /// Ring length of the sampler scenario (one scan fits many times).
@@ -55,8 +54,8 @@ pub struct CheckFailed(pub &'static str);
 pub struct Rig {
     /// The ESC (master side through its `master_*` methods).
     pub esc: FakeEsc,
-    /// The application.
-    pub app: SlaveApp,
+    /// The slave application with the default product's application.
+    pub app: SlaveApp<Application>,
     /// The PDI -> DAC task stage.
     pub stage: OutputStage,
     /// The DAC task's latch.
@@ -74,9 +73,9 @@ impl Rig {
     /// Power-up and the master's ESM walk to OP with DC SYNC0 at `cycle_ns`.
     pub fn new(cycle_ns: u32) -> Result<Self, CheckFailed> {
         let mut esc = FakeEsc::new();
-        let pd = ProcessData::product_default();
+        let pd = analog_io::process_data();
         let (out_len, in_len) = (pd.output_len() as u16, pd.input_len() as u16);
-        let mut app = SlaveApp::new(&OD, AppConfig::product(), pd);
+        let mut app = SlaveApp::new(CONFIG, analog_io::application());
         app.start(&mut esc.driver())
             .map_err(|_| CheckFailed("start"))?;
         let mut rig = Self {
@@ -91,7 +90,7 @@ impl Rig {
             reply: [0; MAILBOX_SIZE],
             output_len: out_len,
         };
-        let [m0, m1, p2, p3] = AppConfig::product().sm;
+        let [m0, m1, p2, p3] = CONFIG.sm;
         rig.esc.master_sm(0, m0.start, m0.len, m0.control, true);
         rig.esc.master_sm(1, m1.start, m1.len, m1.control, true);
         rig.request(0x02, "INIT -> PREOP")?;
@@ -179,13 +178,16 @@ impl Rig {
         for (code, n) in scan.iter_mut().zip(0u16..) {
             *code = base.wrapping_add(n);
         }
-        self.app.sampler_mut().add_whole_scan(&scan, |c| *c);
+        self.app
+            .application_mut()
+            .sampler
+            .add_whole_scan(&scan, |c| *c);
         scan
     }
 
     /// Whether the last inputs published `scan`.
     pub fn check_published(&self, scan: &[u16; CHANNELS]) -> Result<(), CheckFailed> {
-        if self.app.data().sampler.codes() == scan {
+        if self.app.application().sampler.codes() == scan {
             Ok(())
         } else {
             Err(CheckFailed("pdi_inputs: the scan was not published"))

@@ -6,7 +6,7 @@ use firmware::stacks::ethercat::sync::SyncMode;
 
 fn rig() -> Rig {
     let mut r = Rig::new(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS).unwrap();
-    assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
+    assert_eq!(r.app.sync().mode(), SyncMode::DcSync0);
     for _ in 0..4 {
         r.cycle().unwrap();
     }

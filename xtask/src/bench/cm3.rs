@@ -315,7 +315,7 @@ pub struct TracedRun {
 
 /// Builds (with the release profile) and runs the benchmark once with the trace.
 pub fn traced_run() -> Result<TracedRun> {
-    let (elf, plugin, markers) = prepare(&Profile::default())?;
+    let (elf, plugin, markers) = prepare(&super::cm3_profile())?;
     let trace_path = bench_target_dir().join("insn_trace.txt");
     let _ = std::fs::remove_file(&trace_path);
     let (stdout, counts) = run_qemu(&elf, &plugin, markers, 0, Some(&trace_path))?;

@@ -21,10 +21,14 @@ const LATENCY_AIM_US: f64 = 0.5;
 /// The sampler's CPU share at 250 kSPS.
 const SAMPLER_TARGET: f64 = 0.10;
 
-/// Builds the release image and runs the co-simulator's bench on it; the sweep also tries
-/// `also_us` (the cycle the advertised-minimum rule turns on).
-pub fn measure(quick: bool, also_us: u64) -> Result<ImageFigures> {
-    let out = build::build(&build::Args::default())?;
+/// Builds `product`'s release image and runs the co-simulator's bench on it; the sweep also
+/// tries `also_us` (the cycle the advertised-minimum rule turns on).
+pub fn measure(
+    quick: bool,
+    also_us: u64,
+    product: &'static firmware::products::Product,
+) -> Result<ImageFigures> {
+    let out = build::build(&build::Args::of(product))?;
     setup::cosim()?;
     let json = build::target_dir().join("bench").join("image.json");
     if let Some(dir) = json.parent() {

@@ -56,6 +56,11 @@ pub struct Args {
     /// in target/bench/by_function.json.
     #[arg(long, conflicts_with_all = ["quick", "json", "plot", "opt_levels", "min_cycle"])]
     pub by_function: bool,
+    /// The product whose image groups 4 and 7 (and --min-cycle) measure (default: the
+    /// default product). The other groups measure the process-data path of the slave
+    /// application with the analog I/O, which both analog products run.
+    #[arg(long, value_name = "NAME")]
+    pub product: Option<String>,
 }
 
 const AFTER_HELP: &str = "\
@@ -101,8 +106,12 @@ impl Plan {
 }
 
 pub fn run(args: &Args) -> Result {
+    let product = match &args.product {
+        Some(name) => build::product(name)?,
+        None => firmware::products::default(),
+    };
     if args.min_cycle {
-        return min_cycle_only(args.quick);
+        return min_cycle_only(args.quick, product);
     }
     if args.opt_levels {
         return opt_levels::run();
@@ -116,15 +125,21 @@ pub fn run(args: &Args) -> Result {
     eprintln!("[bench] 1/7 PDI bus cost on the virtual board");
     let bus = bus_cost::measure(sim::firmware_target()?, cycle_ns, plan.pd_cycles)?;
     eprintln!("[bench] 2/7 CPU cost on a Cortex-M3 (QEMU)");
-    let cpu = cm3::measure(plan.qemu_runs, &build::Profile::default())?;
-    eprintln!("[bench] 4/7 footprint of the release image");
-    let footprint = footprint()?;
+    let cpu = cm3::measure(plan.qemu_runs, &cm3_profile())?;
+    eprintln!(
+        "[bench] 4/7 footprint of the release image ({})",
+        product.name
+    );
+    let footprint = footprint(product)?;
     eprintln!("[bench] 5/7 ADC on the virtual board");
     let adc = adc_rate(plan.adc_ms)?;
     eprintln!("[bench] 6/7 loop-back on the virtual board");
     let sim = loopback(plan.loopback_s)?;
-    eprintln!("[bench] 7/7 the release image on the co-simulated LPC1754");
-    let (on_image, min_cycle) = image_and_rule(args.quick)?;
+    eprintln!(
+        "[bench] 7/7 the release image ({}) on the co-simulated LPC1754",
+        product.name
+    );
+    let (on_image, min_cycle) = image_and_rule(args.quick, product)?;
     let image = image_rows::rows(&on_image);
 
     let mut rows = Vec::new();
@@ -153,6 +168,12 @@ pub fn run(args: &Args) -> Result {
     plot::write_png(&plot_path, &traces(&sim, plan.loopback_s)?)?;
 
     let mut notes = notes(&bus, &cpu, &derived, &adc_share, &footprint);
+    notes.push(format!(
+        "Product: {} (groups 4 and 7 and the minimum cycle rule measure its image; groups 1-3, 5 \
+         and 6 the process-data path of the slave application with the analog I/O, the Cortex-M3 \
+         program built with the default product's release settings).",
+        product.name
+    ));
     notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
     println!("loop-back plot: {}", plot_path.display());
@@ -166,16 +187,19 @@ pub fn run(args: &Args) -> Result {
 
 /// The image measured on the co-simulator, and the advertised-minimum rule on its shortest
 /// sustained DC cycle (the sweep also tries the cycle the advertised figure allows).
-fn image_and_rule(quick: bool) -> Result<(ImageFigures, advertised::MinCycle)> {
-    let on_image = image_rows::measure(quick, advertised::MinCycle::product_allows_us())?;
+fn image_and_rule(
+    quick: bool,
+    product: &'static firmware::products::Product,
+) -> Result<(ImageFigures, advertised::MinCycle)> {
+    let on_image = image_rows::measure(quick, advertised::MinCycle::product_allows_us(), product)?;
     let image_min_us = image_rows::min_cycle_us(&on_image)
         .ok_or("the image sustains none of the DC cycle times tried: see group 7")?;
     Ok((on_image, advertised::MinCycle::of_product(image_min_us)))
 }
 
 /// `--min-cycle`: the rule alone, for re-running after a change of the process-data path.
-fn min_cycle_only(quick: bool) -> Result {
-    let (on_image, min_cycle) = image_and_rule(quick)?;
+fn min_cycle_only(quick: bool, product: &'static firmware::products::Product) -> Result {
+    let (on_image, min_cycle) = image_and_rule(quick, product)?;
     let image = image_rows::rows(&on_image);
     let mut rows = image.derived;
     rows.push(min_cycle.row());
@@ -564,12 +588,18 @@ impl Derived {
 
 struct Footprint {
     usage: image::Usage,
+    budget: image::Budget,
     crates: Vec<(String, u64, u64)>,
     has_app: bool,
 }
 
-fn footprint() -> Result<Footprint> {
-    let out = build::build(&build::Args::default())?;
+/// The release settings the Cortex-M3 program is built with: the default product's.
+pub fn cm3_profile() -> build::Profile {
+    build::Profile::of(firmware::products::default())
+}
+
+fn footprint(product: &'static firmware::products::Product) -> Result<Footprint> {
+    let out = build::build(&build::Args::of(product))?;
     let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
     let sections = image::sections(&data).map_err(|e| e.to_string())?;
     let syms = size::symbols(&data, &sections)?;
@@ -577,6 +607,7 @@ fn footprint() -> Result<Footprint> {
         .iter()
         .any(|s| s.krate == "coe_core" || s.name.contains("SlaveApp"));
     Ok(Footprint {
+        budget: out.budget(),
         usage: out.usage,
         crates: size::by_crate(&syms),
         has_app,
@@ -603,8 +634,8 @@ impl Footprint {
                 Verdict::Missed(format!("{} B over", used - budget))
             }
         };
-        let flash_budget = crate::image::BUDGET.flash;
-        let ram_budget = crate::image::BUDGET.ram;
+        let flash_budget = self.budget.flash;
+        let ram_budget = self.budget.ram;
         let mut rows = vec![
             Row::new(
                 Group::Footprint,

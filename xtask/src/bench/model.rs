@@ -52,7 +52,7 @@ pub const DMA_POSITION_REGISTER_CYCLES: f64 = 3.0;
 pub const DMA_IRQ_REGISTER_CYCLES: f64 = 3.0 * 3.0;
 
 /// Channels per AD7689 scan (one whole scan per drain step on the GPDMA path).
-pub const ADC_SCAN_WORDS: f64 = firmware::products::analog_io::capacity::AI_CHANNELS as f64;
+pub const ADC_SCAN_WORDS: f64 = firmware::platform::board::AI_CHANNELS as f64;
 
 /// Words per half ring of the GPDMA path (one terminal-count interrupt each).
 pub const ADC_DMA_HALF_WORDS: f64 = firmware::io::analog::adc_dma::HALF_WORDS as f64;

@@ -12,13 +12,10 @@
 //! than one half).
 
 use super::sampler::Sampler;
-use crate::products::analog_io::capacity::AI_CHANNELS as CHANNELS;
+use crate::platform::board::AI_CHANNELS as CHANNELS;
 use core::sync::atomic::{compiler_fence, AtomicU16, AtomicU32, Ordering};
 
-/// Words of the sample ring (two halves of [`HALF_WORDS`]): ~4.1 ms at 250 kSPS.
-pub const RING_WORDS: usize = 1024;
-/// Words per half ring (one terminal-count interrupt each).
-pub const HALF_WORDS: usize = RING_WORDS / 2;
+pub use crate::platform::chip::adc_dma::{HALF_WORDS, RING_WORDS};
 /// Whole scans the ring holds.
 const RING_SCANS: usize = RING_WORDS / CHANNELS;
 /// Bytes of one ring word (the AD7689's 16-bit result).

@@ -1,11 +1,27 @@
 //! The analog I/O: the AD7689's samples to the master, the master's values to the AD5663
-//! at SYNC0, and the CiA 401 objects behind them.
+//! at SYNC0, and the CiA 401 objects behind them ([`objects::AnalogIo`], the application
+//! the analog products run).
+//!
+//! | module           | what                                                               |
+//! |------------------|--------------------------------------------------------------------|
+//! | [`objects`]      | the application: object values, write rules, what the EtherCAT slave application asks of it |
+//! | [`process_data`] | PDO mapping and assignment, the images, the fast copy per cycle    |
+//! | [`outputs`]      | outputs staged for the SYNC0 (DAC) task, latched there; the fault reaction |
+//! | [`dac`]          | the AD5663 as the DAC task drives it                               |
+//! | [`sampler`]      | the samples between the ADC path and the process data              |
+//! | [`adc_dma`]      | the PDI task's side of the GPDMA ring of scans                     |
+//! | [`scaling`]      | codes <-> process values <-> volts                                 |
+//! | [`settings`]     | the manufacturer settings object (AI filter)                        |
 
 pub mod adc_dma;
-pub mod adc_scan;
 pub mod dac;
 pub mod objects;
 pub mod outputs;
 pub mod process_data;
 pub mod sampler;
 pub mod scaling;
+pub mod settings;
+
+pub use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
+pub use objects::{AnalogApplication, AnalogIo};
+pub use settings::{AI_FILTER_AVERAGE, AI_FILTER_LATEST, SETTINGS_INDEX};

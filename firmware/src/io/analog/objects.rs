@@ -1,117 +1,69 @@
-//! The values behind the module's object dictionary: the application's
-//! [`ObjectAccess`] implementation, with the write rules of the application.
+//! The analog I/O as an application: the values behind the CiA 401 objects, the process
+//! data and the write rules ([`AnalogIo`], the [`ObjectAccess`] of the analog products),
+//! and what the EtherCAT slave application asks of it ([`Application`]).
 //!
 //! Served here (everything else reads as the entry's default from the dictionary, i.e. the
-//! product's constants, [`crate::products::analog_io`]: 0x1000, 0x1008..0x100A, 0x1018, 0x1C00):
-//! 0x1001 error register, 0x1003 error history, 0x10F1 error settings,
-//! 0x1600../0x1A00../0x1C12/0x1C13 PDO configuration ([`ProcessData`]), 0x1C32/0x1C33
-//! ([`SyncMonitor`]), 0x6401 AI values ([`Sampler`]), 0x6411 AO values, 0x6443/0x6444 fault
-//! configuration, and the manufacturer settings object ([`SETTINGS_INDEX`]), and for the CAN
-//! side the process-data source ([`PROCESS_DATA_SOURCE_INDEX`]) and 0x6423
-//! ([`AI_INTERRUPT_ENABLE_INDEX`]).
+//! product's constants, `crate::products`: 0x1000, 0x1008..0x100A, 0x1018, 0x1C00):
+//! 0x1001 error register, 0x1003 error history, 0x10F1:01 local error reaction,
+//! 0x1600../0x1A00../0x1C12/0x1C13 PDO configuration ([`ProcessData`]), 0x6401 AI values
+//! ([`Sampler`]), 0x6411 AO values, 0x6443/0x6444 fault configuration, and the manufacturer
+//! settings object ([`SETTINGS_INDEX`]), and the slave application's sync objects from the
+//! sync monitor kept here (0x1C32, 0x1C33, 0x10F1:02, [`SyncMonitor`]); a product with
+//! another fieldbus adds that fieldbus's objects around these.
 //!
 //! Vetoes (the SDO server has already checked existence, access per state, length and the
-//! dictionary's min/max): PDO configuration and sync mode/cycle only in PREOP (0x08000022),
-//! and the PDO configuration not while EtherCAT runs process data whichever fieldbus asks;
-//! the process-data source only while neither fieldbus runs process data (0x08000022),
-//! unsupported sync modes, fault modes, filter modes and fault values outside 0..=0x7FFF
-//! (0x06090030), and 0x1003:00 other than 0 (0x06090030, CiA 301).
+//! dictionary's min/max): PDO configuration only in PREOP (0x08000022), fault modes,
+//! filter modes and fault values outside 0..=0x7FFF (0x06090030), and 0x1003:00 other than
+//! 0 (0x06090030, CiA 301).
 
 use super::outputs::{AnalogOutputs, ErrorMode, OutputStage, SetOutcome};
-use super::process_data::ProcessData;
+use super::process_data::{ProcessData, SlotValues, MAX_IMAGE};
 use super::sampler::{PublishMode, Sampler};
-use crate::products::analog_io::can::{
-    AI_INTERRUPT_ENABLE_INDEX, PROCESS_DATA_SOURCE_INDEX, SOURCE_CAN, SOURCE_ETHERCAT,
-};
-use crate::products::analog_io::capacity::{AI_CHANNELS, AO_CHANNELS};
-use crate::products::analog_io::od::SETTINGS_INDEX;
+use super::settings::SETTINGS_INDEX;
+use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
 use crate::stacks::diagnostics::{Diagnostics, EMCY_AO_OUT_OF_RANGE, ERR_MANUFACTURER};
 use crate::stacks::entry_bytes::{channel, put_le};
-use crate::stacks::ethercat::sync::{le_u16, le_u32, SyncMonitor};
+use crate::stacks::ethercat::sync::{le_u16, le_u32, Figures, SyncMonitor};
+use crate::stacks::ethercat::{Application, Effects};
+use coe_core::device::SyncManagerDesc;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::sdo_server::Emergency;
-use coe_core::{AlState, SdoAbortCode};
+use coe_core::{AlState, AlStatusCode, SdoAbortCode};
+use et1100::SyncManager;
 
-/// Which fieldbus drives the outputs ([`PROCESS_DATA_SOURCE_INDEX`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum OutputSource {
-    /// EtherCAT (SM2), the default.
-    #[default]
-    EtherCat,
-    /// CAN (RPDOs).
-    Can,
-}
-
-impl OutputSource {
-    /// The object's value.
-    pub const fn value(self) -> u8 {
-        match self {
-            Self::EtherCat => SOURCE_ETHERCAT,
-            Self::Can => SOURCE_CAN,
-        }
-    }
-
-    /// The source a value names.
-    pub const fn from_value(value: u8) -> Option<Self> {
-        match value {
-            SOURCE_ETHERCAT => Some(Self::EtherCat),
-            SOURCE_CAN => Some(Self::Can),
-            _ => None,
-        }
-    }
-}
-
-/// Which fieldbus runs process data now (set by the ESM and the CAN node).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Running {
-    /// The ESM is in SAFEOP or OP.
-    pub ethercat: bool,
-    /// The CAN node is operational.
-    pub can: bool,
-}
-
-/// The application data behind the dictionary.
-pub struct AppData {
+/// The analog I/O behind the dictionary, in an image with the sync figures `F`.
+pub struct AnalogIo<F> {
     od: &'static ObjectDictionary,
     /// AO values and fault configuration.
     pub outputs: AnalogOutputs,
     /// AI samples and published values.
     pub sampler: Sampler,
-    /// Sync mode and 0x1C32/0x1C33.
-    pub sync: SyncMonitor,
     /// PDO configuration and images.
     pub pd: ProcessData,
-    /// Error register and 0x10F1:01.
+    /// Error register, error history and 0x10F1:01.
     pub diag: Diagnostics,
-    /// Which fieldbus drives the outputs.
-    pub source: OutputSource,
-    /// CiA 401 0x6423: event-driven CAN TPDOs go out on a change of the inputs.
-    pub ai_events: bool,
-    /// Which fieldbus runs process data.
-    pub running: Running,
+    /// The slave application's sync mode, 0x1C32/0x1C33 and cycle monitor.
+    pub sync: SyncMonitor<F>,
     ao_written: Option<[i16; AO_CHANNELS]>,
 }
 
-impl AppData {
-    /// Application data for `od` with the PDO configuration `pd`.
+impl<F: Figures> AnalogIo<F> {
+    /// The analog I/O on dictionary `od` with the PDO configuration `pd`.
     pub fn new(od: &'static ObjectDictionary, pd: ProcessData) -> Self {
         Self {
             od,
             outputs: AnalogOutputs::new(),
             sampler: Sampler::new(PublishMode::Latest),
-            sync: SyncMonitor::new(),
             pd,
             diag: Diagnostics::new(),
-            source: OutputSource::EtherCat,
-            ai_events: false,
-            running: Running {
-                ethercat: false,
-                can: false,
-            },
+            sync: SyncMonitor::new(),
             ao_written: None,
         }
+    }
+
+    /// Adds samples directly (harnesses without a ring).
+    pub fn on_samples(&mut self, samples: &[super::sampler::Sample]) {
+        self.sampler.add_all(samples);
     }
 
     /// New output values: staged for the DAC when `in_op` ([`AnalogOutputs::set_values`]),
@@ -141,22 +93,27 @@ impl AppData {
         (set, emergency)
     }
 
-    /// The application parameters back to their power-on values (CAN NMT reset node): AO
-    /// fault configuration, AI filter, 0x6423 and the process-data source; the PDO
-    /// configuration too unless EtherCAT runs process data on it.
+    /// The application parameters back to their power-on values (a reset of the
+    /// application, e.g. CAN NMT reset node): AO fault configuration and AI filter.
     pub fn reset_parameters(&mut self) {
         *self.outputs.fault_config_mut() = *AnalogOutputs::new().fault_config();
         self.sampler.set_mode(PublishMode::Latest);
-        self.ai_events = false;
-        self.source = OutputSource::EtherCat;
-        self.reset_pdo_configuration();
     }
 
-    /// The PDO configuration back to its defaults (CAN NMT reset communication while CAN
-    /// drives the outputs), unless EtherCAT runs process data on it.
-    pub fn reset_pdo_configuration(&mut self) {
-        if !self.running.ethercat {
-            self.pd.reset();
+    /// New output values staged (`in_op`: the fieldbus that sent them runs process data),
+    /// and what the output task must do added to `effects`. (Out of line: several callers.)
+    #[inline(never)]
+    pub fn stage_outputs(
+        &mut self,
+        values: [i16; AO_CHANNELS],
+        in_op: bool,
+        stage: &OutputStage,
+        effects: &mut Effects,
+    ) {
+        let (set, emergency) = self.set_outputs(values, in_op, stage);
+        effects.apply_outputs |= set.staged;
+        if emergency.is_some() {
+            effects.emergency = emergency;
         }
     }
 
@@ -197,7 +154,7 @@ fn int16(v: i16) -> u32 {
     u32::from(v as u16)
 }
 
-impl ObjectAccess for AppData {
+impl<F: Figures> ObjectAccess for AnalogIo<F> {
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
         // The application's values as a number and its length in bytes, copied in one place.
         let (value, len): (u32, usize) = match (index, sub) {
@@ -231,8 +188,6 @@ impl ObjectAccess for AppData {
                 (v.unwrap_or(0) as u32, 4)
             }
             (SETTINGS_INDEX, 1) => (self.sampler.mode().setting().into(), 1),
-            (PROCESS_DATA_SOURCE_INDEX, 0) => (self.source.value().into(), 1),
-            (AI_INTERRUPT_ENABLE_INDEX, 0) => (u32::from(self.ai_events), 1),
             _ => return self.read_default(index, sub, buf),
         };
         put_le(buf, value, len)
@@ -258,8 +213,6 @@ impl ObjectAccess for AppData {
             (0x1C32 | 0x1C33, 1 | 2) if state != AlState::PreOp => Err(SdoAbortCode::DeviceState),
             (0x1C32, _) => self.sync.write(false, sub, data),
             (0x1C33, _) => self.sync.write(true, sub, data),
-            // The other fieldbus may be in its configuration state while EtherCAT runs.
-            (i, _) if self.pd.owns(i) && self.running.ethercat => Err(SdoAbortCode::DeviceState),
             (i, _) if self.pd.owns(i) => self.pd.write(i, sub, data, state, self.od),
             (0x6411, _) => {
                 let i = channel(sub, AO_CHANNELS)?;
@@ -296,26 +249,6 @@ impl ObjectAccess for AppData {
                 }
                 Ok(())
             }
-            (PROCESS_DATA_SOURCE_INDEX, 0) => {
-                let source = match data {
-                    [v] => OutputSource::from_value(*v).ok_or(SdoAbortCode::ValueRangeExceeded)?,
-                    _ => return Err(SdoAbortCode::LengthMismatch),
-                };
-                if source != self.source && (self.running.ethercat || self.running.can) {
-                    return Err(SdoAbortCode::DeviceState);
-                }
-                self.source = source;
-                Ok(())
-            }
-            (AI_INTERRUPT_ENABLE_INDEX, 0) => {
-                self.ai_events = match data {
-                    [0] => false,
-                    [1] => true,
-                    [_] => return Err(SdoAbortCode::ValueRangeExceeded),
-                    _ => return Err(SdoAbortCode::LengthMismatch),
-                };
-                Ok(())
-            }
             (SETTINGS_INDEX, 1) => {
                 let mode = match data {
                     [m] => PublishMode::from_setting(*m).ok_or(SdoAbortCode::ValueRangeExceeded)?,
@@ -333,5 +266,112 @@ impl ObjectAccess for AppData {
 
     fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
         self.pd.is_rx_mapped(index, subindex)
+    }
+}
+
+impl<F: Figures> Application for AnalogIo<F> {
+    type Stage = OutputStage;
+    type Figures = F;
+    type OutputBuffer = [u8; MAX_IMAGE];
+
+    fn output_buffer() -> [u8; MAX_IMAGE] {
+        [0; MAX_IMAGE]
+    }
+
+    fn od(&self) -> &'static ObjectDictionary {
+        self.od
+    }
+
+    fn diagnostics(&mut self) -> &mut Diagnostics {
+        &mut self.diag
+    }
+
+    fn sync(&self) -> &SyncMonitor<F> {
+        &self.sync
+    }
+
+    fn sync_mut(&mut self) -> &mut SyncMonitor<F> {
+        &mut self.sync
+    }
+
+    fn with_objects<R>(
+        &mut self,
+        _: &OutputStage,
+        _: u64,
+        serve: impl FnOnce(&mut dyn ObjectAccess) -> R,
+    ) -> R {
+        serve(self)
+    }
+
+    /// SDO-written outputs take effect in OP.
+    fn after_mailbox(&mut self, in_op: bool, stage: &OutputStage) -> Effects {
+        let mut effects = Effects::default();
+        if let Some(values) = self.take_ao_written() {
+            self.stage_outputs(values, in_op, stage, &mut effects);
+        }
+        effects
+    }
+
+    fn set_running(&mut self, _: bool) {}
+
+    fn enter_fault(&mut self, stage: &OutputStage) {
+        self.outputs.enter_fault(stage);
+    }
+
+    fn output_len(&self) -> usize {
+        self.pd.output_len()
+    }
+
+    fn prepare(
+        &mut self,
+        sm2: &SyncManager,
+        sm3: &SyncManager,
+        expect2: &SyncManagerDesc,
+        expect3: &SyncManagerDesc,
+    ) -> Result<(), AlStatusCode> {
+        self.pd.prepare(self.od, sm2, sm3, expect2, expect3)
+    }
+
+    fn output_image(&mut self) -> &mut [u8] {
+        self.pd.output_image_mut()
+    }
+
+    // One caller, on the SM2 path of every cycle.
+    #[inline(always)]
+    fn take_outputs(&mut self, stage: &OutputStage) -> Effects {
+        match self.pd.unpack_ao(self.outputs.values(), AlState::Op) {
+            Ok(ao) => Effects {
+                apply_outputs: true,
+                emergency: self.set_outputs(ao, true, stage).1,
+            },
+            Err(_) => Effects::default(),
+        }
+    }
+
+    fn input_image(&mut self) -> Option<&[u8]> {
+        self.sampler.publish();
+        let ao = self.outputs.values();
+        let values = SlotValues {
+            ai_codes: self.sampler.codes(),
+            ao: &ao,
+            error_register: self.diag.register(),
+        };
+        self.pd.pack_values(&values).ok()
+    }
+}
+
+/// An application built on the analog I/O (the analog products'): the RTIC application
+/// drains the samples into it.
+pub trait AnalogApplication {
+    /// The image's sync figures.
+    type Figures: Figures;
+    /// The analog I/O.
+    fn analog(&mut self) -> &mut AnalogIo<Self::Figures>;
+}
+
+impl<F: Figures> AnalogApplication for AnalogIo<F> {
+    type Figures = F;
+    fn analog(&mut self) -> &mut AnalogIo<F> {
+        self
     }
 }

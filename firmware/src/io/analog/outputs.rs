@@ -36,7 +36,9 @@
 //! to stage anything until fresh process data arrive in OP.
 
 use super::scaling::{ao_in_range, ao_to_dac_code, fault_value_to_dac_code};
-use crate::products::analog_io::capacity::AO_CHANNELS as CHANNELS;
+use crate::platform::board::AO_CHANNELS as CHANNELS;
+use crate::stacks::ethercat::application::CycleStage;
+use crate::stacks::ethercat::sync::Sync0Counts;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 // A DAC pair is the AD5663's two channels.
@@ -178,18 +180,6 @@ pub struct OutputStage {
     dc_mode: AtomicBool,
 }
 
-/// SYNC0 bookkeeping the DAC task leaves for the PDI task (cycle monitoring).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Sync0Counts {
-    /// SYNC0 edges seen (wrapping).
-    pub edges: u32,
-    /// Edges in DC mode that found no fresh outputs (wrapping).
-    pub without_outputs: u32,
-    /// Low 32 bits of the captured time of the last edge (ns).
-    pub last_edge_lo: u32,
-}
-
 impl OutputStage {
     /// Nothing staged, 0 V applied (the AD5663 power-on state).
     pub const fn new() -> Self {
@@ -268,6 +258,24 @@ impl OutputStage {
             StageKind::from_bits(control),
             DacPair::unpack(self.pair.load(Ordering::Acquire)),
         )
+    }
+}
+
+impl CycleStage for OutputStage {
+    fn sync0_counts(&self) -> Sync0Counts {
+        OutputStage::sync0_counts(self)
+    }
+
+    fn set_dc_mode(&self, dc: bool) {
+        OutputStage::set_dc_mode(self, dc)
+    }
+
+    fn dc_mode(&self) -> bool {
+        OutputStage::dc_mode(self)
+    }
+
+    fn fault_waiting(&self) -> bool {
+        self.staged().0 == StageKind::Fault
     }
 }
 
@@ -486,7 +494,9 @@ impl AnalogOutputs {
     }
 
     /// The fault reaction (watchdog, leaving OP): disables the outputs until fresh data
-    /// arrive in OP and stages the fault pair. Returns the fault pair.
+    /// arrive in OP and stages the fault pair. Returns the fault pair. (Out of line: several
+    /// callers, at faults only.)
+    #[inline(never)]
     pub fn enter_fault(&mut self, stage: &OutputStage) -> DacPair {
         self.enabled = false;
         stage.enter_fault(&self.fault)

@@ -17,16 +17,26 @@
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
 use super::scaling::adc_code_to_ai;
-use crate::products::analog_io::capacity::{
-    AI_CHANNELS, AO_CHANNELS, MAX_FIELDS, MAX_IMAGE, PDO_ENTRIES, RX_PDOS, TX_PDOS,
-};
-use crate::products::analog_io::od;
+use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
 use crate::stacks::entry_bytes::{channel, put};
 use coe_core::device::{sm_control, SyncManagerDesc};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::pdo::{ImageLayout, PdoAssignment, PdoDirection, PdoEntry, PdoMapping};
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
 use et1100::SyncManager;
+
+/// RxPDO mapping objects offered (0x1600, 0x1601); on CAN each has its RPDO communication
+/// parameter (0x1400, 0x1401).
+pub const RX_PDOS: usize = 2;
+/// TxPDO mapping objects offered (0x1A00..0x1A02); on CAN each has its TPDO communication
+/// parameter (0x1800..0x1802).
+pub const TX_PDOS: usize = 3;
+/// Entries per mapping object.
+pub const PDO_ENTRIES: usize = 8;
+/// Largest process image per direction in bytes.
+pub const MAX_IMAGE: usize = 32;
+/// Largest number of mapped objects per direction.
+pub const MAX_FIELDS: usize = 16;
 
 /// One PDO mapping object.
 pub type Mapping = PdoMapping<PDO_ENTRIES>;
@@ -184,13 +194,12 @@ pub struct ProcessData {
     inputs: [u8; MAX_IMAGE],
 }
 
-/// The product's default mapping objects, built when compiling (copied, not built, at
-/// start-up).
-const PRODUCT_RX: [Mapping; RX_PDOS] = mappings(od::RX_MAPPINGS, od::RX_DEFAULTS);
-const PRODUCT_TX: [Mapping; TX_PDOS] = mappings(od::TX_MAPPINGS, od::TX_DEFAULTS);
-
-/// The mapping objects `indices` with their default `entries`.
-const fn mappings<const N: usize>(indices: [u16; N], entries: [&[PdoEntry]; N]) -> [Mapping; N] {
+/// The mapping objects `indices` with their default `entries` (a product's default
+/// configuration, built when compiling).
+pub const fn mappings<const N: usize>(
+    indices: [u16; N],
+    entries: [&[PdoEntry]; N],
+) -> [Mapping; N] {
     let mut out = [Mapping::new(0); N];
     let mut i = 0;
     while i < N {
@@ -204,19 +213,6 @@ const fn mappings<const N: usize>(indices: [u16; N], entries: [&[PdoEntry]; N]) 
 const MAX_BITS: u32 = (MAX_IMAGE * 8) as u32;
 
 impl ProcessData {
-    /// The product's default configuration: the mapping objects with their default entries
-    /// and the assignments, from the constants the dictionary's defaults of 0x1600../
-    /// 0x1A00../0x1C12/0x1C13 are made of ([`od::RX_DEFAULTS`] and friends); a host test
-    /// reads it back against the dictionary.
-    pub fn product_default() -> Self {
-        Self::new(
-            PRODUCT_RX,
-            PRODUCT_TX,
-            &od::RX_ASSIGN_DEFAULT,
-            &od::TX_ASSIGN_DEFAULT,
-        )
-    }
-
     /// A configuration: the mapping objects (their indices name them) and the assigned
     /// PDOs.
     pub fn new(
@@ -569,7 +565,7 @@ fn sm_matches(sm: &SyncManager, expect: &SyncManagerDesc, len: usize) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::products::analog_io::device::DEVICE;
+    use crate::products::analog_io::od;
     use coe_core::pdo::PdoEntry;
     use std::vec::Vec;
 
@@ -738,50 +734,5 @@ mod tests {
         .unwrap();
         assert!(FastImage::build(&layout, |s| matches!(s, Slot::Ao(_))).is_none());
         assert!(FastImage::build(&layout, |_| true).is_some());
-    }
-
-    #[test]
-    fn product_default_is_built_from_the_dictionary() {
-        // Every mapping object of the dictionary has a slot in the application, and only those.
-        assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
-        assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
-        let pd = ProcessData::product_default();
-        assert_eq!(pd.output_len(), 4);
-        assert_eq!(pd.input_len(), 16);
-        for object in DEVICE
-            .pdo_objects(PdoDirection::Rx)
-            .chain(DEVICE.pdo_objects(PdoDirection::Tx))
-        {
-            assert!(pd.owns(object.index), "{:#06x}", object.index);
-            let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();
-            let mut buf = [0u8; 4];
-            assert_eq!(pd.read(object.index, 0, &mut buf), Ok(1));
-            assert_eq!(usize::from(buf[0]), entries.len());
-            for (sub, entry) in (1..).zip(&entries) {
-                assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
-                assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
-            }
-        }
-        // The assignments: as many PDOs as the dictionary's defaults, the same ones.
-        for (assign, direction) in [(0x1C12, PdoDirection::Rx), (0x1C13, PdoDirection::Tx)] {
-            let pdos: Vec<u32> = DEVICE.assigned_pdos(direction).collect();
-            let mut buf = [0u8; 2];
-            assert_eq!(pd.read(assign, 0, &mut buf), Ok(1));
-            assert_eq!(usize::from(buf[0]), pdos.len(), "{assign:#06x}");
-            for (sub, pdo) in (1..).zip(&pdos) {
-                assert_eq!(pd.read(assign, sub, &mut buf), Ok(2));
-                assert_eq!(
-                    u32::from(u16::from_le_bytes(buf)),
-                    *pdo,
-                    "{assign:#06x}:{sub}"
-                );
-            }
-        }
-        let mut buf = [0u8; 2];
-        assert_eq!(pd.read(0x1C12, 1, &mut buf), Ok(2));
-        assert_eq!(u16::from_le_bytes(buf), 0x1600);
-        assert_eq!(pd.read(0x1C13, 1, &mut buf), Ok(2));
-        assert_eq!(u16::from_le_bytes(buf), 0x1A00);
-        assert!(pd.is_rx_mapped(0x6411, 2));
     }
 }

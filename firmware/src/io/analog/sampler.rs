@@ -22,9 +22,9 @@
 //! volts: [`crate::io::analog::scaling`].
 
 use super::scaling::adc_code_to_ai;
+use super::settings::{AI_FILTER_AVERAGE, AI_FILTER_LATEST};
+use crate::platform::board::AI_CHANNELS as CHANNELS;
 use crate::platform::div::div_u64_u32;
-use crate::products::analog_io::capacity::AI_CHANNELS as CHANNELS;
-use crate::products::analog_io::od::{AI_FILTER_AVERAGE, AI_FILTER_LATEST};
 use core::sync::atomic::{AtomicU32, Ordering};
 use heapless::spsc::{Consumer, Producer, Queue};
 

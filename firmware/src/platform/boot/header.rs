@@ -12,15 +12,35 @@
 //!  byte 24..28    hardware revision of the board
 //!  byte 28..32    load address: where the image's first byte (its vector table) goes
 //!  byte 32..64    firmware version, ASCII, NUL-padded (the image's 0x100A)
-//!  byte 64..252   reserved, 0xFF
+//!  byte 64..68    board design the image runs on (crate::platform::board)
+//!  byte 68..72    board options the image needs (crate::platform::board::Options)
+//!                 (both reserved, 0xFF, before there were products)
+//!  byte 72..252   reserved, 0xFF
 //!  byte 252..256  header CRC-32 of bytes 0..252
 //! ```
+//!
+//! # Which files a bootloader accepts ([`HeaderRepr::check`])
+//!
+//! The bootloader belongs to the board, not to a product: it takes the file of any product
+//! built for its board, so one product can be updated into another on the same board. A
+//! file is accepted when its vendor ID, board design and hardware revision are the
+//! board's, the board has every option the file needs (a product with CANopen needs the
+//! CAN transceiver), and it is linked for the application slot and fits it. The product
+//! code is not compared: it says which product the file holds.
+//!
+//! The board and its options took reserved bytes, so the format stays 1: a bootloader from
+//! before products (it compares the product code and reads no reserved byte; the header
+//! CRC covers them all) takes `analog-io`'s files, whose product code is the one it knows,
+//! and refuses the others, so a board in the field is updated over FoE without a probe. A
+//! file from before products has 0xFF where the board is and is refused here as for
+//! another board.
 //!
 //! A view [`Header`] over the bytes and a [`HeaderRepr`] with `parse`/`emit`, as the `wire`
 //! layer of coe-core does it.
 
 use super::crc32::crc32;
 use super::layout::{APP_VECTORS, HEADER_BLOCK, MAX_IMAGE};
+use crate::platform::board::{Board, Options};
 use core::fmt;
 
 mod field {
@@ -36,7 +56,9 @@ mod field {
     pub const HARDWARE_REVISION: Range<usize> = 24..28;
     pub const LOAD_ADDRESS: Range<usize> = 28..32;
     pub const VERSION: Range<usize> = 32..64;
-    pub const RESERVED: Range<usize> = 64..252;
+    pub const BOARD: Range<usize> = 64..68;
+    pub const NEEDS: Range<usize> = 68..72;
+    pub const RESERVED: Range<usize> = 72..252;
     pub const HEADER_CRC: Range<usize> = 252..256;
 }
 
@@ -90,10 +112,12 @@ impl fmt::Display for HeaderError {
 pub enum Mismatch {
     /// Built for another vendor.
     Vendor,
-    /// Built for another product.
-    Product,
+    /// Built for another board design.
+    Board,
     /// Built for another hardware revision.
     HardwareRevision,
+    /// Needs a part the board does not have (e.g. the CAN transceiver).
+    Options,
     /// Linked for another address.
     LoadAddress,
     /// Longer than the application slot.
@@ -105,15 +129,16 @@ impl Mismatch {
     pub const fn message(&self) -> &'static str {
         match self {
             Self::Vendor => "other vendor ID",
-            Self::Product => "other product code",
+            Self::Board => "other board",
             Self::HardwareRevision => "other hardware revision",
+            Self::Options => "board lacks a part",
             Self::LoadAddress => "other load address",
             Self::TooLarge => "image too large",
         }
     }
 }
 
-/// What an image must be built for to run on this module.
+/// What an image is built for: the product, the board and what it needs of the board.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Target {
     /// Vendor ID (0x1018:01).
@@ -122,6 +147,23 @@ pub struct Target {
     pub product_code: u32,
     /// Hardware revision of the board.
     pub hardware_revision: u32,
+    /// The board design.
+    pub board: u32,
+    /// The board options the image needs.
+    pub needs: Options,
+}
+
+impl Target {
+    /// A product's target: its identity on `board`, needing `needs` of it.
+    pub const fn new(vendor_id: u32, product_code: u32, board: &Board, needs: Options) -> Self {
+        Self {
+            vendor_id,
+            product_code,
+            hardware_revision: board.revision,
+            board: board.design,
+            needs,
+        }
+    }
 }
 
 /// A read/write view of a header block.
@@ -209,6 +251,16 @@ impl<T: AsRef<[u8]>> Header<T> {
         u32_at(self.buffer.as_ref(), field::LOAD_ADDRESS)
     }
 
+    /// Board design.
+    pub fn board(&self) -> u32 {
+        u32_at(self.buffer.as_ref(), field::BOARD)
+    }
+
+    /// Board options needed.
+    pub fn needs(&self) -> u32 {
+        u32_at(self.buffer.as_ref(), field::NEEDS)
+    }
+
     /// The version field (NUL-padded).
     pub fn version(&self) -> [u8; VERSION_LEN] {
         let mut v = [0u8; VERSION_LEN];
@@ -255,6 +307,10 @@ pub struct HeaderRepr {
     pub load_address: u32,
     /// Firmware version text, NUL-padded.
     pub version: [u8; VERSION_LEN],
+    /// Board design built for.
+    pub board: u32,
+    /// Board options the image needs.
+    pub needs: Options,
 }
 
 impl HeaderRepr {
@@ -302,6 +358,8 @@ impl HeaderRepr {
             hardware_revision: h.hardware_revision(),
             load_address: h.load_address(),
             version: h.version(),
+            board: h.board(),
+            needs: Options(h.needs()),
         })
     }
 
@@ -324,23 +382,29 @@ impl HeaderRepr {
         );
         h.set(field::LOAD_ADDRESS, &self.load_address.to_le_bytes());
         h.set(field::VERSION, &self.version);
-        h.set(field::RESERVED, &[0xFF; 252 - 64]);
+        h.set(field::BOARD, &self.board.to_le_bytes());
+        h.set(field::NEEDS, &self.needs.0.to_le_bytes());
+        h.set(field::RESERVED, &[0xFF; 252 - 72]);
         let crc = h.computed_header_crc();
         h.set(field::HEADER_CRC, &crc.to_le_bytes());
         Ok(())
     }
 
-    /// Whether the image runs on a module of `target`: identity, hardware revision, load
-    /// address and length.
-    pub fn check(&self, target: &Target) -> Result<(), Mismatch> {
-        if self.vendor_id != target.vendor_id {
+    /// Whether the image runs on `board` (the rule in the module's documentation): vendor,
+    /// board design and revision, the options it needs, load address and length; any
+    /// product.
+    pub fn check(&self, board: &Board) -> Result<(), Mismatch> {
+        if self.vendor_id != board.vendor_id {
             return Err(Mismatch::Vendor);
         }
-        if self.product_code != target.product_code {
-            return Err(Mismatch::Product);
+        if self.board != board.design {
+            return Err(Mismatch::Board);
         }
-        if self.hardware_revision != target.hardware_revision {
+        if self.hardware_revision != board.revision {
             return Err(Mismatch::HardwareRevision);
+        }
+        if !board.options.covers(self.needs) {
+            return Err(Mismatch::Options);
         }
         if self.load_address != APP_VECTORS {
             return Err(Mismatch::LoadAddress);
@@ -361,6 +425,8 @@ impl HeaderRepr {
             hardware_revision: target.hardware_revision,
             load_address: APP_VECTORS,
             version: Self::version_field(version),
+            board: target.board,
+            needs: target.needs,
         }
     }
 
@@ -377,21 +443,26 @@ impl HeaderRepr {
 mod tests {
     use super::*;
 
-    const TARGET: Target = Target {
+    const BOARD: Board = Board {
+        name: "test board",
         vendor_id: 0,
-        product_code: 0x1754,
-        hardware_revision: 1,
+        design: 0x1754,
+        revision: 1,
+        options: Options::NONE,
     };
+    const TARGET: Target = Target::new(0, 0x1754, &BOARD, Options::NONE);
 
-    /// The first 64 bytes of the header of a 0x1234-byte image with CRC 0xA1B2C3D4, vendor 0,
-    /// product 0x1754, hardware revision 1, version "0.1.0"; the rest 0xFF and the CRC.
-    const GOLDEN_HEAD: [u8; 64] = [
+    /// The first 72 bytes of the header of a 0x1234-byte image with CRC 0xA1B2C3D4, vendor 0,
+    /// product 0x1754, hardware revision 1, version "0.1.0", board 0x1754 needing option 1;
+    /// the rest 0xFF and the CRC.
+    const GOLDEN_HEAD: [u8; 72] = [
         b'A', b'E', b'F', b'W', 0x01, 0x00, 0x00, 0x01, // magic, format 1, length 256
         0x34, 0x12, 0x00, 0x00, 0xD4, 0xC3, 0xB2, 0xA1, // image length, CRC
         0x00, 0x00, 0x00, 0x00, 0x54, 0x17, 0x00, 0x00, // vendor, product
         0x01, 0x00, 0x00, 0x00, 0x00, 0x31, 0x00, 0x00, // hardware revision, load address
         b'0', b'.', b'1', b'.', b'0', 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, // version
-        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x54, 0x17, 0x00, 0x00, 0x01, 0x00, 0x00,
+        0x00, // board, needs
     ];
 
     fn repr() -> HeaderRepr {
@@ -403,12 +474,14 @@ mod tests {
             hardware_revision: 1,
             load_address: 0x3100,
             version: HeaderRepr::version_field("0.1.0"),
+            board: 0x1754,
+            needs: Options::CAN_TRANSCEIVER,
         }
     }
 
     fn golden() -> [u8; LEN] {
         let mut b = [0xFFu8; LEN];
-        b[..64].copy_from_slice(&GOLDEN_HEAD);
+        b[..72].copy_from_slice(&GOLDEN_HEAD);
         let crc = crc32(&b[..252]);
         b[252..].copy_from_slice(&crc.to_le_bytes());
         b
@@ -426,6 +499,8 @@ mod tests {
         assert_eq!(h.product_code(), 0x1754);
         assert_eq!(h.hardware_revision(), 1);
         assert_eq!(h.load_address(), 0x3100);
+        assert_eq!(h.board(), 0x1754);
+        assert_eq!(h.needs(), 1);
         assert_eq!(h.header_crc(), h.computed_header_crc());
     }
 
@@ -473,7 +548,7 @@ mod tests {
             Err(HeaderError::BadHeaderLength(0x200))
         );
         // Any other byte changed, or the block half written (the rest erased): CRC.
-        for i in [8, 13, 20, 25, 40, 100, 251, 252, 255] {
+        for i in [8, 13, 20, 25, 40, 66, 69, 100, 251, 252, 255] {
             let mut b = g;
             b[i] ^= 0x01;
             assert_eq!(
@@ -490,16 +565,51 @@ mod tests {
         );
     }
 
+    /// The rule: vendor, board, revision and the options the board has; any product.
+    /// A file from before products: format 1 with the board and options bytes still
+    /// reserved (0xFF). It parses, and the check refuses it as for another board.
+    #[test]
+    fn a_file_from_before_products_is_for_another_board() {
+        let mut b = golden();
+        b[64..72].fill(0xFF);
+        let crc = crc32(&b[..252]);
+        b[252..].copy_from_slice(&crc.to_le_bytes());
+        let r = HeaderRepr::parse(&Header::new_unchecked(&b[..])).unwrap();
+        assert_eq!((r.board, r.needs.0), (u32::MAX, u32::MAX));
+        assert_eq!(r.product_code, 0x1754);
+        assert_eq!(r.check(&BOARD), Err(Mismatch::Board));
+    }
+
     #[test]
     fn compatibility() {
-        assert_eq!(repr().check(&TARGET), Ok(()));
+        let can_board = Board {
+            options: Options::CAN_TRANSCEIVER,
+            ..BOARD
+        };
+        assert_eq!(repr().check(&can_board), Ok(()));
+        assert_eq!(repr().check(&BOARD), Err(Mismatch::Options));
+        let plain = HeaderRepr {
+            needs: Options::NONE,
+            ..repr()
+        };
+        assert_eq!(plain.check(&BOARD), Ok(()));
+        assert_eq!(
+            plain.check(&can_board),
+            Ok(()),
+            "a plain image on the CAN board"
+        );
         let other = |f: fn(&mut HeaderRepr)| {
             let mut r = repr();
             f(&mut r);
-            r.check(&TARGET)
+            r.check(&can_board)
         };
+        assert_eq!(
+            other(|r| r.product_code = 0x1755),
+            Ok(()),
+            "another product"
+        );
         assert_eq!(other(|r| r.vendor_id = 2), Err(Mismatch::Vendor));
-        assert_eq!(other(|r| r.product_code = 0x1755), Err(Mismatch::Product));
+        assert_eq!(other(|r| r.board = 0x1769), Err(Mismatch::Board));
         assert_eq!(
             other(|r| r.hardware_revision = 2),
             Err(Mismatch::HardwareRevision)

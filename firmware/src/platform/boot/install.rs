@@ -1,7 +1,8 @@
 //! What the bootloader does at reset, on the flash through the IAP ROM:
 //!
 //! 1. check the staging area and the application slot: header (magic, format, its CRC),
-//!    fit for this module ([`Target`]), image CRC-32 ([`check_image`]);
+//!    fit for this board ([`Board`], the rule of [`super::header`]), image CRC-32
+//!    ([`check_image`]);
 //! 2. a valid staged image that is not the application's: install it ([`install`]: erase the
 //!    slot, copy from the back, the header's chunk last, compare every chunk);
 //! 3. a valid staged image equal to the application: erase the staging area (the update is
@@ -14,8 +15,9 @@
 //! program step).
 
 use super::crc32::Crc32;
-use super::header::{Header, HeaderError, HeaderRepr, Mismatch, Target};
+use super::header::{Header, HeaderError, HeaderRepr, Mismatch};
 use super::layout::{Chunk, Region, APP_SLOT, CHUNK, HEADER_BLOCK, STAGING};
+use crate::platform::board::Board;
 use lpc17xx_iap::{Command, Iap, IapEntry, IapError, Status};
 
 /// Why a region holds no image this module can run.
@@ -30,17 +32,17 @@ pub enum Invalid {
     Crc,
 }
 
-/// The image in `region` (header block first), checked whole: header, fit for `target`,
+/// The image in `region` (header block first), checked whole: header, fit for `board`,
 /// image CRC-32.
 pub fn check_image<E: IapEntry>(
     iap: &Iap<E>,
     region: Region,
-    target: &Target,
+    board: &Board,
 ) -> Result<HeaderRepr, Invalid> {
     let mut block = [0u8; HEADER_BLOCK as usize];
     iap.read_flash(region.start, &mut block);
     let header = HeaderRepr::parse(&Header::new_unchecked(&block[..])).map_err(Invalid::Header)?;
-    header.check(target).map_err(Invalid::Mismatch)?;
+    header.check(board).map_err(Invalid::Mismatch)?;
     if HEADER_BLOCK + header.image_len > region.len {
         return Err(Invalid::Mismatch(Mismatch::TooLarge));
     }
@@ -112,9 +114,9 @@ pub struct Startup {
 
 /// The reset sequence (see the module documentation): installs a pending staged image and
 /// decides between starting the application and staying in the bootloader.
-pub fn startup<E: IapEntry>(iap: &mut Iap<E>, target: &Target, boot_requested: bool) -> Startup {
-    let staged = check_image(iap, STAGING, target).ok();
-    let mut application = check_image(iap, APP_SLOT, target);
+pub fn startup<E: IapEntry>(iap: &mut Iap<E>, board: &Board, boot_requested: bool) -> Startup {
+    let staged = check_image(iap, STAGING, board).ok();
+    let mut application = check_image(iap, APP_SLOT, board);
     let mut installed = false;
     let mut install_error = None;
     if let Some(staged) = staged {
@@ -123,7 +125,7 @@ pub fn startup<E: IapEntry>(iap: &mut Iap<E>, target: &Target, boot_requested: b
                 Ok(()) => installed = true,
                 Err(e) => install_error = Some(e),
             }
-            application = check_image(iap, APP_SLOT, target);
+            application = check_image(iap, APP_SLOT, board);
         }
         if application == Ok(staged) {
             let (first, last) = STAGING.sectors();

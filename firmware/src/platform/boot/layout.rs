@@ -14,6 +14,7 @@
 //! image linked at [`APP_VECTORS`]. Files are moved in [`CHUNK`]s (the ROM's copy size): the
 //! first chunk, which holds the header, is always written last.
 
+use coe_core::device::MemoryWindow;
 use lpc17xx_iap::sector;
 
 /// An address range of the flash.
@@ -64,6 +65,26 @@ pub const STAGING: Region = Region {
 /// Bytes of the header block at the start of the slot (and of the file).
 pub const HEADER_BLOCK: u32 = 256;
 
+/// Size of the bootstrap mailbox (BOOT state, each direction): four times the standard
+/// mailbox, so an update file moves in packets of 500 bytes.
+pub const BOOTSTRAP_MAILBOX_SIZE: usize = 512;
+
+/// SyncManager control bytes of the mailboxes (ETG.1000.4: mailbox mode, ECAT write / PDI
+/// read with the PDI interrupt; ECAT read / PDI write): the bootstrap mailbox's, which the
+/// bootloader checks at INIT -> BOOT, and every product's standard mailbox's.
+pub const MAILBOX_CONTROL: (u8, u8) = (0x26, 0x22);
+
+/// The bootloader's mailbox in the ESC (BOOT state, FoE only; every product's SII words
+/// 0x14..0x17 and ESI `BootStrap` give it): master -> slave at 0x1000, slave -> master
+/// right after it. A product's process-data buffers it covers are not in use in BOOT.
+pub const BOOTSTRAP_MAILBOX: (MemoryWindow, MemoryWindow) = (
+    MemoryWindow::new(0x1000, BOOTSTRAP_MAILBOX_SIZE as u16),
+    MemoryWindow::new(
+        0x1000 + BOOTSTRAP_MAILBOX_SIZE as u16,
+        BOOTSTRAP_MAILBOX_SIZE as u16,
+    ),
+);
+
 /// Where the application's vector table (its first byte) lies: after the header block,
 /// aligned as VTOR needs (LPC17xx: 51 vectors -> 256 bytes).
 pub const APP_VECTORS: u32 = APP_SLOT.start + HEADER_BLOCK;
@@ -90,7 +111,8 @@ impl Chunk {
 /// Flash budget of the bootloader (brief 6): its whole region.
 pub const BOOTLOADER_BUDGET: u32 = BOOTLOADER.len;
 
-/// Flash budget of the application image (brief 6); the slot leaves room beyond it.
+/// Flash budget of any product's application image (brief 6: at most 48 KB; each product
+/// has its own within it, `crate::products`); the slot leaves room beyond it.
 pub const APP_BUDGET: u32 = 48 * 1024;
 
 /// The boot request word (two u32: a magic and its complement, [`crate::platform::boot::request`]):

@@ -5,10 +5,14 @@
 //! cut effect, reboots, and updates again.
 
 use super::header::{HeaderRepr, Target};
+
+/// The board the tests' bootloader runs on, and the files built for it.
+const BOARD: Board = THESIS;
+const UPDATE_TARGET: Target = Target::new(BOARD.vendor_id, 0x1754, &BOARD, Options::NONE);
 use super::install::{check_image, startup, Invalid, Startup, Stay};
 use super::layout::{APP_SLOT, BOOTLOADER, STAGING};
 use super::staging::StagingWriter;
-use crate::products::analog_io::identity::UPDATE_TARGET;
+use crate::platform::board::{Board, Options, THESIS};
 use coe_core::foe::FoeServer;
 use coe_core::wire::{Foe, FoeErrorCode, FoeRepr};
 use coe_core::AlState;
@@ -54,7 +58,7 @@ fn module(installed: &[u8]) -> FlashModel {
 }
 
 fn writer(model: FlashModel) -> Writer {
-    StagingWriter::new(Iap::new(model, CCLK_KHZ), UPDATE_TARGET)
+    StagingWriter::new(Iap::new(model, CCLK_KHZ), BOARD)
 }
 
 /// An FoE error as the master sees it.
@@ -138,12 +142,12 @@ fn update(writer: &mut Writer, content: &[u8]) -> Result<(), Refused> {
 fn reset(writer: Writer, requested: bool) -> (Startup, FlashModel) {
     let mut iap = writer.into_iap();
     iap.entry_mut().power_on();
-    let s = startup(&mut iap, &UPDATE_TARGET, requested);
+    let s = startup(&mut iap, &BOARD, requested);
     (s, iap.into_entry())
 }
 
 fn slot_header(model: &FlashModel, region: super::layout::Region) -> Result<HeaderRepr, Invalid> {
-    check_image(&Iap::new(model.clone(), CCLK_KHZ), region, &UPDATE_TARGET)
+    check_image(&Iap::new(model.clone(), CCLK_KHZ), region, &BOARD)
 }
 
 fn old() -> (Vec<u8>, HeaderRepr) {
@@ -197,8 +201,12 @@ fn an_update_is_staged_then_installed_at_the_next_reset() {
 fn bad_files_are_refused_and_the_old_application_stays() {
     let (old_file, old_header) = old();
     let img = image(9_000, 3);
-    let other_product = Target {
-        product_code: UPDATE_TARGET.product_code + 1,
+    let other_board = Target {
+        board: UPDATE_TARGET.board + 1,
+        ..UPDATE_TARGET
+    };
+    let needs_can = Target {
+        needs: Options::CAN_TRANSCEIVER,
         ..UPDATE_TARGET
     };
     let other_revision = Target {
@@ -216,12 +224,18 @@ fn bad_files_are_refused_and_the_old_application_stays() {
     too_large.image_len = APP_SLOT.len;
     let mut too_large = too_large.to_bytes().to_vec();
     too_large.extend_from_slice(&img);
-    let cases: [(&str, Vec<u8>, FoeErrorCode, &str); 8] = [
+    let cases: [(&str, Vec<u8>, FoeErrorCode, &str); 9] = [
         (
-            "another product",
-            file(&img, &other_product, "9.9.9"),
+            "another board",
+            file(&img, &other_board, "9.9.9"),
             FoeErrorCode::InvalidFirmware,
-            "other product code",
+            "other board",
+        ),
+        (
+            "a product that needs the CAN transceiver",
+            file(&img, &needs_can, "9.9.9"),
+            FoeErrorCode::InvalidFirmware,
+            "board lacks a part",
         ),
         (
             "another hardware revision",
@@ -369,7 +383,7 @@ fn update_and_reset(model: FlashModel, content: &[u8]) -> (FlashModel, Option<St
         return (iap.into_entry(), None);
     }
     assert!(downloaded, "without a cut the download succeeds");
-    let s = startup(&mut iap, &UPDATE_TARGET, false);
+    let s = startup(&mut iap, &BOARD, false);
     let cut = !iap.entry().powered();
     (iap.into_entry(), (!cut).then_some(s))
 }
@@ -382,7 +396,7 @@ fn reboot(mut model: FlashModel, second: Option<(u64, CutEffect)>) -> FlashModel
         model.cut_power_at(at, effect);
     }
     let mut iap = Iap::new(model, CCLK_KHZ);
-    let s = startup(&mut iap, &UPDATE_TARGET, false);
+    let s = startup(&mut iap, &BOARD, false);
     let mut model = iap.into_entry();
     model.power_on();
     if second.is_none() || model.powered() {

@@ -19,9 +19,10 @@
 //! The bootloader installs a staged file at its next reset ([`crate::platform::boot::install`]).
 
 use super::crc32::Crc32;
-use super::header::{Header, HeaderRepr, Mismatch, Target};
+use super::header::{Header, HeaderRepr, Mismatch};
 use super::install::{check_image, Invalid};
 use super::layout::{Chunk, CHUNK, HEADER_BLOCK, STAGING};
+use crate::platform::board::Board;
 use coe_core::foe::{FileStore, FoeError, WriteRefusal};
 use coe_core::wire::FoeErrorCode;
 use coe_core::AlState;
@@ -53,7 +54,7 @@ pub fn is_firmware_name(name: &[u8]) -> bool {
 /// The staging writer: the bootloader's [`FileStore`], owning the IAP access.
 pub struct StagingWriter<E: IapEntry> {
     iap: Iap<E>,
-    target: Target,
+    board: Board,
     open: bool,
     header: Option<HeaderRepr>,
     received: u32,
@@ -64,11 +65,11 @@ pub struct StagingWriter<E: IapEntry> {
 }
 
 impl<E: IapEntry> StagingWriter<E> {
-    /// A writer for images built for `target`.
-    pub fn new(iap: Iap<E>, target: Target) -> Self {
+    /// A writer for the images `board` accepts.
+    pub fn new(iap: Iap<E>, board: Board) -> Self {
         Self {
             iap,
-            target,
+            board,
             open: false,
             header: None,
             received: 0,
@@ -108,7 +109,7 @@ impl<E: IapEntry> StagingWriter<E> {
     fn accept_header(&mut self) -> Result<(), FoeError> {
         let header = HeaderRepr::parse(&Header::new_unchecked(&self.first.0[..]))
             .map_err(|e| error(FoeErrorCode::NoFileHeader, e.message()))?;
-        header.check(&self.target).map_err(|m| match m {
+        header.check(&self.board).map_err(|m| match m {
             Mismatch::TooLarge => error(FoeErrorCode::DiskFull, m.message()),
             _ => error(FoeErrorCode::InvalidFirmware, m.message()),
         })?;
@@ -172,7 +173,7 @@ impl<E: IapEntry> StagingWriter<E> {
         // The header's chunk last: until it is in, the staging area holds no valid file.
         let first = core::mem::replace(&mut self.first, Chunk::erased());
         self.program(0, &first)?;
-        match check_image(&self.iap, STAGING, &self.target) {
+        match check_image(&self.iap, STAGING, &self.board) {
             Ok(staged) if staged == header => Ok(header),
             Ok(_) | Err(Invalid::Header(_) | Invalid::Mismatch(_) | Invalid::Crc) => {
                 Err(FLASH_ERROR)

@@ -1,10 +1,12 @@
-//! The bootloader of the LPC1754 (a stub on the host; built by `cargo xtask build`): the
+//! The bootloader of an LPC1754 board (a stub on the host; `cargo xtask build` builds it for
+//! the board of each product, `firmware::products::selected::BOARD`): the
 //! first 12 KB of the flash. It owns the vector table the boot ROM checks (checksum at 0x1C)
 //! and the CRP word at 0x2FC; nothing ever writes its sectors but a debug probe.
 //!
 //! At reset ([`firmware::platform::boot::install::startup`], host-tested with power cuts at every
 //! step): take the application's boot request from RAM, run the CPU at 100 MHz, install a
-//! staged update if one is pending, then start the application (VTOR, stack pointer, reset
+//! staged update if one is pending (any product's the board accepts,
+//! `firmware::platform::boot::header`), then start the application (VTOR, stack pointer, reset
 //! handler of the image at 0x3100) if it is valid and no boot request came. Otherwise it
 //! stays: the EtherCAT slave of the bootloader serves INIT and BOOT, and in BOOT writes an
 //! update file received over FoE into the staging area; BOOT -> INIT after a good file resets
@@ -33,9 +35,8 @@ mod chip {
     use crate::{cpu, hw};
     use cortex_m_rt::entry;
     use firmware::platform::boot::install::startup;
-    use firmware::platform::boot::layout::APP_VECTORS;
-    use firmware::products::analog_io::identity::UPDATE_TARGET;
-    use firmware::products::analog_io::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
+    use firmware::platform::boot::layout::{APP_VECTORS, BOOTSTRAP_MAILBOX, MAILBOX_CONTROL};
+    use firmware::products::selected::BOARD;
     use firmware::stacks::ethercat::boot_slave::{BootSlave, Bootstrap};
     use lpc17xx_iap::rom::Rom;
     use lpc17xx_iap::Iap;
@@ -52,7 +53,7 @@ mod chip {
         let _ = hw::clocks::init(&dp.SYSCON);
         let cclk_hz = hw::clocks::current(&dp.SYSCON).cclk_hz;
         let mut iap = Iap::new(Rom, cclk_hz / 1000);
-        let reset = startup(&mut iap, &UPDATE_TARGET, requested);
+        let reset = startup(&mut iap, &BOARD, requested);
         if reset.stay.is_none() {
             cpu::start_application(APP_VECTORS);
         }
@@ -63,10 +64,10 @@ mod chip {
         let bootstrap = Bootstrap {
             out: BOOTSTRAP_MAILBOX.0,
             inp: BOOTSTRAP_MAILBOX.1,
-            out_control: SYNC_MANAGERS[0].control,
-            in_control: SYNC_MANAGERS[1].control,
+            out_control: MAILBOX_CONTROL.0,
+            in_control: MAILBOX_CONTROL.1,
         };
-        let mut slave = BootSlave::new(iap, UPDATE_TARGET, bootstrap, reset.application.is_ok());
+        let mut slave = BootSlave::new(iap, BOARD, bootstrap, reset.application.is_ok());
         let mut started = false;
         loop {
             cpu::feed_watchdog(&dp.WDT);

@@ -14,8 +14,12 @@
 //! ```
 
 use super::gpdma::{control, control_word, Chain, Lli, Width};
-use crate::io::analog::adc_dma::HALF_WORDS;
-use crate::io::analog::adc_scan::{CFG_FRAMES, FIRST_RESULT, SCAN_CFG_WORD};
+use crate::platform::adc_scan::{CFG_FRAMES, FIRST_RESULT, SCAN_CFG_WORD};
+
+/// Words of the sample ring (two halves of [`HALF_WORDS`]): ~4.1 ms at 250 kSPS.
+pub const RING_WORDS: usize = 1024;
+/// Words per half ring (one terminal-count interrupt each).
+pub const HALF_WORDS: usize = RING_WORDS / 2;
 
 // ---------------------------------------------------------------- timing (Timer2 ticks)
 
@@ -67,7 +71,7 @@ pub struct RxAddresses {
     pub ssp_dr: u32,
     /// A half-word that swallows the start-up dummies.
     pub skip: u32,
-    /// The ring ([`crate::io::analog::adc_dma::RING_WORDS`] half-words).
+    /// The ring ([`RING_WORDS`] half-words).
     pub ring: u32,
     /// Where the two ring items are stored.
     pub items: [u32; 2],
@@ -168,7 +172,7 @@ pub const fn cnv_chain(a: CnvAddresses) -> Chain<1> {
 mod tests {
     use super::*;
     use crate::io::analog::adc_dma::{words_written, RING_WORDS};
-    use crate::io::analog::adc_scan::{ScanPipeline, SCAN_CONFIG};
+    use crate::platform::adc_scan::{ScanPipeline, SCAN_CONFIG};
     use crate::platform::chip::gpdma::model::ChannelModel;
     use ad7689::{Ad7689, Channel};
     use core::sync::atomic::{AtomicU16, Ordering};

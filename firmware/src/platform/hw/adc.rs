@@ -68,9 +68,7 @@ mod path {
                 .reader
                 .drain(ring.ring, || ring.words_written(), sampler)
             {
-                Ok(report) => {
-                    report.scans as usize * firmware::products::analog_io::capacity::AI_CHANNELS
-                }
+                Ok(report) => report.scans as usize * firmware::platform::board::AI_CHANNELS,
                 Err(PositionError::OutsideRing(dst)) => {
                     if self.position_errors == 0 {
                         defmt::error!("ADC DMA address {=u32:#x} outside the ring", dst);

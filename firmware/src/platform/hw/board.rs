@@ -40,7 +40,7 @@
 //! when used).
 
 use super::adc::AdcHw;
-use super::can::Can1;
+use super::can::CanPort;
 use super::clocks::{self, ClockError, Clocks};
 use super::cs_device::CsDevice;
 use super::dac::{Dac, LdacPin};
@@ -53,8 +53,6 @@ use super::ssp::{Ssp, SspConfig};
 use super::timers::Sync0Capture;
 use super::wdt::Watchdog;
 use embedded_hal::delay::DelayNs;
-use firmware::platform::chip::can::{bit_timing, BitTiming};
-use firmware::products::analog_io::can::DEFAULT_BIT_RATE;
 use firmware::stacks::ethercat::pdi_task::EEPROM_WAIT_MS;
 use lpc17xx_pac as pac;
 
@@ -251,8 +249,8 @@ pub struct Board {
     pub adc: AdcHw,
     /// The MCU watchdog (feeder task).
     pub wdt: Watchdog,
-    /// CAN1 (CAN task), or why it did not start.
-    pub can: Can1,
+    /// CAN1, not started (the CAN task's, in a product with a CANopen node).
+    pub can: CanPort,
 }
 
 /// Errors of the board bring-up.
@@ -291,7 +289,10 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
     let adc = AdcHw::new(dp.TIMER2, ssp1, dp.GPDMA);
     let sync0 = Sync0Capture::new(dp.TIMER1);
     let wdt = Watchdog::new(dp.WDT);
-    let can = Can1::new(dp.CAN1, &dp.CANAF, CAN_TIMING);
+    let can = CanPort {
+        can: dp.CAN1,
+        af: dp.CANAF,
+    };
 
     let board = Board {
         clocks,
@@ -363,10 +364,3 @@ pub fn wait_esc_eeprom_loaded(pin: &InPin, time: &Sync0Capture) -> bool {
     }
     pin.is_high()
 }
-
-/// CAN1's bus timing at the product's bit rate, found when building: a rate the CAN clock
-/// cannot time exactly does not build.
-const CAN_TIMING: BitTiming = match bit_timing(super::PCLK_HZ, DEFAULT_BIT_RATE) {
-    Some(t) => t,
-    None => panic!("no exact CAN bit timing for the default bit rate at PCLK"),
-};

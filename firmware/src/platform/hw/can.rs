@@ -38,6 +38,23 @@ pub struct CanStats {
     pub bus_off: u32,
 }
 
+/// CAN1 as the board brings it up: powered and clocked, its pins on RD1/TD1, the
+/// controller in reset mode; a product with a CANopen node starts it ([`CanPort::start`]),
+/// any other leaves it so.
+pub struct CanPort {
+    /// The controller.
+    pub can: pac::CAN1,
+    /// The acceptance filter.
+    pub af: pac::CANAF,
+}
+
+impl CanPort {
+    /// Starts CAN1 with `timing` ([`Can1::new`]).
+    pub fn start(self, timing: BitTiming) -> Can1 {
+        Can1::new(self.can, &self.af, timing)
+    }
+}
+
 /// CAN1, in operating mode.
 pub struct Can1 {
     can: pac::CAN1,

@@ -26,6 +26,7 @@ pub mod adc;
 pub mod adc_dma;
 pub mod board;
 pub mod boot_request;
+#[cfg_attr(not(feature = "canopen-node"), allow(dead_code))]
 pub mod can;
 pub mod clocks;
 pub mod cs_device;

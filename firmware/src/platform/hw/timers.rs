@@ -19,7 +19,7 @@
 use super::ssp::Ssp;
 use core::sync::atomic::{AtomicU32, Ordering};
 #[cfg(feature = "adc-irq")]
-use firmware::io::analog::adc_scan::ScanPipeline;
+use firmware::platform::adc_scan::ScanPipeline;
 use firmware::platform::timebase;
 use lpc17xx_pac as pac;
 
@@ -145,7 +145,7 @@ pub const ADC_CNV_HIGH_TICKS: u32 = 230;
 /// 16.7 MHz in every 4 us period), while here one interrupt collects the previous frame and
 /// queues the next in a few register accesses. What is sent and how results are tagged come
 /// from the driver's rules all the same: the CFG word from its typed builder and the frame
-/// pipeline in `firmware::io::analog::adc_scan`, host-tested against the driver.
+/// pipeline in `firmware::platform::adc_scan`, host-tested against the driver.
 pub struct AdcSampler {
     t: pac::TIMER2,
     ssp: Ssp<pac::SSP1>,

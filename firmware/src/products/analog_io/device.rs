@@ -2,17 +2,21 @@
 //! op modes, PDI configuration and EEPROM size, with the object dictionary ([`OD`]) it
 //! points at; the single source the SII image (`coe_core::sii`) and the ESI XML
 //! (`coe_core::esi`) are generated from, and the one the application is configured from
-//! (`crate::stacks::ethercat::AppConfig::product`, `crate::io::analog::process_data::ProcessData::product_default`).
-//! Change a value here (or in the modules it is made of) and all of them follow.
+//! ([`super::CONFIG`], [`super::process_data`]). Change a value here (or in the modules it
+//! is made of) and all of them follow. `analog-io-can` has the same description with its
+//! own identity, names and dictionary ([`description`]).
 
 use super::identity::{IDENTITY, NAMES};
 use super::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use super::od::OD;
-use super::sync::{MIN_CYCLE_TIME_NS, SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
+use super::sync::MIN_CYCLE_TIME_NS;
+use crate::platform::board::{EEPROM_BYTES, PDI};
+use crate::stacks::ethercat::sync::{SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
 use coe_core::device::{
-    CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, MailboxDesc,
-    MailboxProtocols, MemoryWindow, PdiConfig, PinDriver, PortType, SyncPin, PDI_SPI_SLAVE,
+    CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity,
+    MailboxDesc, MailboxProtocols, MemoryWindow, Names, PortType,
 };
+use coe_core::od::ObjectDictionary;
 
 /// DC op modes, the default (SM-synchronous, as the application starts) first.
 const OP_MODES: &[DcOpMode] = &[
@@ -51,37 +55,19 @@ const OP_MODES: &[DcOpMode] = &[
     },
 ];
 
-/// The board's PDI: SPI mode 3, SPI_IRQ push-pull active low (falling-edge GPIO interrupt
-/// on P0.22), SYNC0 push-pull active high into the CAP1.0 timer capture, 1 us SYNC pulses
-/// (hardware-facts 10.C: SII words 0x0E05 / 0x0603 / 0x0064).
-pub const PDI: PdiConfig = PdiConfig {
-    pdi_type: PDI_SPI_SLAVE,
-    enhanced_link_detect: true,
-    dc_sync_unit: true,
-    dc_latch_unit: true,
-    spi_mode: 3,
-    irq: PinDriver::PushPullActiveLow,
-    sel_active_high: false,
-    miso_late_sample: false,
-    sync0: SyncPin {
-        driver: PinDriver::PushPullActiveHigh,
-        output: true,
-        to_al_event: false,
-    },
-    sync1: SyncPin {
-        driver: PinDriver::PushPullActiveLow,
-        output: false,
-        to_al_event: false,
-    },
-    sync_pulse_10ns: 100,
-    extended: 0,
-};
-
 /// The module.
-pub static DEVICE: DeviceDescription = DeviceDescription {
-    identity: IDENTITY,
-    names: NAMES,
-    od: &OD,
+pub static DEVICE: DeviceDescription = description(IDENTITY, NAMES, &OD);
+
+/// The description of an analog module with `identity`, `names` and dictionary `od`.
+pub const fn description(
+    identity: Identity,
+    names: Names,
+    od: &'static ObjectDictionary,
+) -> DeviceDescription {
+    DeviceDescription {
+    identity,
+    names,
+    od,
     sync_managers: &SYNC_MANAGERS,
     fmmus: &[
         FmmuUsage::Outputs,
@@ -108,9 +94,8 @@ pub static DEVICE: DeviceDescription = DeviceDescription {
         max_cycle_ns: u32::MAX,
     },
     pdi: PDI,
-    // 16 Kbit (2 KB) SII EEPROM.
     eeprom: EepromDesc {
-        size_bytes: 2048,
+        size_bytes: EEPROM_BYTES,
         station_alias: 0,
         version: 1,
     },
@@ -118,7 +103,8 @@ pub static DEVICE: DeviceDescription = DeviceDescription {
     process_ram: MemoryWindow::new(0x1000, 0x2000),
     ports: [PortType::Mii, PortType::Mii, PortType::None, PortType::None],
     ebus_current_ma: 0,
-};
+}
+}
 
 const _: () = if let Err(e) = DEVICE.validate() {
     panic!("{}", e.message())

@@ -1,25 +1,22 @@
-//! The product: what the module is and what it offers, in one place. Its identity, the
-//! channel counts and capacities the firmware is built for, the ESC memory layout, the
-//! synchronisation figures it advertises, the object dictionary and the device description
-//! that the SII image and the ESI file are generated from.
+//! `analog-io`, the thesis board's module (the default product): 8 analog inputs and 2
+//! analog outputs on EtherCAT, CoE and FoE, on the board without a CAN transceiver.
 //!
-//! Nothing here imports from [`crate::stacks::ethercat`]: the slave application is built for the
-//! product (it imports from here), so the description can be read, generated and checked
-//! without the application, and a change of the product shows in one place.
+//! - board: [`crate::platform::board::THESIS`];
+//! - stacks: the EtherCAT slave application ([`crate::stacks::ethercat`]) around the analog
+//!   I/O ([`crate::io::analog::AnalogIo`]), nothing on CAN;
+//! - image: at most 40 KB of flash ([`PRODUCT`]'s budget).
 //!
 //! | module       | what                                                              |
 //! |--------------|-------------------------------------------------------------------|
-//! | [`identity`] | vendor ID, product code, revision, names                          |
-//! | [`capacity`] | channel counts, mailbox size, PDO and process image capacities    |
-//! | [`analog`]   | the analog front end: reference, divider and gain, full scale     |
-//! | [`sync`]     | sync modes offered and the figures of 0x1C32/0x1C33 (minimum cycle) |
-//! | [`can`]      | the CANopen device on CAN: node-ID, PDO defaults, output source, EDS |
+//! | [`identity`] | vendor ID, product code, revision, names, the update files' target |
+//! | [`sync`]     | the figures of 0x1C32/0x1C33 (minimum cycle)                      |
 //! | [`layout`]   | the SyncManagers in the ESC's process RAM                         |
 //! | [`od`]       | the object dictionary                                             |
 //! | [`device`]   | the device description (SII, ESI) built from all of the above     |
+//!
+//! `analog-io-can` is this product plus CANopen on CAN1: it takes its dictionary's
+//! analog objects, its layout and its figures from here.
 
-pub mod can;
-pub mod capacity;
 pub mod device;
 pub mod identity;
 pub mod layout;
@@ -28,3 +25,62 @@ pub mod sync;
 
 #[cfg(test)]
 mod tests;
+
+use super::{Budget, ImageBuild, Product};
+use crate::io::analog::process_data::{mappings, Mapping, ProcessData, RX_PDOS, TX_PDOS};
+use crate::io::analog::AnalogIo;
+use crate::platform::boot::layout::BOOTSTRAP_MAILBOX;
+use crate::stacks::ethercat::AppConfig;
+
+pub use identity::BOARD;
+
+/// The product for the tools.
+pub static PRODUCT: Product = Product {
+    name: "analog-io",
+    summary: "8 AI + 2 AO on EtherCAT (CoE, FoE), the thesis board",
+    board: &BOARD,
+    update: identity::UPDATE_TARGET,
+    device: &device::DEVICE,
+    can: None,
+    budget: Budget {
+        flash: 40 * 1024,
+        ram: 6 * 1024,
+    },
+    build: ImageBuild {
+        opt_level: "s",
+        machine_outliner: true,
+    },
+};
+
+/// What the slave application takes from the device description: its SyncManager layout,
+/// the bootstrap mailbox; no explicit device ID.
+pub const CONFIG: AppConfig = AppConfig {
+    sm: layout::SYNC_MANAGERS,
+    device_id: None,
+    bootstrap: Some(BOOTSTRAP_MAILBOX),
+};
+
+/// The default mapping objects, built when compiling (copied, not built, at start-up).
+const RX_DEFAULT: [Mapping; RX_PDOS] = mappings(od::RX_MAPPINGS, od::RX_DEFAULTS);
+const TX_DEFAULT: [Mapping; TX_PDOS] = mappings(od::TX_MAPPINGS, od::TX_DEFAULTS);
+
+/// The default PDO configuration: the mapping objects with their default entries and the
+/// assignments, from the constants the dictionary's defaults of 0x1600../0x1A00../0x1C12/
+/// 0x1C13 are made of ([`od::RX_DEFAULTS`] and friends); a host test reads it back against
+/// the dictionary.
+pub fn process_data() -> ProcessData {
+    ProcessData::new(
+        RX_DEFAULT,
+        TX_DEFAULT,
+        &od::RX_ASSIGN_DEFAULT,
+        &od::TX_ASSIGN_DEFAULT,
+    )
+}
+
+/// The application the slave application serves: the analog I/O on the dictionary.
+pub type Application = AnalogIo<sync::AnalogFigures>;
+
+/// The application at power-up.
+pub fn application() -> Application {
+    AnalogIo::new(&od::OD, process_data())
+}

@@ -1,5 +1,7 @@
 //! The module's object dictionary (CiA 301 communication area, ETG.1020 sync objects,
-//! CiA 401 analog I/O, manufacturer objects).
+//! CiA 401 analog I/O, manufacturer objects): [`ANALOG_OBJECTS`], which every analog
+//! product has (`analog-io-can` adds its CAN objects to them), and the objects that say
+//! which product it is ([`OD`] is both).
 //!
 //! The default PDO assignment and mappings live here as the defaults of 0x1C12/0x1C13 and
 //! 0x16xx/0x1Axx, made of the constants [`RX_DEFAULTS`], [`TX_DEFAULTS`] and the assignment
@@ -13,19 +15,17 @@
 //! Which entries the application serves live (and which read as their default) is
 //! documented in `crate::io::analog::objects`.
 
-use super::can::{
-    AI_INTERRUPT_ENABLE_INDEX, COMM_DEFAULTS, HEARTBEAT_CONSUMERS, PROCESS_DATA_SOURCE_INDEX,
-    SOURCE_CAN, SOURCE_ETHERCAT,
-};
-use super::capacity::{AI_CHANNELS, AO_CHANNELS, ERROR_HISTORY, PDO_ENTRIES, RX_PDOS, TX_PDOS};
 use super::identity::{IDENTITY, NAMES};
 use super::layout::SYNC_MANAGERS;
-use super::sync::{
-    DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
-    OUTPUT_DELAY_NS, SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS,
+use super::sync::FIGURES;
+use crate::io::analog::process_data::{PDO_ENTRIES, RX_PDOS, TX_PDOS};
+use crate::io::analog::{
+    AI_CHANNELS, AI_FILTER_AVERAGE, AI_FILTER_LATEST, AO_CHANNELS, SETTINGS_INDEX,
 };
 use crate::platform::board::FULL_SCALE_UV;
-use coe_core::canopen::objects::CommObjects;
+use crate::products::{identity_objects, merge_objects};
+use crate::stacks::diagnostics::ERROR_HISTORY;
+use crate::stacks::ethercat::sync::{SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS};
 use coe_core::od::{
     Access, DataType, EntryDefault, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange,
 };
@@ -40,14 +40,6 @@ const U32: DataType = DataType::Unsigned32;
 const RO: Access = Access::RO;
 const RW: Access = Access::RW;
 const RWP: Access = Access::RW_PREOP;
-
-/// Manufacturer settings object (RECORD): sub 1 "AI filter" UNSIGNED8 ([`AI_FILTER_LATEST`],
-/// [`AI_FILTER_AVERAGE`]), sub 2 the full scale in uV (a constant).
-pub const SETTINGS_INDEX: u16 = 0x2000;
-/// AI filter (`SETTINGS_INDEX`:01) value: 0x6401 is the newest sample (the default).
-pub const AI_FILTER_LATEST: u8 = 0;
-/// AI filter value: 0x6401 is the rounded mean of the samples of the cycle.
-pub const AI_FILTER_AVERAGE: u8 = 1;
 
 /// Index of the module description string (manufacturer area).
 pub const MODULE_DESCRIPTION_INDEX: u16 = 0x2001;
@@ -87,12 +79,13 @@ const RXPDO_DEFAULT: [PdoEntry; AO_CHANNELS] =
     [PdoEntry::new(0x6411, 1, 16), PdoEntry::new(0x6411, 2, 16)];
 
 /// The RxPDO mapping objects and their default entries: 0x1600 the EtherCAT default,
-/// 0x1601 CiA 401 RPDO 2 ([`super::can`]), both the two outputs.
+/// 0x1601 an alternative (CiA 401 RPDO 2 of `analog-io-can`), both the two outputs.
 pub const RX_MAPPINGS: [u16; RX_PDOS] = [0x1600, 0x1601];
 /// Default entries of [`RX_MAPPINGS`].
 pub const RX_DEFAULTS: [&[PdoEntry]; RX_PDOS] = [&RXPDO_DEFAULT, &RXPDO_DEFAULT];
 /// The TxPDO mapping objects and their default entries: 0x1A00 the EtherCAT default (all
-/// eight inputs), 0x1A01/0x1A02 CiA 401 TPDO 2/3 (four inputs each, one CAN frame).
+/// eight inputs), 0x1A01/0x1A02 four inputs each (CiA 401 TPDO 2/3 of `analog-io-can`,
+/// one CAN frame each).
 pub const TX_MAPPINGS: [u16; TX_PDOS] = [0x1A00, 0x1A01, 0x1A02];
 /// Default entries of [`TX_MAPPINGS`].
 pub const TX_DEFAULTS: [&[PdoEntry]; TX_PDOS] = [&TXPDO_DEFAULT, &TXPDO_AI_1_4, &TXPDO_AI_5_8];
@@ -183,10 +176,6 @@ static TXPDO_1_DEFAULTS: [EntryDefault; AI_CHANNELS + 1] = mapping_defaults(TX_D
 static TXPDO_2_DEFAULTS: [EntryDefault; TXPDO_AI_1_4.len() + 1] = mapping_defaults(TX_DEFAULTS[1]);
 static TXPDO_3_DEFAULTS: [EntryDefault; TXPDO_AI_5_8.len() + 1] = mapping_defaults(TX_DEFAULTS[2]);
 
-/// The CAN communication objects (0x1005.., 0x1400.., 0x1800..) with the product's
-/// defaults ([`super::can::COMM_DEFAULTS`]).
-static CAN: CommObjects<RX_PDOS, TX_PDOS, { HEARTBEAT_CONSUMERS + 1 }> =
-    CommObjects::new(&COMM_DEFAULTS);
 static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&RX_ASSIGN_DEFAULT);
 static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
 
@@ -217,7 +206,7 @@ static SYNC_PARAMETERS: [EntryDesc; 15] = [
     EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
     EntryDesc::new(4, "Sync modes supported", U16, RO)
         .with_default(Value::Uint(SUPPORTED_MODES as u64)),
-    EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(MIN_CYCLE_TIME_NS)),
+    EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(FIGURES.min_cycle_ns)),
     EntryDesc::new(6, "Calc and copy time", U32, RO),
     EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
     EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
@@ -235,13 +224,13 @@ static SYNC_PARAMETERS: [EntryDesc; 15] = [
 /// 0x1C32's own defaults: SM-synchronous, the output path's calc and copy and delay times.
 static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = [
     EntryDefault::new(1, SYNC_MODE_SM as u32),
-    EntryDefault::new(6, OUTPUT_CALC_COPY_NS),
-    EntryDefault::new(9, OUTPUT_DELAY_NS),
+    EntryDefault::new(6, FIGURES.output_calc_copy_ns),
+    EntryDefault::new(9, FIGURES.output_delay_ns),
 ];
 /// 0x1C33's own defaults: synchronous with SM2, the input path's calc and copy time.
 static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = [
     EntryDefault::new(1, SYNC_MODE_SM2_INPUTS as u32),
-    EntryDefault::new(6, INPUT_CALC_COPY_NS),
+    EntryDefault::new(6, FIGURES.input_calc_copy_ns),
     EntryDefault::new(9, 0),
 ];
 
@@ -285,8 +274,9 @@ static AO_ERROR_VALUE: [EntryDesc; AO_CHANNELS + 1] = {
     out
 };
 
-/// The module's object dictionary.
-pub static OD: ObjectDictionary = ObjectDictionary::new(&[
+/// The objects of every analog product, in index order: the communication area but the
+/// objects that name the product, the sync and PDO objects, the analog I/O.
+pub static ANALOG_OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT] = [
     ObjectDesc::var(
         0x1000,
         "Device type",
@@ -298,56 +288,6 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
         &[EntryDesc::new(0, "Error register", U8, RO.tx_mappable())],
     ),
     ObjectDesc::array(0x1003, "Pre-defined error field", &ERROR_FIELD),
-    CAN.sync_cob_id(),
-    CAN.cycle_period(),
-    ObjectDesc::var(
-        0x1008,
-        "Device name",
-        &[EntryDesc::string(0, "Device name", NAMES.device_name)],
-    ),
-    ObjectDesc::var(
-        0x1009,
-        "Hardware version",
-        &[EntryDesc::string(
-            0,
-            "Hardware version",
-            NAMES.hardware_version,
-        )],
-    ),
-    ObjectDesc::var(
-        0x100A,
-        "Software version",
-        &[EntryDesc::string(
-            0,
-            "Software version",
-            NAMES.software_version,
-        )],
-    ),
-    CAN.guard_time(),
-    CAN.life_factor(),
-    CAN.emcy_cob_id(),
-    CAN.emcy_inhibit(),
-    CAN.consumers(),
-    CAN.producer(),
-    ObjectDesc::record(
-        0x1018,
-        "Identity",
-        DataType::Identity,
-        &[
-            EntryDesc::count(4),
-            EntryDesc::new(1, "Vendor ID", U32, RO)
-                .with_default(Value::Uint(IDENTITY.vendor_id as u64)),
-            EntryDesc::new(2, "Product code", U32, RO)
-                .with_default(Value::Uint(IDENTITY.product_code as u64)),
-            EntryDesc::new(3, "Revision", U32, RO)
-                .with_default(Value::Uint(IDENTITY.revision as u64)),
-            EntryDesc::new(4, "Serial number", U32, RO)
-                .with_default(Value::Uint(IDENTITY.serial_number as u64)),
-        ],
-    ),
-    CAN.sync_overflow(),
-    CAN.error_behaviour(),
-    // Manufacturer record types 0x0040.. (ETG.1000.6: device-specific complex types).
     ObjectDesc::record(
         0x10F1,
         "Error settings",
@@ -356,19 +296,13 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             EntryDesc::count(2),
             EntryDesc::new(1, "Local error reaction", U32, RW).with_default(Value::Uint(0)),
             EntryDesc::new(2, "Sync error counter limit", U16, RW)
-                .with_default(Value::Uint(DEFAULT_SYNC_ERROR_LIMIT as u64)),
+                .with_default(Value::Uint(FIGURES.default_error_limit as u64)),
         ],
     ),
-    CAN.sdo_server(),
-    CAN.rpdo(0),
-    CAN.rpdo(1),
     ObjectDesc::record(RX_MAPPINGS[0], "RxPDO 1", DataType::PdoMapping, &MAPPING)
         .with_defaults(&RXPDO_DEFAULTS),
     ObjectDesc::record(RX_MAPPINGS[1], "RxPDO 2", DataType::PdoMapping, &MAPPING)
         .with_defaults(&RXPDO_DEFAULTS),
-    CAN.tpdo(0),
-    CAN.tpdo(1),
-    CAN.tpdo(2),
     ObjectDesc::record(TX_MAPPINGS[0], "TxPDO 1", DataType::PdoMapping, &MAPPING)
         .with_defaults(&TXPDO_1_DEFAULTS),
     ObjectDesc::record(TX_MAPPINGS[1], "TxPDO 2", DataType::PdoMapping, &MAPPING)
@@ -409,7 +343,24 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
                 .with_default(Value::Uint(FULL_SCALE_UV as u64)),
         ],
     ),
-    ObjectDesc::var(
+    ObjectDesc::array(0x6401, "Read analog input 16-bit", &AI),
+    ObjectDesc::array(0x6411, "Write analog output 16-bit", &AO),
+    ObjectDesc::array(0x6443, "Analog output error mode", &AO_ERROR_MODE),
+    ObjectDesc::array(0x6444, "Analog output error value", &AO_ERROR_VALUE),
+];
+
+/// How many objects [`ANALOG_OBJECTS`] has.
+pub const ANALOG_OBJECT_COUNT: usize = 19;
+
+/// The objects that make the dictionary this product's: identity and names, the module
+/// description.
+static PRODUCT_OBJECTS: [ObjectDesc; 5] = {
+    let [a, b, c, d] = identity_objects!(IDENTITY, NAMES);
+    [a, b, c, d, MODULE_DESCRIPTION_OBJECT]
+};
+
+/// 0x2001, the module description.
+pub const MODULE_DESCRIPTION_OBJECT: ObjectDesc = ObjectDesc::var(
         MODULE_DESCRIPTION_INDEX,
         "Module description",
         &[EntryDesc::string(
@@ -417,30 +368,12 @@ pub static OD: ObjectDictionary = ObjectDictionary::new(&[
             "Module description",
             MODULE_DESCRIPTION,
         )],
-    ),
-    ObjectDesc::var(
-        PROCESS_DATA_SOURCE_INDEX,
-        "Process data source",
-        &[EntryDesc::new(0, "Process data source", U8, RW)
-            .with_default(Value::Uint(SOURCE_ETHERCAT as u64))
-            .with_range(&ValueRange {
-                min: Value::Uint(SOURCE_ETHERCAT as u64),
-                max: Value::Uint(SOURCE_CAN as u64),
-            })],
-    ),
-    ObjectDesc::array(0x6401, "Read analog input 16-bit", &AI),
-    ObjectDesc::array(0x6411, "Write analog output 16-bit", &AO),
-    ObjectDesc::var(
-        AI_INTERRUPT_ENABLE_INDEX,
-        "Analog input global interrupt enable",
-        &[
-            EntryDesc::new(0, "Analog input global interrupt enable", BOOL, RW)
-                .with_default(Value::Uint(0)),
-        ],
-    ),
-    ObjectDesc::array(0x6443, "Analog output error mode", &AO_ERROR_MODE),
-    ObjectDesc::array(0x6444, "Analog output error value", &AO_ERROR_VALUE),
-]);
+    );
+
+/// The module's object dictionary.
+pub static OD: ObjectDictionary = ObjectDictionary::new(&OBJECTS);
+static OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT + 5] =
+    merge_objects(&[&ANALOG_OBJECTS, &PRODUCT_OBJECTS]);
 
 /// 0x1000: CiA 401 (0x0191) with analog inputs (bit 18) and analog outputs (bit 19).
 pub const DEVICE_TYPE: u32 = 0x0191 | 1 << 18 | 1 << 19;
@@ -451,8 +384,10 @@ const _: () = if let Err(e) = OD.validate() {
 
 #[cfg(test)]
 mod tests {
-    use super::super::capacity::{MAILBOX_SIZE, TRANSFER_BUFFER};
+    use super::super::device::DEVICE;
     use super::*;
+    use crate::stacks::ethercat::mailbox::{MAILBOX_SIZE, TRANSFER_BUFFER};
+    use coe_core::pdo::PdoDirection;
     use std::vec::Vec;
 
     #[test]
@@ -513,5 +448,50 @@ mod tests {
         assert!(MODULE_DESCRIPTION.is_ascii());
         let (_, entry) = OD.entry(MODULE_DESCRIPTION_INDEX, 0).unwrap();
         assert_eq!(entry.byte_len(), MODULE_DESCRIPTION.len());
+    }
+
+    #[test]
+    fn product_default_is_built_from_the_dictionary() {
+        // Every mapping object of the dictionary has a slot in the application, and only those.
+        assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
+        assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
+        let pd = super::super::process_data();
+        assert_eq!(pd.output_len(), 4);
+        assert_eq!(pd.input_len(), 16);
+        for object in DEVICE
+            .pdo_objects(PdoDirection::Rx)
+            .chain(DEVICE.pdo_objects(PdoDirection::Tx))
+        {
+            assert!(pd.owns(object.index), "{:#06x}", object.index);
+            let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();
+            let mut buf = [0u8; 4];
+            assert_eq!(pd.read(object.index, 0, &mut buf), Ok(1));
+            assert_eq!(usize::from(buf[0]), entries.len());
+            for (sub, entry) in (1..).zip(&entries) {
+                assert_eq!(pd.read(object.index, sub, &mut buf), Ok(4));
+                assert_eq!(u32::from_le_bytes(buf), entry.to_u32());
+            }
+        }
+        // The assignments: as many PDOs as the dictionary's defaults, the same ones.
+        for (assign, direction) in [(0x1C12, PdoDirection::Rx), (0x1C13, PdoDirection::Tx)] {
+            let pdos: Vec<u32> = DEVICE.assigned_pdos(direction).collect();
+            let mut buf = [0u8; 2];
+            assert_eq!(pd.read(assign, 0, &mut buf), Ok(1));
+            assert_eq!(usize::from(buf[0]), pdos.len(), "{assign:#06x}");
+            for (sub, pdo) in (1..).zip(&pdos) {
+                assert_eq!(pd.read(assign, sub, &mut buf), Ok(2));
+                assert_eq!(
+                    u32::from(u16::from_le_bytes(buf)),
+                    *pdo,
+                    "{assign:#06x}:{sub}"
+                );
+            }
+        }
+        let mut buf = [0u8; 2];
+        assert_eq!(pd.read(0x1C12, 1, &mut buf), Ok(2));
+        assert_eq!(u16::from_le_bytes(buf), 0x1600);
+        assert_eq!(pd.read(0x1C13, 1, &mut buf), Ok(2));
+        assert_eq!(u16::from_le_bytes(buf), 0x1A00);
+        assert!(pd.is_rx_mapped(0x6411, 2));
     }
 }

@@ -1,20 +1,9 @@
-//! How the module synchronises: the modes it offers (ETG.1020 codes of 0x1C32:01/0x1C33:01)
-//! and the figures it advertises in 0x1C32/0x1C33 and the ESI. The application enforces
-//! them (`crate::stacks::ethercat::sync`).
+//! The figures the image advertises in 0x1C32/0x1C33 and the ESI, and the slave application
+//! enforces (`crate::stacks::ethercat::sync`), measured on the image of the analog
+//! products. `analog-io-can` advertises the same: its CAN window's rule sets the minimum
+//! cycle of both (below).
 
-/// Sync mode code (0x1C32:01, 0x1C33:01): free run.
-pub const SYNC_MODE_FREE_RUN: u16 = 0;
-/// Sync mode code: synchronous with the SM event (0x1C32:01: SM2; 0x1C33:01: SM3).
-pub const SYNC_MODE_SM: u16 = 1;
-/// Sync mode code: DC SYNC0.
-pub const SYNC_MODE_DC_SYNC0: u16 = 2;
-/// Sync mode code of 0x1C33:01: inputs latched on the SM2 event (Beckhoff SSC
-/// `SYNCTYPE_SM2INT`).
-pub const SYNC_MODE_SM2_INPUTS: u16 = 0x22;
-
-/// Sync modes supported (0x1C32:04/0x1C33:04): b0 free run, b1 SM-synchronous, bits 4:2 =
-/// 001 DC SYNC0.
-pub const SUPPORTED_MODES: u16 = 0x0007;
+use crate::stacks::ethercat::sync::{Figures, SyncFigures};
 
 /// Shortest cycle the module handles: 0x1C32:05/0x1C33:05, the dictionary's default of
 /// both in the ESI, the device description's DC minimum, and the limit the application
@@ -27,7 +16,7 @@ pub const SUPPORTED_MODES: u16 = 0x0007;
 /// co-simulator's time model, `cargo xtask bench --min-cycle` runs that rule alone (and says
 /// when the constant could be lower): set the constant here. The CAN window has a rule of its
 /// own: every kind of CANopen node call fits right after a cycle's outputs at this cycle
-/// (`app::can_window`, `every_kind_fits_after_the_outputs_at_the_advertised_minimum`): the
+/// (`crate::stacks::canopen::window`, `every_kind_fits_after_the_outputs_at_the_advertised_minimum` in `analog-io-can`): the
 /// SDO call's bound needs about 90 us.
 pub const MIN_CYCLE_TIME_NS: u32 = 90_000;
 /// Margin of [`MIN_CYCLE_TIME_NS`] over the measured minimum DC cycle, in percent: the
@@ -55,3 +44,21 @@ pub const INPUT_CALC_COPY_NS: u32 = 15_000;
 pub const CONFIRM_OUTPUTS_MIN_CYCLE_NS: u32 = 62_000;
 /// Default Sync Error Counter Limit (0x10F1:02).
 pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;
+
+/// The figures as the slave application takes them.
+pub const FIGURES: SyncFigures = SyncFigures {
+    min_cycle_ns: MIN_CYCLE_TIME_NS,
+    output_calc_copy_ns: OUTPUT_CALC_COPY_NS,
+    output_delay_ns: OUTPUT_DELAY_NS,
+    input_calc_copy_ns: INPUT_CALC_COPY_NS,
+    confirm_outputs_min_cycle_ns: CONFIRM_OUTPUTS_MIN_CYCLE_NS,
+    default_error_limit: DEFAULT_SYNC_ERROR_LIMIT,
+};
+
+/// The figures as a type, for the generic sync monitor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AnalogFigures;
+
+impl Figures for AnalogFigures {
+    const SYNC: SyncFigures = FIGURES;
+}

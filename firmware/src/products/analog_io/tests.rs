@@ -1,8 +1,10 @@
-//! Application-level tests: the whole `SlaveApp` against a register-file ESC, driven like a
-//! master drives a slave.
+//! `analog-io` as a whole: the EtherCAT slave application around the analog I/O against a
+//! register-file ESC, driven like a master drives a slave.
 
+use super::sync::AnalogFigures;
 use crate::fake_esc::FakeEsc;
-use crate::io::analog::outputs::OutputStage;
+use crate::io::analog::outputs::{DacAction, DacLatch, DacPair, OutputStage};
+use crate::io::analog::AnalogIo;
 use crate::io::analog::process_data::{Mapping, ProcessData};
 use crate::io::analog::sampler::Sample;
 use crate::stacks::ethercat::mailbox::SAFETY_SERVICE_MS;
@@ -147,7 +149,6 @@ fn config() -> AppConfig {
             SyncManagerDesc::new(SmRole::ProcessDataIn, PD_IN, 0, 0x20),
         ],
         device_id: Some(0x0042),
-        can_node_id: crate::products::analog_io::can::DEFAULT_NODE_ID,
         bootstrap: None,
     }
 }
@@ -191,7 +192,7 @@ fn process_data() -> ProcessData {
 
 struct Rig {
     esc: FakeEsc,
-    app: SlaveApp,
+    app: SlaveApp<AnalogIo<AnalogFigures>>,
     stage: OutputStage,
     latch: DacLatch,
     now: u64,
@@ -206,7 +207,7 @@ impl Rig {
 
     fn with(config: AppConfig) -> Self {
         let mut esc = FakeEsc::new();
-        let mut app = SlaveApp::new(&OD, config, process_data());
+        let mut app = SlaveApp::new(config, AnalogIo::<AnalogFigures>::new(&OD, process_data()));
         app.start(&mut esc.driver()).unwrap();
         Self {
             esc,
@@ -338,11 +339,11 @@ fn init_to_op_in_sm_synchronous_mode() {
     let mut r = Rig::new();
     assert_eq!(r.esc.al_status(), (0x01, 0));
     r.goto_op();
-    assert_eq!(r.app.data().sync.mode(), SyncMode::SmSync);
+    assert_eq!(r.app.sync().mode(), SyncMode::SmSync);
     // OP before any outputs: DAC untouched.
     assert!(r.dac.is_empty());
     r.app
-        .on_samples(&[Sample::new(0, 0x8000), Sample::new(1, 0xFFFF)]);
+        .application_mut().on_samples(&[Sample::new(0, 0x8000), Sample::new(1, 0xFFFF)]);
     r.outputs(0x4000, 0x1000);
     assert_eq!(
         r.dac.last(),
@@ -598,9 +599,9 @@ fn watchdog_faults_outputs_and_goes_to_safeop() {
         r.dac.last(),
         Some(&DacAction::WriteAndUpdate(DacPair::new(0x2000, 0x400)))
     );
-    assert_eq!(r.app.data().diag.register(), 0x11);
+    assert_eq!(r.app.application().diag.register(), 0x11);
     // It enters the error history (0x1003): code, 0x1001, first data byte.
-    let history = r.app.data().diag.history;
+    let history = r.app.application().diag.history;
     assert_eq!((history.len(), history.get(1)), (1, Ok(0x0011_8250)));
     // The Emergency goes out through SM1.
     r.poll();
@@ -613,9 +614,9 @@ fn watchdog_faults_outputs_and_goes_to_safeop() {
     r.outputs(0x300, 0x300);
     assert_eq!(r.dac.len(), n);
     assert_eq!(r.request(0x18), (0x08, 0));
-    assert_eq!(r.app.data().diag.register(), 0);
+    assert_eq!(r.app.application().diag.register(), 0);
     assert_eq!(
-        r.app.data().diag.history.len(),
+        r.app.application().diag.history.len(),
         1,
         "the error reset is no error"
     );
@@ -680,7 +681,7 @@ fn dc_mode_enforced_at_safeop_and_latched_at_sync0() {
     assert_eq!(r.request(0x14), (0x12, 0x0035));
     r.esc.master_dc(0x03, 1_000_000);
     assert_eq!(r.request(0x14), (0x04, 0));
-    assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
+    assert_eq!(r.app.sync().mode(), SyncMode::DcSync0);
     assert_eq!(r.request(0x08), (0x08, 0));
     // Outputs wait for SYNC0.
     r.outputs(0x100, 0x100);
@@ -709,7 +710,7 @@ fn dc_without_explicit_mode_follows_the_esc() {
     r.pd_sms(4, 4);
     r.esc.master_dc(0x03, 1_000_000);
     assert_eq!(r.request(0x04), (0x04, 0));
-    assert_eq!(r.app.data().sync.mode(), SyncMode::DcSync0);
+    assert_eq!(r.app.sync().mode(), SyncMode::DcSync0);
     // And an explicit SM-sync request with SYNC0 active is refused.
     let mut r = Rig::new();
     r.goto_preop();
@@ -857,7 +858,7 @@ fn dc_safety_service_follows_the_outputs() {
         ..
     } = r;
     let mut task = PdiTask::new(app);
-    let run = |task: &mut PdiTask, esc: &mut FakeEsc, at: u64, wake: Wake| {
+    let run = |task: &mut PdiTask<AnalogIo<AnalogFigures>>, esc: &mut FakeEsc, at: u64, wake: Wake| {
         task.run(&mut esc.driver(), &stage, at, wake, || false, |_| {})
     };
     let irq = Wake {

@@ -1,179 +1,164 @@
-//! The CAN side of the application: coe-core's CANopen node ([`Node`]) on the module's
-//! dictionary, and how the application answers it ([`CanView`]).
+//! The CANopen node on CAN: coe-core's node ([`CanNode`]) on a device's dictionary, with
+//! the window that keeps its work out of the way of the EtherCAT cycle ([`window`]) and the
+//! CAN task that moves frames ([`task`]). It knows no product: the device is a
+//! [`CanApplication`], which the product that runs the node gives it.
 //!
-//! [`super::SlaveApp`] owns the node: the EtherCAT mailbox serves the CAN communication
-//! objects through it (one dictionary for both fieldbuses), EtherCAT-side Emergencies go
-//! out on CAN too, and the process-data source decides which fieldbus drives the outputs
-//! ([`crate::products::analog_io::can`]). The CAN task only moves frames between the controller and
-//! [`super::SlaveApp::on_can_frame`] / [`super::SlaveApp::poll_can`] /
-//! [`super::SlaveApp::can_tx`] ([`super::can_task`]).
+//! A product with both fieldbuses composes them: the EtherCAT slave application's
+//! application holds the node ([`CanSide`]), serves the node's communication objects on the
+//! EtherCAT mailbox too ([`CanSide::access`]), passes the EtherCAT cycle on to the window
+//! ([`CanSide::on_output_event`], [`CanSide::on_cycle_polled`]) and the slave application's
+//! Emergencies to the node ([`CanSide::queue_emergency`]); the CAN task calls the node
+//! through the product ([`task::CanHost`]).
 
 pub mod task;
 pub mod window;
 
-use crate::io::analog::objects::{AppData, OutputSource};
-use crate::io::analog::outputs::OutputStage;
-use crate::products::analog_io::can::{CAN_EMERGENCY_QUEUE, HEARTBEAT_CONSUMERS};
-use crate::products::analog_io::capacity::{AO_CHANNELS, RX_PDOS, TRANSFER_BUFFER, TX_PDOS};
-use coe_core::canopen::node::{CanApplication, CanNode};
-use coe_core::od::ObjectAccess;
+use coe_core::canopen::node::{CanApplication, CanNode, NodeAccess};
+use coe_core::canopen::params::CommDefaults;
+use coe_core::canopen::CanFrame;
+use coe_core::od::ObjectDictionary;
 use coe_core::sdo_server::Emergency;
-use coe_core::{AlState, SdoAbortCode};
+use window::{CallKind, CanWindow};
 
-/// The module's CANopen node.
-pub type Node =
-    CanNode<RX_PDOS, TX_PDOS, HEARTBEAT_CONSUMERS, CAN_EMERGENCY_QUEUE, TRANSFER_BUFFER>;
-
-/// The application as the CAN node (and, through the node, the mailbox) sees it for one
-/// call: the data, the output stage, whether the DAC task must apply the staged outputs,
-/// and an Emergency of the application to send on both fieldbuses afterwards.
-pub struct CanView<'a> {
-    /// The application data.
-    pub data: &'a mut AppData,
-    /// The DAC hand-over.
-    pub stage: &'a OutputStage,
-    /// Set when the DAC task must apply the staged outputs now.
-    pub apply_outputs: &'a mut bool,
-    /// An application Emergency raised during the call (an output out of range).
-    pub emergency: Option<Emergency>,
+/// A CANopen node with `R` RPDOs, `T` TPDOs, `HB` heartbeat consumers, `Q` Emergencies
+/// that can wait and an SDO transfer buffer of `BUF` bytes, and the window its calls must
+/// fit.
+pub struct CanSide<
+    const R: usize,
+    const T: usize,
+    const HB: usize,
+    const Q: usize,
+    const BUF: usize,
+> {
+    node: CanNode<R, T, HB, Q, BUF>,
+    /// When the CAN task may call the node (after the outputs of an EtherCAT cycle).
+    window: CanWindow,
 }
 
-impl<'a> CanView<'a> {
-    /// A view for one call.
-    pub fn new(data: &'a mut AppData, stage: &'a OutputStage, apply_outputs: &'a mut bool) -> Self {
+impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF: usize>
+    CanSide<R, T, HB, Q, BUF>
+{
+    /// The node `node_id` on `od` with the communication defaults `defaults`; EtherCAT
+    /// cycles are at least `min_cycle_ns` long.
+    pub fn new(
+        node_id: u8,
+        od: &'static ObjectDictionary,
+        defaults: &'static CommDefaults<R, T>,
+        min_cycle_ns: u32,
+    ) -> Self {
         Self {
-            data,
-            stage,
-            apply_outputs,
-            emergency: None,
+            node: CanNode::new(node_id, od, defaults),
+            window: CanWindow::new(min_cycle_ns),
         }
     }
 
-    /// Stages new output values (`in_op`: the fieldbus that sent them runs process data);
-    /// the DAC task applies them at once.
-    pub fn stage_outputs(&mut self, values: [i16; AO_CHANNELS], in_op: bool) {
-        let (set, emergency) = self.data.set_outputs(values, in_op, self.stage);
-        *self.apply_outputs |= set.staged;
-        if emergency.is_some() {
-            self.emergency = emergency;
-        }
-    }
-}
-
-impl ObjectAccess for CanView<'_> {
-    fn read(&mut self, index: u16, subindex: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
-        self.data.read(index, subindex, buf)
+    /// The node.
+    pub fn node(&self) -> &CanNode<R, T, HB, Q, BUF> {
+        &self.node
     }
 
-    fn write(
+    /// One bounded piece of the node's work on `app` at `now_ns`: a received `frame`, or
+    /// without one its next PDO step, or its timers when none is left.
+    pub fn call<A: CanApplication + ?Sized>(
         &mut self,
-        index: u16,
-        subindex: u8,
-        data: &[u8],
-        state: AlState,
-    ) -> Result<(), SdoAbortCode> {
-        self.data.write(index, subindex, data, state)
-    }
-
-    fn is_rx_mapped(&self, index: u16, subindex: u8) -> bool {
-        self.data.is_rx_mapped(index, subindex)
-    }
-}
-
-impl CanApplication for CanView<'_> {
-    fn can_owns_outputs(&self) -> bool {
-        self.data.source == OutputSource::Can
-    }
-
-    fn apply_outputs(&mut self) {
-        if let Some(values) = self.data.take_ao_written() {
-            self.stage_outputs(values, true);
+        frame: Option<&CanFrame>,
+        app: &mut A,
+        now_ns: u64,
+    ) {
+        let now_us = micros(now_ns);
+        match frame {
+            Some(frame) => self.node.receive(frame, app, now_us),
+            None if self.node.has_steps() => _ = self.node.step(app, now_us),
+            None => self.node.timers(app, now_us),
         }
     }
 
-    fn outputs_fault(&mut self) {
-        self.data.outputs.enter_fault(self.stage);
-        *self.apply_outputs = true;
+    /// The object access for another fieldbus's SDO server at `now_ns`: the node's
+    /// communication objects, the rest `app`'s.
+    pub fn access<'a, A: CanApplication + ?Sized>(
+        &'a mut self,
+        app: &'a mut A,
+        now_ns: u64,
+    ) -> NodeAccess<'a, A, R, T, HB, Q> {
+        self.node.access(app, micros(now_ns))
     }
 
-    fn change_of_state(&self) -> bool {
-        self.data.ai_events
+    /// An Emergency of the device (another fieldbus raised it): out on CAN too.
+    pub fn queue_emergency(&mut self, emergency: Emergency) {
+        self.node.queue_emergency(emergency);
     }
 
-    // The node sends its own errors on CAN only; they enter the error history here.
-    fn raise_error(&mut self, bits: u8, code: u16, data: [u8; 5]) -> Emergency {
-        let e = self.data.diag.raise(bits, code, data);
-        self.data.diag.history.record(&e);
-        e
+    /// The next frame for the CAN controller (highest priority first).
+    pub fn pop_tx(&mut self) -> Option<CanFrame> {
+        self.node.pop_tx()
     }
 
-    fn clear_error(&mut self, bits: u8) -> Option<Emergency> {
-        self.data.diag.clear(bits)
+    /// The frame [`CanSide::pop_tx`] would give, left in place.
+    pub fn peek_tx(&self) -> Option<CanFrame> {
+        self.node.peek_tx()
     }
 
-    fn reset(&mut self, application: bool) {
-        if application {
-            self.data.reset_parameters();
-        } else if self.can_owns_outputs() {
-            self.data.reset_pdo_configuration();
+    /// True if the node has frames to send (cheap: the PDI task asks every activation).
+    pub fn has_tx(&self) -> bool {
+        self.node.has_tx()
+    }
+
+    /// The kind of the call that serves received `frame`, or without one the node's next
+    /// PDO step or timers ([`CallKind`]).
+    pub fn call_kind(&self, frame: Option<&CanFrame>) -> CallKind {
+        let sync_id = self.node.params().sync.cob_id.can_id();
+        match frame {
+            Some(f) => CallKind::of_frame(f.id(), self.node.node_id(), sync_id),
+            None if self.node.has_steps() => CallKind::PdoStep,
+            None => CallKind::Timers,
+        }
+    }
+
+    /// True if the node has PDO work left in steps (run before the next frame).
+    pub fn has_steps(&self) -> bool {
+        self.node.has_steps()
+    }
+
+    /// Whether a call of `kind` may start at `now_ns` ([`CanWindow`]); a refusal is
+    /// remembered as CAN work that waits.
+    pub fn admit(&mut self, kind: CallKind, now_ns: u64) -> bool {
+        self.window.admit(kind, now_ns)
+    }
+
+    /// CAN work was refused and the window is open now: pend the CAN task.
+    pub fn work_waiting(&self, now_ns: u64) -> bool {
+        self.window.work_waiting(now_ns)
+    }
+
+    /// CAN work was refused and waits for the window (whoever opens it pends the CAN task).
+    pub fn waiting(&self) -> bool {
+        self.window.waiting()
+    }
+
+    /// When the node's timers must run next (ns).
+    pub fn deadline_ns(&self) -> Option<u64> {
+        self.node
+            .next_deadline_us()
+            .map(|us| us.saturating_mul(1000))
+    }
+
+    /// The outputs of an EtherCAT cycle were served at `now_ns` (the SM2 path: two stores).
+    #[inline(always)]
+    pub fn on_output_event(&mut self, now_ns: u64) {
+        self.window.on_output_event(now_ns);
+    }
+
+    /// The PDI task's background poll ran at `now_ns`, for the SYNC0 edge captured at
+    /// `edge_lo` or, `None`, for none (the tick's).
+    pub fn on_cycle_polled(&mut self, now_ns: u64, edge_lo: Option<u32>) {
+        match edge_lo {
+            Some(edge_lo) => self.window.on_sync0_polled(now_ns, edge_lo),
+            None => self.window.on_tick_polled(now_ns),
         }
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::io::analog::process_data::ProcessData;
-    use crate::products::analog_io::od::OD;
-    use crate::stacks::diagnostics::ERR_COMMUNICATION;
-    use std::vec;
-
-    fn read(view: &mut CanView, sub: u8) -> Result<vec::Vec<u8>, SdoAbortCode> {
-        let mut buf = [0u8; 8];
-        let n = view.read(0x1003, sub, &mut buf)?;
-        Ok(buf[..n].to_vec())
-    }
-
-    /// The node's own Emergencies (heartbeat loss here) enter 0x1003, which both
-    /// fieldbuses read and clear through the application data.
-    #[test]
-    fn node_emergencies_enter_the_error_history() {
-        let mut data = AppData::new(&OD, ProcessData::product_default());
-        let stage = OutputStage::new();
-        let mut apply = false;
-        let mut view = CanView::new(&mut data, &stage, &mut apply);
-        assert_eq!(read(&mut view, 0), Ok(vec![0]));
-        assert_eq!(read(&mut view, 1), Err(SdoAbortCode::NoDataAvailable));
-        view.raise_error(ERR_COMMUNICATION, 0x8130, [0x7F, 0, 0, 0, 0]);
-        view.raise_error(ERR_COMMUNICATION, 0x8100, [0; 5]);
-        assert_eq!(read(&mut view, 0), Ok(vec![2]));
-        assert_eq!(
-            read(&mut view, 1),
-            Ok(0x0011_8100u32.to_le_bytes().to_vec())
-        );
-        assert_eq!(
-            read(&mut view, 2),
-            Ok(0x7F11_8130u32.to_le_bytes().to_vec())
-        );
-        assert_eq!(read(&mut view, 3), Err(SdoAbortCode::NoDataAvailable));
-        assert_eq!(
-            view.clear_error(ERR_COMMUNICATION).map(|e| e.error_code),
-            Some(0)
-        );
-        assert_eq!(
-            read(&mut view, 0),
-            Ok(vec![2]),
-            "the error reset is not recorded"
-        );
-        let write =
-            |view: &mut CanView, sub, data: &[u8]| view.write(0x1003, sub, data, AlState::Op);
-        assert_eq!(
-            write(&mut view, 0, &[1]),
-            Err(SdoAbortCode::ValueRangeExceeded)
-        );
-        assert_eq!(read(&mut view, 0), Ok(vec![2]));
-        assert_eq!(write(&mut view, 0, &[0]), Ok(()));
-        assert_eq!(read(&mut view, 0), Ok(vec![0]));
-        assert_eq!(read(&mut view, 1), Err(SdoAbortCode::NoDataAvailable));
-    }
+/// Nanoseconds to microseconds (32-bit divisions only).
+fn micros(now_ns: u64) -> u64 {
+    crate::platform::div::div_u64_u32(now_ns, 1000)
 }

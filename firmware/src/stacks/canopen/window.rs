@@ -17,22 +17,18 @@
 //!
 //! The node cuts its long work into such calls (a frame, its PDO steps, its timers: see
 //! `coe_core::canopen::node::CanNode::step`), so that with SYNC0 half a cycle after the
-//! frame every kind fits right after the outputs of a cycle at [`MIN_CYCLE_TIME_NS`]
-//! without a tick in it (`every_kind_fits_after_the_outputs_at_the_advertised_minimum`);
+//! frame every kind fits right after the outputs of a cycle at the product's minimum
+//! cycle without a tick in it ([`CanWindow::every_kind_fits_after_the_outputs`], which a
+//! product with CAN holds its minimum cycle to);
 //! with SYNC0 earlier in the cycle the longest kinds wait for longer cycles. Received
-//! frames wait in the task's inbox meanwhile ([`super::can_task::CanInbox`]); the PDI
+//! frames wait in the task's inbox meanwhile ([`super::task::CanInbox`]); the PDI
 //! task pends the CAN task when the refused call fits. Without output events (no
 //! EtherCAT cycles, or [`STOPPED_PERIODS`] periods without one) the window is always
 //! open. The SM2 path only notes the time and
 //! counts; the CAN side measures the period as the mean interval since it last looked and
 //! uses the shorter of its last two measurements, so one lost frame does not widen it.
 
-use crate::products::analog_io::sync::MIN_CYCLE_TIME_NS;
 use coe_core::canopen::cob;
-
-/// A mean interval below this (half the shortest DC cycle the module accepts) is no
-/// period: a second SM2 event of a cycle (the line still asserted, a repeated read).
-pub const SAME_CYCLE_NS: u32 = MIN_CYCLE_TIME_NS / 2;
 
 /// Periods without an output event after which EtherCAT cycles count as stopped.
 pub const STOPPED_PERIODS: u32 = 4;
@@ -72,6 +68,16 @@ pub enum CallKind {
 }
 
 impl CallKind {
+    /// Every kind.
+    pub const ALL: [Self; 6] = [
+        Self::Timers,
+        Self::PdoStep,
+        Self::Nmt,
+        Self::Sync,
+        Self::Sdo,
+        Self::Other,
+    ];
+
     /// The kind of a call of received frame `id` for node `node_id` whose SYNC COB-ID is
     /// `sync_id`.
     pub fn of_frame(id: u16, node_id: u8, sync_id: u16) -> Self {
@@ -122,11 +128,15 @@ pub struct CanWindow {
     tick_ns: u64,
     /// The kind of a refused call: the PDI task pends the CAN task when it fits.
     waiting: Option<CallKind>,
+    /// A mean interval below this (half the shortest DC cycle the module accepts) is no
+    /// period: a second SM2 event of a cycle (the line still asserted, a repeated read).
+    same_cycle_ns: u32,
 }
 
 impl CanWindow {
-    /// No output event seen: always open.
-    pub const fn new() -> Self {
+    /// No output event seen: always open. `min_cycle_ns`: the shortest EtherCAT cycle the
+    /// module accepts.
+    pub const fn new(min_cycle_ns: u32) -> Self {
         Self {
             last_ns: 0,
             events: 0,
@@ -135,7 +145,27 @@ impl CanWindow {
             edge_ns: 0,
             tick_ns: 0,
             waiting: None,
+            same_cycle_ns: min_cycle_ns / 2,
         }
+    }
+
+    /// The rule a product's minimum cycle must meet: with SYNC0 half a cycle after the
+    /// frame, a call of every kind fits right after the outputs of a cycle of `cycle_ns`.
+    pub fn every_kind_fits_after_the_outputs(cycle_ns: u32) -> bool {
+        let t = u64::from(cycle_ns);
+        let mut w = Self::new(cycle_ns);
+        for k in 1..=3 {
+            w.on_output_event(k * t);
+            w.measure();
+            if k < 3 {
+                let edge = k * t + t / 2;
+                w.on_sync0_polled(edge + 2_000, edge as u32);
+            }
+        }
+        let after_outputs = 3 * t + u64::from(SM2_ACTIVATION_NS);
+        CallKind::ALL
+            .iter()
+            .all(|kind| w.fits(*kind, after_outputs))
     }
 
     /// An EtherCAT cycle's outputs (SM2 event) were served at `now_ns`. On the SM2 path,
@@ -174,7 +204,7 @@ impl CanWindow {
         }
         let mean = span(seen_ns, self.last_ns) / n;
         // A tiny period would count as cycles stopped and open the window.
-        if seen_ns != 0 && mean >= SAME_CYCLE_NS {
+        if seen_ns != 0 && mean >= self.same_cycle_ns {
             self.periods = [self.periods[1], mean];
         }
         self.seen = (self.last_ns, self.events);
@@ -247,6 +277,8 @@ mod tests {
     use super::*;
 
     const US: u64 = 1_000;
+    /// The minimum cycle of the tests (the analog products').
+    const MIN_CYCLE_TIME_NS: u32 = 90_000;
 
     impl CanWindow {
         /// The latest end of a call that starts at `now_ns`.
@@ -259,7 +291,7 @@ mod tests {
     /// SYNC0 edge `phase` later and its poll 2 us after the edge; the CAN side looks once
     /// per cycle. The last cycle's edge is polled only if `polled`.
     fn dc_cycles(period: u64, phase: u64, n: u64, polled: bool) -> CanWindow {
-        let mut w = CanWindow::new();
+        let mut w = CanWindow::new(MIN_CYCLE_TIME_NS);
         for k in 1..=n {
             let t = k * period;
             w.on_output_event(t);
@@ -274,7 +306,7 @@ mod tests {
 
     /// Output events every `period` without SYNC0 (SM-synchronous), `n` of them.
     fn sm_cycles(period: u64, n: u64) -> CanWindow {
-        let mut w = CanWindow::new();
+        let mut w = CanWindow::new(MIN_CYCLE_TIME_NS);
         for k in 1..=n {
             w.on_output_event(k * period);
             w.measure();
@@ -282,18 +314,11 @@ mod tests {
         w
     }
 
-    const KINDS: [CallKind; 6] = [
-        CallKind::Timers,
-        CallKind::PdoStep,
-        CallKind::Nmt,
-        CallKind::Sync,
-        CallKind::Sdo,
-        CallKind::Other,
-    ];
+    const KINDS: [CallKind; 6] = CallKind::ALL;
 
     #[test]
     fn open_without_output_events() {
-        let mut w = CanWindow::new();
+        let mut w = CanWindow::new(MIN_CYCLE_TIME_NS);
         assert!(w.admit(CallKind::Nmt, 0) && w.admit(CallKind::Sync, 123 * US));
         // One event gives no period yet.
         w.on_output_event(10 * US);
@@ -344,13 +369,17 @@ mod tests {
     }
 
     #[test]
-    fn every_kind_fits_after_the_outputs_at_the_advertised_minimum() {
+    fn every_kind_fits_after_the_outputs_at_90_us_not_at_80() {
         let t = u64::from(MIN_CYCLE_TIME_NS);
         let w = dc_cycles(t, t / 2, 3, false);
         let after_outputs = 3 * t + u64::from(SM2_ACTIVATION_NS);
         for kind in KINDS {
             assert!(w.fits(kind, after_outputs), "{kind:?}");
         }
+        assert!(CanWindow::every_kind_fits_after_the_outputs(
+            MIN_CYCLE_TIME_NS
+        ));
+        assert!(!CanWindow::every_kind_fits_after_the_outputs(80_000));
     }
 
     #[test]

@@ -13,9 +13,9 @@
 //!   request included): the loop has nothing else to do. No interrupt is used, so the AL
 //!   event mask (which only gates the IRQ pin) is left alone.
 
-use crate::platform::boot::header::Target;
+use crate::platform::board::Board;
+use crate::platform::boot::layout::BOOTSTRAP_MAILBOX_SIZE;
 use crate::platform::boot::staging::StagingWriter;
-use crate::products::analog_io::capacity::BOOTSTRAP_MAILBOX_SIZE;
 use crate::stacks::ethercat::mailbox::{mailbox_sm_ok, MailboxLink, MailboxServer, Service};
 use coe_core::device::MemoryWindow;
 use coe_core::esm::{Esm, Transition, STATE_MASK};
@@ -122,13 +122,13 @@ pub struct BootSlave<E: IapEntry> {
 }
 
 impl<E: IapEntry> BootSlave<E> {
-    /// A slave in INIT that writes update files for `target` through `iap`;
+    /// A slave in INIT that writes the update files `board` accepts through `iap`;
     /// `application_valid`: what the reset sequence found in the application slot.
-    pub fn new(iap: Iap<E>, target: Target, bootstrap: Bootstrap, application_valid: bool) -> Self {
+    pub fn new(iap: Iap<E>, board: Board, bootstrap: Bootstrap, application_valid: bool) -> Self {
         Self {
             esm: Esm::new().with_bootstrap(true),
             link: MailboxLink::new(BootServer::new()),
-            files: StagingWriter::new(iap, target),
+            files: StagingWriter::new(iap, board),
             bootstrap,
             application_valid,
         }

@@ -36,7 +36,6 @@
 //!   catches anything the events missed.
 
 use crate::platform::boot::staging::{is_firmware_name, BOOT_ONLY};
-use crate::products::analog_io::capacity::{EMERGENCY_QUEUE, MAILBOX_SIZE, TRANSFER_BUFFER};
 use coe_core::device::sm_control;
 use coe_core::foe::FoeError;
 use coe_core::mailbox::{MailboxErrorCode, MailboxProtocol, MAILBOX_HEADER_LEN};
@@ -46,6 +45,13 @@ use coe_core::wire::foe::{self, Foe, FoeErrorCode, FoeRepr};
 use coe_core::wire::MailboxType;
 use coe_core::AlState;
 use et1100::{AlEvents, Et1100, Pdi, PdiResult, SyncManager};
+
+/// Mailbox size (SM0 and SM1 length).
+pub const MAILBOX_SIZE: usize = 128;
+/// Largest object transferred in several frames (segmented SDO, complete access).
+pub const TRANSFER_BUFFER: usize = 512;
+/// Emergencies that can wait for the mailbox.
+pub const EMERGENCY_QUEUE: usize = 4;
 
 /// Bytes of a request read in the first access: the mailbox header and an expedited SDO
 /// (CoE header, command, index, subindex, 4 data bytes).

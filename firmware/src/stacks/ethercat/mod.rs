@@ -1,75 +1,60 @@
-//! The slave application: everything between the ESC registers, the converters and the
-//! CoE core that does not depend on the MCU.
+//! The EtherCAT slave application: everything between the ESC registers and the CoE core
+//! that does not depend on the MCU, for any device behind the [`Application`] trait: the
+//! ESM with its checks, the mailbox (CoE SDO, SDO Information, Emergencies, FoE answered
+//! "bootstrap only"), the process data over the PDI, the sync modes and the cycle
+//! monitor, the SyncManager watchdog and the safety service. It knows no product, no
+//! converter and no other fieldbus.
 //!
 //! # Entry points and priorities
 //!
 //! | Caller (priority)          | Call                                   | State touched                   |
 //! |----------------------------|----------------------------------------|---------------------------------|
-//! | SYNC0 / DAC task (highest) | [`DacLatch::on_sync0`], [`DacLatch::apply_now`], [`DacLatch::preload`] | its `DacLatch` (local), `&OutputStage` (atomics) |
-//! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`]               | `SlaveApp` (local), the ESC, `&OutputStage` |
-//! | CAN task (middle, same as the PDI task) | [`SlaveApp::on_can_frame`], [`SlaveApp::poll_can`], [`SlaveApp::can_tx`] | same as the PDI task |
-//! | background / idle          | [`SlaveApp::poll`]                     | same as the PDI task (call it from that task, or lock) |
-//! | GPDMA interrupt (lowest)   | [`adc_dma::HalfCounter::on_terminal_count`] | the half count (atomic)    |
-//! | sampler task (`adc-irq`)   | [`sampler::SampleProducer::push`]      | its producer half (local)       |
+//! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`] ([`pdi_task::PdiTask::run`]) | `SlaveApp` (local), the ESC, the stage |
+//! | background                 | [`SlaveApp::poll`], [`SlaveApp::safety_service`] | the same, from the same task |
 //!
-//! The tasks share only `&OutputStage` (lock-free atomics) and the ADC samples: by default
-//! the GPDMA's ring (the PDI task's [`adc_dma::ScanReader`] drains whole scans from it), with
-//! the `adc-irq` build the two halves of a [`sampler::SampleRing`] (heapless SPSC); nothing
-//! needs a lock. The PDI task drains the samples into [`SlaveApp::sampler_mut`] before
-//! calling in (or the harness calls
-//! [`SlaveApp::on_samples`]). When [`PdiOutcome::apply_outputs`] is set, the PDI task pends
-//! the DAC task, which calls [`DacLatch::apply_now`] (free run, SM-synchronous, faults). In
-//! DC mode the DAC task may [`DacLatch::preload`] the input registers when pended and only
-//! pulses LDAC at SYNC0. After each SYNC0 edge the PDI task's [`SlaveApp::poll`] should run
-//! (pend it) so the inputs of the cycle reach SM3 and the cycle monitor sees the edge.
+//! The application's [`CycleStage`] is the one thing shared with the task that acts at the
+//! SYNC0 edge (lock-free). When [`PdiOutcome::apply_outputs`] is set, the PDI task asks
+//! that task to apply the staged outputs now (free run, SM-synchronous, faults). After
+//! each SYNC0 edge the PDI task's [`SlaveApp::poll`] should run (pend it) so the inputs of
+//! the cycle reach SM3 and the cycle monitor sees the edge.
 //!
 //! # A host harness (the virtual board) in a few lines
 //!
 //! ```text
 //! let stage = OutputStage::new();
-//! let mut latch = DacLatch::new();
-//! let mut app = SlaveApp::new(&OD, config, process_data);
+//! let mut app = SlaveApp::new(CONFIG, application);
 //! app.start(&mut esc)?;
 //! // IRQ line asserted:
 //! if app.on_pdi_irq(&mut esc, &stage, now_ns)?.apply_outputs {
-//!     dac.execute(latch.apply_now(&stage));
+//!     // the output task applies the staged outputs
 //! }
-//! // SYNC0 edge:
-//! dac.execute(latch.on_sync0(&stage, edge_ns));
+//! // SYNC0 edge: the output task latches, then
 //! app.poll(&mut esc, &stage, now_ns)?;
 //! ```
 
+pub mod application;
 pub mod boot_slave;
 pub mod confirm;
 pub mod mailbox;
 pub mod pdi_task;
 pub mod sync;
 
-use crate::io::analog::objects::{self, AppData};
-use crate::io::analog::outputs::OutputStage;
-pub use crate::io::analog::outputs::{DacAction, DacLatch, DacPair};
-use crate::io::analog::process_data::{ProcessData, SlotValues};
-use crate::io::analog::sampler::{Sample, Sampler};
-use crate::products::analog_io::can::{COMM_DEFAULTS, DEFAULT_NODE_ID};
-use crate::products::analog_io::capacity::MAX_IMAGE;
-use crate::products::analog_io::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
-use crate::products::analog_io::sync::CONFIRM_OUTPUTS_MIN_CYCLE_NS;
-use crate::stacks::canopen::window::{CallKind, CanWindow};
-use crate::stacks::canopen::{CanView, Node};
+pub use application::{Application, CycleStage, Effects};
+
+use crate::platform::div::div_u64_u32;
 use crate::stacks::diagnostics::{
     EMCY_PDI_ERROR, EMCY_SYNC_ERROR, EMCY_WATCHDOG, ERR_COMMUNICATION,
 };
-use coe_core::canopen::{CanFrame, NmtState};
 use coe_core::device::{MemoryWindow, SyncManagerDesc};
 use coe_core::esm::{Esm, Transition};
-use coe_core::od::ObjectDictionary;
+use coe_core::sdo_server::Emergency;
 use coe_core::{AlState, AlStatusCode};
 use confirm::Confirmed;
 use et1100::{
     AlEvents, AlStatus, Et1100, Pdi, PdiResult, Register, SmMode, SyncManager, WatchdogStatus,
 };
 use mailbox::{mailbox_sm_ok, AppLink, Service, EVENT_SAMPLE_MS, SAFETY_SERVICE_MS};
-use sync::{check_sync, SyncInputs, SyncMode, SyncVerdict};
+use sync::{check_sync, SyncInputs, SyncMode, SyncMonitor, SyncVerdict};
 
 /// What the device description fixes for the application.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -84,29 +69,14 @@ pub struct AppConfig {
     /// for INIT -> BOOT, which resets the module into its bootloader; `None`: no BOOT state
     /// (refused with 0x0013).
     pub bootstrap: Option<(MemoryWindow, MemoryWindow)>,
-    /// The CANopen node-ID (1..=127).
-    pub can_node_id: u8,
-}
-
-impl AppConfig {
-    /// The configuration of the product ([`crate::products::analog_io`]): its SyncManager layout and
-    /// bootstrap mailbox, no explicit device ID.
-    pub const fn product() -> Self {
-        Self {
-            sm: SYNC_MANAGERS,
-            device_id: None,
-            bootstrap: Some(BOOTSTRAP_MAILBOX),
-            can_node_id: DEFAULT_NODE_ID,
-        }
-    }
 }
 
 /// What the PDI task must do after a call.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PdiOutcome {
-    /// Pend the DAC task: fresh outputs (free run, SM-synchronous) or fault values to apply
-    /// now ([`DacLatch::apply_now`]).
+    /// Ask the output task to apply the staged outputs now: fresh outputs (free run,
+    /// SM-synchronous) or fault values.
     pub apply_outputs: bool,
     /// An SM2 event (the master's outputs of a cycle) was served.
     pub sm2_event: bool,
@@ -120,15 +90,11 @@ const BASE_EVENTS: AlEvents = AlEvents::AL_CONTROL
     .union(AlEvents::SM_ACTIVATION)
     .union(AlEvents::WATCHDOG);
 
-/// The slave application: the EtherCAT side (ESM, mailbox, process data over the PDI) and
-/// the CAN side (the CANopen node, [`can`]) on one dictionary.
-pub struct SlaveApp {
+/// The slave application (ESM, mailbox, process data over the PDI) for the device `A`.
+pub struct SlaveApp<A: Application> {
     esm: Esm,
     mailbox: AppLink,
-    can: Node,
-    /// When the CAN task may call the node (after the outputs of an EtherCAT cycle).
-    can_window: CanWindow,
-    data: AppData,
+    app: A,
     config: AppConfig,
     /// The AL event mask last written to the ESC.
     mask: Option<AlEvents>,
@@ -146,26 +112,23 @@ pub struct SlaveApp {
     /// Read changed outputs twice before taking them (decided at PREOP -> SAFEOP).
     confirm_outputs: bool,
     /// Buffers of the confirming reads of the outputs.
-    fresh: [u8; MAX_IMAGE],
-    again: [u8; MAX_IMAGE],
+    fresh: A::OutputBuffer,
+    again: A::OutputBuffer,
     /// Output reads dropped because no two reads agreed.
     rejected_reads: u16,
     /// The ESC's PDI error counter and the dropped reads as last reported.
     pdi_reported: (u8, u16),
 }
 
-impl SlaveApp {
-    /// An application in INIT over the dictionary `od` with the default PDO configuration
-    /// `pd`.
-    pub fn new(od: &'static ObjectDictionary, config: AppConfig, pd: ProcessData) -> Self {
+impl<A: Application> SlaveApp<A> {
+    /// The slave application in INIT for the device `app`.
+    pub fn new(config: AppConfig, app: A) -> Self {
         Self {
             esm: Esm::new()
                 .with_device_id(config.device_id)
                 .with_bootstrap(config.bootstrap.is_some()),
-            mailbox: AppLink::for_dictionary(od),
-            can: Node::new(config.can_node_id, od, &COMM_DEFAULTS),
-            can_window: CanWindow::new(),
-            data: AppData::new(od, pd),
+            mailbox: AppLink::for_dictionary(app.od()),
+            app,
             config,
             mask: None,
             mask_stale: true,
@@ -174,8 +137,8 @@ impl SlaveApp {
             pdi_errors_read: false,
             event_sample_ns: 0,
             confirm_outputs: true,
-            fresh: [0; MAX_IMAGE],
-            again: [0; MAX_IMAGE],
+            fresh: A::output_buffer(),
+            again: A::output_buffer(),
             rejected_reads: 0,
             pdi_reported: (0, 0),
         }
@@ -191,29 +154,24 @@ impl SlaveApp {
         &self.esm
     }
 
-    /// The application data (object values, outputs, sync monitor, PDO configuration).
-    pub fn data(&self) -> &AppData {
-        &self.data
+    /// The device.
+    pub fn application(&self) -> &A {
+        &self.app
+    }
+
+    /// The device, to change (samples in, a second fieldbus's calls).
+    pub fn application_mut(&mut self) -> &mut A {
+        &mut self.app
+    }
+
+    /// The sync mode, 0x1C32/0x1C33 and the cycle monitor (the application keeps it).
+    pub fn sync(&self) -> &SyncMonitor<A::Figures> {
+        self.app.sync()
     }
 
     /// The mailbox link.
     pub fn mailbox(&self) -> &AppLink {
         &self.mailbox
-    }
-
-    /// The CANopen node.
-    pub fn can_node(&self) -> &Node {
-        &self.can
-    }
-
-    /// The sampler (the PDI task drains the sample ring into it).
-    pub fn sampler_mut(&mut self) -> &mut Sampler {
-        &mut self.data.sampler
-    }
-
-    /// Adds samples directly (harnesses without a ring).
-    pub fn on_samples(&mut self, samples: &[Sample]) {
-        self.data.sampler.add_all(samples);
     }
 
     /// Power-up: AL status INIT without error, event mask.
@@ -233,7 +191,7 @@ impl SlaveApp {
     pub fn on_pdi_irq<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
     ) -> PdiResult<PdiOutcome, P> {
         let events = esc.low_events()?;
@@ -252,7 +210,7 @@ impl SlaveApp {
         if events.contains(AlEvents::SM2) {
             self.outputs(esc, stage, now_ns, &mut out)?;
             out.sm2_event = true;
-            self.can_window.on_output_event(now_ns);
+            self.app.on_output_event(now_ns);
         }
         let activation = events.contains(AlEvents::SM_ACTIVATION);
         if activation {
@@ -278,7 +236,7 @@ impl SlaveApp {
     pub fn poll<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
     ) -> PdiResult<PdiOutcome, P> {
         let mut out = PdiOutcome::default();
@@ -286,23 +244,23 @@ impl SlaveApp {
         let counts = stage.sync0_counts();
         let new_edge = counts.edges != self.sync0_seen;
         self.sync0_seen = counts.edges;
-        if new_edge {
-            self.can_window.on_sync0_polled(now_ns, counts.last_edge_lo);
-        } else {
-            self.can_window.on_tick_polled(now_ns);
-        }
-        if self.data.sync.on_sync0_counts(counts) == SyncVerdict::SyncError {
+        self.app
+            .on_cycle_polled(now_ns, new_edge.then_some(counts.last_edge_lo));
+        if self.app.sync_mut().on_sync0_counts(counts) == SyncVerdict::SyncError {
             self.sync_error(esc, stage, AlStatusCode::SynchronizationError, &mut out)?;
         }
         let in_op = self.esm.state() == AlState::Op;
-        let sync0 = self.data.sync.on_sync0_time(now_ns, counts.edges, in_op);
+        let sync0 = self
+            .app
+            .sync_mut()
+            .on_sync0_time(now_ns, counts.edges, in_op);
         if sync0 == SyncVerdict::FatalSyncError {
             self.sync_error(esc, stage, AlStatusCode::FatalSyncError, &mut out)?;
         }
         let mut events = None;
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
-            let mode = self.data.sync.mode();
-            let free = mode == SyncMode::FreeRun || !self.data.sync.armed();
+            let mode = self.app.sync().mode();
+            let free = mode == SyncMode::FreeRun || !self.app.sync().armed();
             if free || (mode == SyncMode::DcSync0 && new_edge) {
                 events = self.write_inputs(esc)?;
             }
@@ -325,10 +283,10 @@ impl SlaveApp {
             // anywhere else in the cycle they can hold the next SM2 event, and its DAC
             // preload, past the SYNC0 edge. Without SM2 events (the master stopped) there
             // are no outputs to delay: the poll runs them two SYNC0 cycles late.
-            let dc = self.data.sync.mode() == SyncMode::DcSync0 && self.data.sync.armed();
+            let dc = self.app.sync().mode() == SyncMode::DcSync0 && self.app.sync().armed();
             let late = || {
                 self.mailbox_check_ns
-                    .saturating_add(2 * u64::from(self.data.sync.sync0_cycle_ns()))
+                    .saturating_add(2 * u64::from(self.app.sync().sync0_cycle_ns()))
             };
             if self.safety_service_due(now_ns) && (!dc || now_ns >= late()) {
                 self.registers_service(esc, stage, now_ns, &mut out)?;
@@ -346,7 +304,8 @@ impl SlaveApp {
     /// arrive: the master must see the state the slave is in, and the SPI has no checksum.
     fn write_status<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<(), P> {
         self.mask_stale = true;
-        self.data.running.ethercat = matches!(self.esm.state(), AlState::SafeOp | AlState::Op);
+        self.app
+            .set_running(matches!(self.esm.state(), AlState::SafeOp | AlState::Op));
         let (status, code) = (self.esm.status(), self.esm.status_code_word());
         for _ in 0..confirm::MAX_READS {
             esc.write_al_status(AlStatus(status), code)?;
@@ -364,12 +323,13 @@ impl SlaveApp {
         Ok(())
     }
 
-    /// An Emergency of the application: into the error history (0x1003) and out on both
-    /// fieldbuses.
-    fn emergency(&mut self, e: coe_core::sdo_server::Emergency) {
+    /// An Emergency of the device (also one another fieldbus's call raised): into the
+    /// error history (0x1003), out on the mailbox and to the application (for another
+    /// fieldbus).
+    pub fn emergency(&mut self, e: Emergency) {
         self.mailbox.queue_emergency(e);
-        self.can.queue_emergency(e);
-        self.data.diag.history.record(&e);
+        self.app.diagnostics().history.record(&e);
+        self.app.on_emergency(&e);
     }
 
     /// [`MailboxLink::needs_service`](mailbox::MailboxLink::needs_service). Outside the
@@ -397,8 +357,7 @@ impl SlaveApp {
         if state != AlState::Init {
             mask |= self.mailbox.event_mask();
         }
-        if matches!(state, AlState::SafeOp | AlState::Op) && self.data.pd.rx_layout().byte_len() > 0
-        {
+        if matches!(state, AlState::SafeOp | AlState::Op) && !self.app.output_image().is_empty() {
             mask |= AlEvents::SM2;
         }
         if self.mask != Some(mask) {
@@ -412,7 +371,7 @@ impl SlaveApp {
     fn al_control<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
         // Read until two reads agree (a flipped bit would request a state the master never
@@ -425,7 +384,7 @@ impl SlaveApp {
         let had_error = self.esm.error();
         let decision = self.esm.request(control);
         if had_error && !self.esm.error() {
-            if let Some(e) = self.data.diag.clear(ERR_COMMUNICATION) {
+            if let Some(e) = self.app.diagnostics().clear(ERR_COMMUNICATION) {
                 self.emergency(e);
             }
         }
@@ -448,8 +407,10 @@ impl SlaveApp {
                     Ok(()) => self.esm.complete(to),
                     Err((state, code)) => self.esm.fail(state, code),
                 }
-                self.mailbox
-                    .on_state_change(&mut self.data, from, self.esm.state());
+                let to = self.esm.state();
+                let mailbox = &mut self.mailbox;
+                self.app
+                    .with_objects(stage, 0, |o| mailbox.on_state_change(o, from, to));
                 if self.esm.state() == AlState::Init {
                     self.mailbox_check_ns = u64::MAX;
                 }
@@ -474,15 +435,15 @@ impl SlaveApp {
     fn transition<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         from: AlState,
         to: AlState,
         out: &mut PdiOutcome,
     ) -> PdiResult<Result<(), (AlState, AlStatusCode)>, P> {
         if from == AlState::Op {
             // Leaving OP: safe outputs at once, stale outputs never come back.
-            self.data.outputs.enter_fault(stage);
-            self.data.sync.disarm();
+            self.app.enter_fault(stage);
+            self.app.sync_mut().disarm();
             out.apply_outputs = true;
         }
         match (from, to) {
@@ -500,7 +461,7 @@ impl SlaveApp {
                     *slot = sm;
                 }
                 self.mailbox.start(esc, regs[0], regs[1])?;
-                self.data.sync.reset();
+                self.app.sync_mut().reset();
             }
             (AlState::PreOp, AlState::SafeOp) => {
                 if let Err(code) = self.prepare_safeop(esc, stage)? {
@@ -510,7 +471,7 @@ impl SlaveApp {
             (AlState::SafeOp, AlState::Op) => {
                 // Accepted before the first outputs arrive; the outputs stay safe until
                 // fresh process data come in OP.
-                self.data.sync.enter_op();
+                self.app.sync_mut().enter_op();
             }
             _ => {}
         }
@@ -523,37 +484,33 @@ impl SlaveApp {
     fn prepare_safeop<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
     ) -> PdiResult<Result<(), AlStatusCode>, P> {
         let sm2 = esc.read_sm(2)?;
         let sm3 = esc.read_sm(3)?;
         let dc_activation = esc.sync_activation()?;
         let sync0_cycle_ns = esc.sync0_cycle_ns()?;
-        let (requested, requested_inputs) = self.data.sync.requests();
+        let (requested, requested_inputs) = self.app.sync().requests();
         let inputs = SyncInputs {
             requested,
             requested_inputs,
             dc_activation,
             sync0_cycle_ns,
-            has_outputs: self.data.pd.output_len() > 0,
+            has_outputs: self.app.output_len() > 0,
             sm2_three_buffer: sm2.mode() == SmMode::Buffered,
+            min_cycle_ns: self.app.sync().figures().min_cycle_ns,
         };
         let mode = match check_sync(&inputs) {
             Ok(mode) => mode,
             Err(e) => return Ok(Err(e.al_status_code())),
         };
-        if self.data.source == objects::OutputSource::Can && self.data.pd.output_len() > 0 {
-            // CAN drives the outputs (crate::products::analog_io::can): EtherCAT runs inputs only.
-            return Ok(Err(AlStatusCode::InvalidOutputConfiguration));
-        }
         let [_, _, expect2, expect3] = self.config.sm;
-        let od = self.data.od();
-        if let Err(code) = self.data.pd.prepare(od, &sm2, &sm3, &expect2, &expect3) {
+        if let Err(code) = self.app.prepare(&sm2, &sm3, &expect2, &expect3) {
             return Ok(Err(code));
         }
-        self.data.sync.start(mode, sync0_cycle_ns);
-        self.confirm_outputs =
-            mode != SyncMode::DcSync0 || sync0_cycle_ns >= CONFIRM_OUTPUTS_MIN_CYCLE_NS;
+        self.app.sync_mut().start(mode, sync0_cycle_ns);
+        self.confirm_outputs = mode != SyncMode::DcSync0
+            || sync0_cycle_ns >= self.app.sync().figures().confirm_outputs_min_cycle_ns;
         stage.set_dc_mode(mode == SyncMode::DcSync0);
         // Inputs are valid in SAFEOP.
         self.write_inputs(esc)?;
@@ -565,15 +522,15 @@ impl SlaveApp {
     fn watchdog<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
         let status = esc.watchdog_status()?;
         if status == WatchdogStatus::Expired && self.esm.state() == AlState::Op {
             self.local_error(esc, stage, AlStatusCode::SyncManagerWatchdog, out)?;
             let e = self
-                .data
-                .diag
+                .app
+                .diagnostics()
                 .raise(ERR_COMMUNICATION, EMCY_WATCHDOG, [0; 5]);
             self.emergency(e);
         }
@@ -585,12 +542,12 @@ impl SlaveApp {
     fn sync_error<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         code: AlStatusCode,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
-        let counter = self.data.sync.error_counter().to_le_bytes();
-        let e = self.data.diag.raise(
+        let counter = self.app.sync().error_counter().to_le_bytes();
+        let e = self.app.diagnostics().raise(
             ERR_COMMUNICATION,
             EMCY_SYNC_ERROR,
             [counter[0], counter[1], 0, 0, 0],
@@ -606,17 +563,19 @@ impl SlaveApp {
     fn local_error<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         code: AlStatusCode,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
         let from = self.esm.state();
-        self.data.outputs.enter_fault(stage);
-        self.data.sync.disarm();
+        self.app.enter_fault(stage);
+        self.app.sync_mut().disarm();
         out.apply_outputs = true;
         self.esm.local_error(AlState::SafeOp, code);
-        self.mailbox
-            .on_state_change(&mut self.data, from, self.esm.state());
+        let to = self.esm.state();
+        let mailbox = &mut self.mailbox;
+        self.app
+            .with_objects(stage, 0, |o| mailbox.on_state_change(o, from, to));
         self.write_status(esc)
     }
 
@@ -632,8 +591,8 @@ impl SlaveApp {
         if rose {
             let [lo, hi] = self.rejected_reads.to_le_bytes();
             let e = self
-                .data
-                .diag
+                .app
+                .diagnostics()
                 .report(EMCY_PDI_ERROR, [b[0], b[1], lo, hi, 0]);
             self.emergency(e);
         }
@@ -645,7 +604,7 @@ impl SlaveApp {
     fn outputs<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
@@ -654,7 +613,7 @@ impl SlaveApp {
             return Ok(());
         }
         let start = self.config.sm[2].start;
-        let image = self.data.pd.output_image_mut();
+        let image = self.app.output_image();
         if image.is_empty() {
             return Ok(());
         }
@@ -662,8 +621,10 @@ impl SlaveApp {
             // Taken only when two reads agree (or equal to what is staged already): a
             // value the ESC never held must not reach the DAC.
             let n = image.len();
-            let (Some(fresh), Some(again)) = (self.fresh.get_mut(..n), self.again.get_mut(..n))
-            else {
+            let (Some(fresh), Some(again)) = (
+                self.fresh.as_mut().get_mut(..n),
+                self.again.as_mut().get_mut(..n),
+            ) else {
                 return Ok(());
             };
             let read = confirm::read_confirmed(fresh, Some(image), again, |b| {
@@ -687,20 +648,19 @@ impl SlaveApp {
             esc.read_process_data(start, image)?;
         }
         let in_op = state == AlState::Op;
-        self.data
-            .sync
+        self.app
+            .sync_mut()
             .on_sm2_event(now_ns, in_op, stage.sync0_counts());
         if in_op {
-            if let Ok(ao) = self.data.pd.unpack_ao(self.data.outputs.values(), state) {
-                if let (_, Some(e)) = self.data.set_outputs(ao, true, stage) {
-                    self.emergency(e);
-                }
-                if self.data.sync.mode() != SyncMode::DcSync0 {
-                    out.apply_outputs = true;
-                }
+            let taken = self.app.take_outputs(stage);
+            if let Some(e) = taken.emergency {
+                self.emergency(e);
+            }
+            if taken.apply_outputs && self.app.sync().mode() != SyncMode::DcSync0 {
+                out.apply_outputs = true;
             }
         }
-        if self.data.sync.mode() != SyncMode::DcSync0 {
+        if self.app.sync().mode() != SyncMode::DcSync0 {
             self.write_inputs(esc)?;
         }
         Ok(())
@@ -709,20 +669,11 @@ impl SlaveApp {
     /// Publishes the samples of the cycle and writes them to SM3; returns the AL event bits
     /// of the write (`None` if nothing was written).
     fn write_inputs<P: Pdi>(&mut self, esc: &mut Et1100<P>) -> PdiResult<Option<AlEvents>, P> {
-        self.data.sampler.publish();
-        let ao = self.data.outputs.values();
-        let values = SlotValues {
-            ai_codes: self.data.sampler.codes(),
-            ao: &ao,
-            error_register: self.data.diag.register(),
-        };
         let start = self.config.sm[3].start;
-        if let Ok(image) = self.data.pd.pack_values(&values) {
-            if !image.is_empty() {
-                return esc.write_process_data(start, image).map(Some);
-            }
+        match self.app.input_image() {
+            Some(image) if !image.is_empty() => esc.write_process_data(start, image).map(Some),
+            _ => Ok(None),
         }
-        Ok(None)
     }
 
     // ------------------------------------------------------------ mailbox
@@ -739,7 +690,7 @@ impl SlaveApp {
     pub fn safety_service<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
     ) -> PdiResult<PdiOutcome, P> {
         let mut out = PdiOutcome::default();
@@ -756,7 +707,7 @@ impl SlaveApp {
     fn registers_service<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
         out: &mut PdiOutcome,
     ) -> PdiResult<(), P> {
@@ -772,7 +723,8 @@ impl SlaveApp {
     }
 
     /// The next safety service of the mailbox: [`SAFETY_SERVICE_MS`] after the registers were
-    /// read at `now_ns`.
+    /// read at `now_ns`. (Out of line: two callers, neither on the process-data path.)
+    #[inline(never)]
     fn arm_mailbox_check(&mut self, now_ns: u64) {
         self.mailbox_check_ns = match self.esm.state() {
             AlState::Init => u64::MAX,
@@ -785,7 +737,7 @@ impl SlaveApp {
     fn serve_mailbox<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
         how: Service,
         out: &mut PdiOutcome,
@@ -796,132 +748,17 @@ impl SlaveApp {
             self.arm_mailbox_check(now_ns);
         }
         // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
-        let now_ms = crate::platform::div::div_u64_u32(now_ns >> 6, 15_625) as u32;
-        let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
-        // The CAN node's access: its communication objects, the rest the application's.
-        let mut access = self.can.access(&mut view, micros(now_ns));
-        self.mailbox.service(esc, state, &mut access, now_ms, how)?;
-        // SDO-written outputs take effect if EtherCAT drives the outputs and is in OP.
-        if let Some(values) = view.data.take_ao_written() {
-            let owner = view.data.source == objects::OutputSource::EtherCat;
-            view.stage_outputs(values, owner && state == AlState::Op);
-        }
-        if let Some(e) = view.emergency.take() {
+        let now_ms = div_u64_u32(now_ns >> 6, 15_625) as u32;
+        let mailbox = &mut self.mailbox;
+        let served = self.app.with_objects(stage, now_ns, |objects| {
+            mailbox.service(esc, state, objects, now_ms, how)
+        });
+        // SDO-written outputs take effect in OP.
+        let after = self.app.after_mailbox(state == AlState::Op, stage);
+        out.apply_outputs |= after.apply_outputs;
+        if let Some(e) = after.emergency {
             self.emergency(e);
         }
-        Ok(())
+        served
     }
-
-    // ------------------------------------------------------------ CAN
-
-    /// A frame the CAN controller received at `now_ns`.
-    pub fn on_can_frame(
-        &mut self,
-        frame: &CanFrame,
-        stage: &OutputStage,
-        now_ns: u64,
-    ) -> PdiOutcome {
-        self.can_call(Some(frame), stage, now_ns)
-    }
-
-    /// The CAN node's next PDO step, or its timers when none is left, at `now_ns` (call
-    /// at [`SlaveApp::can_deadline_ns`] at the latest).
-    pub fn poll_can(&mut self, stage: &OutputStage, now_ns: u64) -> PdiOutcome {
-        self.can_call(None, stage, now_ns)
-    }
-
-    /// The next frame for the CAN controller (highest priority first).
-    pub fn can_tx(&mut self) -> Option<CanFrame> {
-        self.can.pop_tx()
-    }
-
-    /// The frame [`SlaveApp::can_tx`] would give, left in place.
-    pub fn peek_can_tx(&self) -> Option<CanFrame> {
-        self.can.peek_tx()
-    }
-
-    /// True if the CAN node has frames to send (cheap: the PDI task asks every activation).
-    pub fn has_can_tx(&self) -> bool {
-        self.can.has_tx()
-    }
-
-    /// The kind of the node call that serves received `frame`, or without one
-    /// [`SlaveApp::poll_can`] ([`CallKind`]).
-    pub fn can_call_kind(&self, frame: Option<&CanFrame>) -> CallKind {
-        let sync_id = self.can.params().sync.cob_id.can_id();
-        match frame {
-            Some(f) => CallKind::of_frame(f.id(), self.can.node_id(), sync_id),
-            None if self.can.has_steps() => CallKind::PdoStep,
-            None => CallKind::Timers,
-        }
-    }
-
-    /// True if the CAN node has PDO work left in steps (run before the next frame).
-    pub fn can_has_steps(&self) -> bool {
-        self.can.has_steps()
-    }
-
-    /// Whether a call of the CAN node of `kind` may start at `now_ns` ([`CanWindow`]); a
-    /// refusal is remembered as CAN work that waits.
-    pub fn admit_can_call(&mut self, kind: CallKind, now_ns: u64) -> bool {
-        self.can_window.admit(kind, now_ns)
-    }
-
-    /// CAN work was refused and the window is open now: pend the CAN task.
-    pub fn can_work_waiting(&self, now_ns: u64) -> bool {
-        self.can_window.work_waiting(now_ns)
-    }
-
-    /// CAN work was refused and waits for the window (whoever opens it pends the CAN task).
-    pub fn can_waiting(&self) -> bool {
-        self.can_window.waiting()
-    }
-
-    /// When [`SlaveApp::poll_can`] must run next (ns).
-    pub fn can_deadline_ns(&self) -> Option<u64> {
-        self.can
-            .next_deadline_us()
-            .map(|us| us.saturating_mul(1000))
-    }
-
-    /// A received frame into the CAN node, or without one its next PDO step or else its
-    /// timers, and what follows from it for the outputs and the other fieldbus: one
-    /// bounded piece of work per call, so the CAN window can admit it by its kind. (One body for both callers: in the image it
-    /// exists once.)
-    fn can_call(
-        &mut self,
-        frame: Option<&CanFrame>,
-        stage: &OutputStage,
-        now_ns: u64,
-    ) -> PdiOutcome {
-        let now_us = micros(now_ns);
-        let mut out = PdiOutcome::default();
-        if !self.data.running.ethercat {
-            // Without EtherCAT cycles the CAN side ends the sampling cycle (TPDOs and SDO
-            // reads see the newest inputs); with them it reads what their cycle published.
-            self.data.sampler.publish();
-        }
-        let mut view = CanView::new(&mut self.data, stage, &mut out.apply_outputs);
-        match frame {
-            Some(frame) => self.can.receive(frame, &mut view, now_us),
-            None if self.can.has_steps() => _ = self.can.step(&mut view, now_us),
-            None => self.can.timers(&mut view, now_us),
-        }
-        let operational = self.can.state() == NmtState::Operational;
-        view.data.running.can = operational;
-        // SDO-written outputs take effect if CAN drives the outputs and is operational.
-        if let Some(values) = view.data.take_ao_written() {
-            let owner = view.data.source == objects::OutputSource::Can;
-            view.stage_outputs(values, owner && operational);
-        }
-        if let Some(e) = view.emergency.take() {
-            self.emergency(e);
-        }
-        out
-    }
-}
-
-/// Nanoseconds to microseconds (32-bit divisions only).
-fn micros(now_ns: u64) -> u64 {
-    crate::platform::div::div_u64_u32(now_ns, 1000)
 }

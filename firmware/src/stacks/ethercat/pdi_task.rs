@@ -12,9 +12,7 @@
 //! retried on every activation until then, so a slow or late EEPROM load does not leave the
 //! module silent.
 
-use super::SlaveApp;
-use crate::io::analog::outputs::{OutputStage, StageKind};
-use crate::io::analog::sampler::Sampler;
+use super::{Application, CycleStage, SlaveApp};
 use et1100::{Et1100, Pdi};
 
 /// Self-pends in a row while the IRQ line stays asserted after serving.
@@ -108,8 +106,8 @@ impl LevelIrq {
 }
 
 /// The PDI task's state: the application, the IRQ line bookkeeping and the error counters.
-pub struct PdiTask {
-    app: SlaveApp,
+pub struct PdiTask<A: Application> {
+    app: SlaveApp<A>,
     line: LevelIrq,
     started: bool,
     bus_errors: u32,
@@ -119,9 +117,9 @@ pub struct PdiTask {
     service_deferred: bool,
 }
 
-impl PdiTask {
+impl<A: Application> PdiTask<A> {
     /// The task around `app` (not started: see [`PdiTask::run`]).
-    pub fn new(app: SlaveApp) -> Self {
+    pub fn new(app: SlaveApp<A>) -> Self {
         Self {
             app,
             line: LevelIrq::new(),
@@ -133,12 +131,12 @@ impl PdiTask {
     }
 
     /// The application.
-    pub fn app(&self) -> &SlaveApp {
+    pub fn app(&self) -> &SlaveApp<A> {
         &self.app
     }
 
-    /// The application, e.g. to drain the sample ring into its sampler.
-    pub fn app_mut(&mut self) -> &mut SlaveApp {
+    /// The application, e.g. for another fieldbus's task at the same priority.
+    pub fn app_mut(&mut self) -> &mut SlaveApp<A> {
         &mut self.app
     }
 
@@ -178,15 +176,15 @@ impl PdiTask {
     pub fn run<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
-        stage: &OutputStage,
+        stage: &A::Stage,
         now_ns: u64,
         wake: Wake,
         still_asserted: impl FnOnce() -> bool,
-        mut drain: impl FnMut(&mut Sampler),
+        mut drain: impl FnMut(&mut A),
     ) -> Done {
         // Started once; every later activation skips the call.
         if !(self.started || self.start(esc, wake.pdi_ready)) {
-            drain(self.app.sampler_mut());
+            drain(self.app.application_mut());
             // Nothing can be served; the periodic tick retries. No self-pend: a line that
             // an unready ESC holds low must not keep the task busy.
             return Done::default();
@@ -218,11 +216,11 @@ impl PdiTask {
             done.take(self.outcome(r, stage));
         }
         if poll {
-            drain(self.app.sampler_mut());
+            drain(self.app.application_mut());
             let r = self.app.poll(esc, stage, now_ns);
             done.take(self.outcome(r, stage));
         } else if !(done.apply_outputs || done.preload_outputs) {
-            drain(self.app.sampler_mut());
+            drain(self.app.application_mut());
         }
         done.pend_again = self.line.after_serve(wake.edge, still_asserted()) || self.poll_deferred;
         done
@@ -234,14 +232,14 @@ impl PdiTask {
     fn outcome<E>(
         &mut self,
         r: Result<super::PdiOutcome, E>,
-        stage: &OutputStage,
+        stage: &A::Stage,
     ) -> super::PdiOutcome {
         match r {
             Ok(o) => o,
             Err(_) => {
                 self.bus_errors = self.bus_errors.wrapping_add(1);
                 super::PdiOutcome {
-                    apply_outputs: !stage.dc_mode() || stage.staged().0 == StageKind::Fault,
+                    apply_outputs: !stage.dc_mode() || stage.fault_waiting(),
                     ..Default::default()
                 }
             }
@@ -253,14 +251,14 @@ impl PdiTask {
 mod tests {
     use super::*;
     use crate::fake_esc::FakeEsc;
-    use crate::io::analog::process_data::ProcessData;
-    use crate::products::analog_io::od::OD;
-    use crate::stacks::ethercat::{AppConfig, DacLatch, DacPair};
+    use crate::io::analog::outputs::{DacLatch, DacPair, OutputStage};
+    use crate::products::analog_io::{application, Application as AnalogIo, CONFIG};
     use coe_core::AlState;
     use et1100::AlEvents;
 
-    fn task() -> (PdiTask, FakeEsc, OutputStage) {
-        let app = SlaveApp::new(&OD, AppConfig::product(), ProcessData::product_default());
+    /// The analog-io product's task: the tests need an application, and that one is real.
+    fn task() -> (PdiTask<AnalogIo>, FakeEsc, OutputStage) {
+        let app = SlaveApp::new(CONFIG, application());
         (PdiTask::new(app), FakeEsc::new(), OutputStage::new())
     }
 
@@ -280,7 +278,7 @@ mod tests {
 
     /// The master configures the mailbox SyncManagers as the device description says.
     fn mailbox_sms(esc: &mut FakeEsc) {
-        for (n, sm) in AppConfig::product().sm.iter().take(2).enumerate() {
+        for (n, sm) in CONFIG.sm.iter().take(2).enumerate() {
             esc.master_sm(n as u8, sm.start, sm.len, sm.control, true);
         }
     }
@@ -399,7 +397,7 @@ mod tests {
         mailbox_sms(&mut esc);
         esc.master_al_control(0x02);
         let drains = core::cell::Cell::new(0);
-        let count = |_: &mut Sampler| drains.set(drains.get() + 1);
+        let count = |_: &mut AnalogIo| drains.set(drains.get() + 1);
         t.run(&mut esc.driver(), &stage, 0, EDGE, || false, count);
         assert_eq!(
             drains.get(),

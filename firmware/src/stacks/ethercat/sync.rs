@@ -9,7 +9,7 @@
 //!   enforced against the ESC: DC SYNC0 needs 0x0981 with cyclic operation and SYNC0 active,
 //!   any other mode needs SYNC0 inactive, else 0x0030 InvalidDcSyncConfiguration; in DC
 //!   mode the SYNC0 cycle (0x09A0) must be at least the minimum cycle time
-//!   ([`MIN_CYCLE_TIME_NS`]), else 0x0035 DcInvalidSyncCycleTime; free run needs SM2 in
+//!   ([`SyncFigures::min_cycle_ns`]), else 0x0035 DcInvalidSyncCycleTime; free run needs SM2 in
 //!   3-buffer mode, else 0x0029 FreeRunNeeds3BufferMode; SYNC1 is not offered, 0x0028.
 //! - The master did not write it (ethercrab, SOEM): the mode follows the ESC, as SOES does:
 //!   SYNC0 active -> DC SYNC0 (same cycle-time check), else SM-synchronous when SM2 carries
@@ -34,14 +34,64 @@
 //! `CheckIfEcatError`, which also checks the watchdog before the sync error). SM2 events
 //! closer than the minimum cycle time count "cycle time too small".
 
-use crate::io::analog::outputs::Sync0Counts;
-use crate::products::analog_io::sync::{
-    DEFAULT_SYNC_ERROR_LIMIT, INPUT_CALC_COPY_NS, MIN_CYCLE_TIME_NS, OUTPUT_CALC_COPY_NS,
-    OUTPUT_DELAY_NS, SUPPORTED_MODES, SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM,
-    SYNC_MODE_SM2_INPUTS,
-};
 use coe_core::{AlStatusCode, SdoAbortCode};
+use core::marker::PhantomData;
 use et1100::SyncActivation;
+
+/// Sync mode code (0x1C32:01, 0x1C33:01): free run.
+pub const SYNC_MODE_FREE_RUN: u16 = 0;
+/// Sync mode code: synchronous with the SM event (0x1C32:01: SM2; 0x1C33:01: SM3).
+pub const SYNC_MODE_SM: u16 = 1;
+/// Sync mode code: DC SYNC0.
+pub const SYNC_MODE_DC_SYNC0: u16 = 2;
+/// Sync mode code of 0x1C33:01: inputs latched on the SM2 event (Beckhoff SSC
+/// `SYNCTYPE_SM2INT`).
+pub const SYNC_MODE_SM2_INPUTS: u16 = 0x22;
+
+/// Sync modes supported (0x1C32:04/0x1C33:04): b0 free run, b1 SM-synchronous, bits 4:2 =
+/// 001 DC SYNC0.
+pub const SUPPORTED_MODES: u16 = 0x0007;
+
+/// The figures of one image that the slave application advertises (0x1C32/0x1C33, the
+/// device description) and enforces: measured on the image of the product they belong to
+/// (`cargo xtask bench`), so each product gives its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SyncFigures {
+    /// Shortest cycle the image handles (0x1C32:05/0x1C33:05, ns): the limit on the SYNC0
+    /// cycle (AL status 0x0035) and on 0x1C32:02.
+    pub min_cycle_ns: u32,
+    /// Outputs: SM2 event to outputs copied and staged (0x1C32:06, ns).
+    pub output_calc_copy_ns: u32,
+    /// Outputs: SYNC0 edge to outputs updated (0x1C32:09, ns).
+    pub output_delay_ns: u32,
+    /// Inputs: latch to SM3 written (0x1C33:06, ns).
+    pub input_calc_copy_ns: u32,
+    /// Shortest DC cycle at which changed outputs are read twice before they are taken
+    /// (`super::confirm`); in SM-synchronous and free-run mode they always are.
+    pub confirm_outputs_min_cycle_ns: u32,
+    /// Default Sync Error Counter Limit (0x10F1:02).
+    pub default_error_limit: u16,
+}
+
+/// SYNC0 bookkeeping the DAC task leaves for the PDI task (cycle monitoring).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sync0Counts {
+    /// SYNC0 edges seen (wrapping).
+    pub edges: u32,
+    /// Edges in DC mode that found no fresh outputs (wrapping).
+    pub without_outputs: u32,
+    /// Low 32 bits of the captured time of the last edge (ns).
+    pub last_edge_lo: u32,
+}
+
+/// A product's [`SyncFigures`] as a type: the monitor is generic over it, so the figures are
+/// constants in the image (as immediate operands on the process-data path).
+pub trait Figures {
+    /// The figures.
+    const SYNC: SyncFigures;
+}
 
 /// Shortest SYNC0 watchdog time: the SSC's tick (1 ms), its Sync0WdValue at least 1.
 pub const SYNC0_WATCHDOG_MIN_NS: u64 = 1_000_000;
@@ -140,6 +190,8 @@ pub struct SyncInputs {
     pub has_outputs: bool,
     /// SM2 is in 3-buffer mode (control bits 1:0 = 00).
     pub sm2_three_buffer: bool,
+    /// The shortest SYNC0 cycle accepted ([`SyncFigures::min_cycle_ns`]).
+    pub min_cycle_ns: u32,
 }
 
 /// The PREOP -> SAFEOP sync check: the mode to run in, or the refusal.
@@ -173,7 +225,7 @@ pub fn check_sync(inputs: &SyncInputs) -> Result<SyncMode, SyncConfigError> {
         }
     }
     match mode {
-        SyncMode::DcSync0 if inputs.sync0_cycle_ns < MIN_CYCLE_TIME_NS => {
+        SyncMode::DcSync0 if inputs.sync0_cycle_ns < inputs.min_cycle_ns => {
             Err(SyncConfigError::DcInvalidSyncCycleTime)
         }
         SyncMode::FreeRun if inputs.has_outputs && !inputs.sm2_three_buffer => {
@@ -197,7 +249,7 @@ pub enum SyncVerdict {
 
 /// The 0x1C32/0x1C33 values and the cycle monitor.
 #[derive(Debug, Clone)]
-pub struct SyncMonitor {
+pub struct SyncMonitor<F> {
     mode: SyncMode,
     requested: Option<SyncMode>,
     requested_inputs: Option<SyncMode>,
@@ -216,16 +268,18 @@ pub struct SyncMonitor {
     arm_edges: u32,
     /// SYNC0 watchdog (DC mode, OP): the edge count and when it last changed.
     sync0_seen: Option<(u32, u64)>,
+    figures: PhantomData<F>,
 }
 
-impl Default for SyncMonitor {
+impl<F: Figures> Default for SyncMonitor<F> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl SyncMonitor {
-    /// SM-synchronous by default, nothing requested, counters 0.
+impl<F: Figures> SyncMonitor<F> {
+    /// SM-synchronous by default, nothing requested, counters 0, for an image with the
+    /// figures `F`.
     pub const fn new() -> Self {
         Self {
             mode: SyncMode::SmSync,
@@ -237,7 +291,7 @@ impl SyncMonitor {
             cycle_too_small: 0,
             shift_too_short: 0,
             error_counter: 0,
-            error_limit: DEFAULT_SYNC_ERROR_LIMIT,
+            error_limit: F::SYNC.default_error_limit,
             sync_error: false,
             armed: false,
             last_sm2_ns: None,
@@ -249,7 +303,13 @@ impl SyncMonitor {
             },
             arm_edges: 0,
             sync0_seen: None,
+            figures: PhantomData,
         }
+    }
+
+    /// The image's figures.
+    pub const fn figures(&self) -> &'static SyncFigures {
+        &F::SYNC
     }
 
     /// The mode in effect (decided at PREOP -> SAFEOP).
@@ -381,7 +441,7 @@ impl SyncMonitor {
     /// SDO write of 0x1C32:02 (0 = unknown; otherwise at least the minimum cycle time,
     /// 0x06090032 ValueTooLow).
     pub fn set_cycle_time_ns(&mut self, ns: u32) -> Result<(), SdoAbortCode> {
-        if ns != 0 && ns < MIN_CYCLE_TIME_NS {
+        if ns != 0 && ns < F::SYNC.min_cycle_ns {
             return Err(SdoAbortCode::ValueTooLow);
         }
         self.cycle_time_ns = ns;
@@ -473,14 +533,14 @@ impl SyncMonitor {
                 if self.sync0_cycle_ns != 0 && sync0.edges != self.arm_edges {
                     let next = sync0.last_edge_lo.wrapping_add(self.sync0_cycle_ns);
                     let remaining = next.wrapping_sub(now_ns as u32);
-                    if remaining < OUTPUT_CALC_COPY_NS {
+                    if remaining < F::SYNC.output_calc_copy_ns {
                         self.shift_too_short = self.shift_too_short.saturating_add(1);
                     }
                 }
             }
             SyncMode::SmSync => {
                 if let Some(prev) = previous {
-                    if now_ns.saturating_sub(prev) < u64::from(MIN_CYCLE_TIME_NS) {
+                    if now_ns.saturating_sub(prev) < u64::from(F::SYNC.min_cycle_ns) {
                         self.cycle_too_small = self.cycle_too_small.saturating_add(1);
                     }
                 }
@@ -509,10 +569,11 @@ impl SyncMonitor {
 
     /// SDO upload of 0x1C32 (`inputs == false`) or 0x1C33 subindex `sub`.
     pub fn read(&self, inputs: bool, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+        let f = &F::SYNC;
         let (calc_copy, delay) = if inputs {
-            (INPUT_CALC_COPY_NS, 0)
+            (f.input_calc_copy_ns, 0)
         } else {
-            (OUTPUT_CALC_COPY_NS, OUTPUT_DELAY_NS)
+            (f.output_calc_copy_ns, f.output_delay_ns)
         };
         let mut tmp = [0u8; 4];
         let bytes: &[u8] = match sub {
@@ -535,7 +596,7 @@ impl SyncMonitor {
                 tmp[..2].copy_from_slice(&SUPPORTED_MODES.to_le_bytes());
                 &tmp[..2]
             }
-            5 => put_u32(&mut tmp, MIN_CYCLE_TIME_NS),
+            5 => put_u32(&mut tmp, f.min_cycle_ns),
             6 => put_u32(&mut tmp, calc_copy),
             7 => put_u32(&mut tmp, 0),
             8 => {
@@ -612,12 +673,29 @@ pub(crate) fn le_u32(data: &[u8]) -> Result<u32, SdoAbortCode> {
 mod tests {
     use super::*;
 
+    /// The figures of the tests: the analog products' (`crate::products`).
+    const MIN_CYCLE_TIME_NS: u32 = 90_000;
+    struct TestFigures;
+    impl Figures for TestFigures {
+        const SYNC: SyncFigures = FIGURES;
+    }
+    type Monitor = SyncMonitor<TestFigures>;
+    const FIGURES: SyncFigures = SyncFigures {
+        min_cycle_ns: MIN_CYCLE_TIME_NS,
+        output_calc_copy_ns: 8_000,
+        output_delay_ns: 3_000,
+        input_calc_copy_ns: 15_000,
+        confirm_outputs_min_cycle_ns: 62_000,
+        default_error_limit: 4,
+    };
+
     fn dc(cycle: u32) -> SyncInputs {
         SyncInputs {
             dc_activation: SyncActivation::CYCLIC_UNIT | SyncActivation::SYNC0,
             sync0_cycle_ns: cycle,
             has_outputs: true,
             sm2_three_buffer: true,
+            min_cycle_ns: MIN_CYCLE_TIME_NS,
             ..SyncInputs::default()
         }
     }
@@ -736,7 +814,7 @@ mod tests {
 
     #[test]
     fn dc_missed_events_raise_sync_error_after_the_limit() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         let mut e = Edges::default();
         m.start(SyncMode::DcSync0, 100_000);
         // Before the first SM2 event in OP nothing counts.
@@ -768,7 +846,7 @@ mod tests {
     /// next two misses in a row raise it again (it stayed latched before).
     #[test]
     fn the_sync_error_starts_over_at_safeop_to_op() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         let mut e = Edges::default();
         m.start(SyncMode::DcSync0, 100_000);
         for round in 0..3u64 {
@@ -794,7 +872,7 @@ mod tests {
     /// the cycle (at least 1 ms) is the fatal sync error, once; outside OP or DC it is off.
     #[test]
     fn sync0_watchdog_gives_the_fatal_sync_error() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         m.start(SyncMode::DcSync0, 100_000);
         assert_eq!(m.sync0_watchdog_ns(), 1_000_000);
         let mut edges = 0;
@@ -835,7 +913,7 @@ mod tests {
 
     #[test]
     fn good_cycles_decrement_the_error_counter() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         let mut e = Edges::default();
         m.start(SyncMode::DcSync0, 100_000);
         m.on_sm2_event(0, true, e.0);
@@ -850,7 +928,7 @@ mod tests {
 
     #[test]
     fn dc_cycle_too_small_and_shift_too_short() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         let mut e = Edges::default();
         m.start(SyncMode::DcSync0, 100_000);
         m.on_sm2_event(0, true, e.0);
@@ -866,7 +944,7 @@ mod tests {
 
     #[test]
     fn sm_sync_counts_no_missed_events() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         m.set_cycle_time_ns(1_000_000).unwrap();
         m.start(SyncMode::SmSync, 0);
         let c = Sync0Counts::default();
@@ -886,7 +964,7 @@ mod tests {
 
     #[test]
     fn object_values_and_writes() {
-        let mut m = SyncMonitor::new();
+        let mut m = Monitor::new();
         let mut b = [0u8; 8];
         assert_eq!(m.read(false, 4, &mut b), Ok(2));
         assert_eq!(b[..2], [0x07, 0x00]);
@@ -930,7 +1008,7 @@ mod tests {
     /// are absent from both.
     #[test]
     fn the_dictionary_describes_what_the_monitor_serves() {
-        let monitor = SyncMonitor::new();
+        let monitor = Monitor::new();
         for (index, inputs) in [(0x1C32, false), (0x1C33, true)] {
             let object = crate::products::analog_io::od::OD.find(index).unwrap();
             assert_eq!(object.max_subindex(), 0x20);

@@ -62,6 +62,30 @@ pub struct SimArgs {
     /// The module's CANopen node-ID (1..=127).
     #[arg(long, value_name = "N", default_value_t = super::DEFAULT_NODE_ID)]
     pub node_id: u8,
+    /// The product the board runs (`analog-io`, the default, or `analog-io-can`, which
+    /// --can-port needs).
+    #[arg(long, value_name = "NAME", default_value = firmware::products::default().name)]
+    pub product: String,
+}
+
+impl SimArgs {
+    /// The product `--product` names, or why there is none.
+    pub fn product(&self) -> Result<&'static firmware::products::Product> {
+        let product = firmware::products::find(&self.product).ok_or_else(|| {
+            format!(
+                "no product {:?}: the products are {}",
+                self.product,
+                firmware::products::NAMES.join(", ")
+            )
+        })?;
+        if self.can_port.is_some() && product.can.is_none() && !self.echo {
+            return Err(format!(
+                "{} has no CANopen node: --can-port needs --product analog-io-can",
+                product.name
+            ));
+        }
+        Ok(product)
+    }
 }
 
 /// The examples and notes under `--help`.
@@ -80,7 +104,7 @@ Examples:
   cargo xtask sim --cycle-us 100 --freq 1000 --seconds 0.05 --pcap sim.pcap
   sudo ip link add vb0 type veth peer name vb1 && sudo ip link set vb0 up && sudo ip link set vb1 up
   sudo cargo xtask sim --iface vb1          # then point a master at vb0 (README)
-  cargo xtask sim --can-port 29536          # then python-canopen on the same machine (README)";
+  cargo xtask sim --product analog-io-can --can-port 29536   # then python-canopen (README)";
 
 impl SimArgs {
     /// The run's configuration.

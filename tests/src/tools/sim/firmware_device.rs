@@ -1,13 +1,10 @@
-//! The firmware's own device description on the board: its object dictionary, the
-//! [`AppConfig`](firmware::stacks::ethercat::AppConfig) and default process data derived from it, and the
-//! SII image generated from it by `coe_core::sii` (the image the ESC model loads and the
+//! A product's own device description on the board: the product, and the SII image
+//! generated from its description by `coe_core::sii` (the image the ESC model loads and the
 //! master reads).
 
 use crate::rig::firmware_cpu::Device;
 use coe_core::device::DeviceDescription;
-use firmware::io::analog::process_data::ProcessData;
-use firmware::products::analog_io::device::DEVICE;
-use firmware::stacks::ethercat::AppConfig;
+use firmware::products::Product;
 
 /// The SII EEPROM image of `desc`: the generated image, the rest of the EEPROM erased
 /// (0xFF) as on a programmed part.
@@ -17,19 +14,20 @@ pub fn sii_image(desc: &DeviceDescription) -> Result<Vec<u8>, coe_core::sii::Sii
     Ok(image)
 }
 
-/// The module as the firmware describes it (`firmware::products::analog_io::device::DEVICE`).
+/// The module as `product` describes it, its CANopen node (if it has one) at `node_id`.
+pub fn device_of(product: &'static Product, node_id: u8) -> Result<Device, String> {
+    let desc = product.device;
+    let sii = sii_image(desc).map_err(|e| e.to_string())?;
+    let description = format!(
+        "the firmware's {} ({}, object dictionary of {} objects, generated SII image)",
+        product.name,
+        desc.names.device_name,
+        desc.od.len()
+    );
+    Device::of(product, node_id, sii, description)
+}
+
+/// The default product ([`firmware::products::default`]).
 pub fn device() -> Result<Device, String> {
-    let sii = sii_image(&DEVICE).map_err(|e| e.to_string())?;
-    Ok(Device {
-        description: format!(
-            "the firmware's slave application ({}, object dictionary of {} objects, \
-             generated SII image)",
-            DEVICE.names.device_name,
-            DEVICE.od.len()
-        ),
-        od: DEVICE.od,
-        config: AppConfig::product(),
-        process_data: ProcessData::product_default(),
-        sii,
-    })
+    device_of(firmware::products::default(), super::DEFAULT_NODE_ID)
 }

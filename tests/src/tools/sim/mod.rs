@@ -55,8 +55,8 @@ pub const DEFAULT_AMPLITUDE_V: f64 = 4.0;
 /// Offset of the input sine (V).
 pub const DEFAULT_OFFSET_V: f64 = 5.0;
 
-/// The module's CANopen node-ID unless configured.
-pub const DEFAULT_NODE_ID: u8 = firmware::products::analog_io::can::DEFAULT_NODE_ID;
+/// The CANopen node-ID unless configured (of the products with CAN).
+pub const DEFAULT_NODE_ID: u8 = firmware::products::analog_io_can::can::DEFAULT_NODE_ID;
 
 /// What `cargo xtask sim` does.
 #[derive(Clone, Debug, PartialEq)]
@@ -232,7 +232,7 @@ impl SimConfig {
 pub fn can_bit_rates() -> impl Iterator<Item = u32> {
     coe_core::eds::BIT_RATES_KBIT
         .iter()
-        .zip(firmware::products::analog_io::can::EDS_INFO.bit_rates)
+        .zip(firmware::products::analog_io_can::can::EDS_INFO.bit_rates)
         .filter(|(_, on)| *on)
         .map(|(kbit, _)| u32::from(*kbit) * 1000)
 }
@@ -269,15 +269,18 @@ impl Target {
     }
 }
 
-/// The firmware's own slave application on the board, with the generated SII image.
+/// The default product's slave application on the board, with its generated SII image.
 pub fn firmware_target() -> Result<Target, String> {
-    firmware_target_for(DEFAULT_NODE_ID)
+    firmware_target_of(firmware::products::default(), DEFAULT_NODE_ID)
 }
 
-/// [`firmware_target`] with the CANopen node-ID `node_id`.
-pub fn firmware_target_for(node_id: u8) -> Result<Target, String> {
-    let mut device = firmware_device::device()?;
-    device.config.can_node_id = node_id;
+/// `product`'s slave application on the board, with the CANopen node-ID `node_id` where it
+/// has CAN.
+pub fn firmware_target_of(
+    product: &'static firmware::products::Product,
+    node_id: u8,
+) -> Result<Target, String> {
+    let device = firmware_device::device_of(product, node_id)?;
     Ok(Target {
         description: device.description.clone(),
         sii: device.sii.clone(),

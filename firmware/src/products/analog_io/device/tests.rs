@@ -1,7 +1,7 @@
 use super::*;
-use crate::products::analog_io::capacity::MAILBOX_SIZE;
 use crate::products::analog_io::od::{DEVICE_TYPE, MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
-use crate::products::analog_io::sync::SUPPORTED_MODES;
+use crate::stacks::ethercat::mailbox::MAILBOX_SIZE;
+use crate::stacks::ethercat::sync::SUPPORTED_MODES;
 use coe_core::od::{ObjectDictionary, Value};
 use coe_core::pdo::{PdoDirection, PdoEntry};
 use std::vec::Vec;
@@ -66,7 +66,7 @@ fn default_pdo_mapping_is_ao_out_and_ai_in() {
     let ai: Vec<PdoEntry> = DEVICE.pdo_entries(0x1A00).collect();
     let expected: Vec<PdoEntry> = (1..=8).map(|s| PdoEntry::new(0x6401, s, 16)).collect();
     assert_eq!(ai, expected);
-    // The CiA 401 CAN PDOs (product::can): 0x1601 the outputs, 0x1A01/0x1A02 four inputs
+    // The CiA 401 CAN PDOs (`analog_io_can::can`): 0x1601 the outputs, 0x1A01/0x1A02 four inputs
     // each; not assigned on EtherCAT by default.
     assert_eq!(DEVICE.pdo_entries(0x1601).collect::<Vec<_>>(), ao);
     assert_eq!(

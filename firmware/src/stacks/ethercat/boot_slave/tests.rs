@@ -1,9 +1,14 @@
 use super::*;
 use crate::fake_esc::FakeEsc;
+use crate::platform::board::{Board, Options, THESIS};
 use crate::platform::boot::header::HeaderRepr;
+use crate::platform::boot::header::Target;
 use crate::platform::boot::install::{check_image, startup};
 use crate::platform::boot::layout::{APP_SLOT, STAGING};
-use crate::products::analog_io::identity::UPDATE_TARGET;
+
+/// The board of the tests' bootloader and what its files are built for.
+const BOARD: Board = THESIS;
+const UPDATE_TARGET: Target = Target::new(BOARD.vendor_id, 0x1754, &BOARD, Options::NONE);
 use crate::products::analog_io::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use coe_core::wire::{Foe, FoeErrorCode, FoeRepr};
 use lpc17xx_iap::model::FlashModel;
@@ -32,7 +37,7 @@ impl Rig {
     fn new(application_valid: bool) -> Self {
         let iap = Iap::new(FlashModel::new().with_cclk_khz(CCLK_KHZ), CCLK_KHZ);
         let mut esc = FakeEsc::new();
-        let mut slave = BootSlave::new(iap, UPDATE_TARGET, bootstrap(), application_valid);
+        let mut slave = BootSlave::new(iap, BOARD, bootstrap(), application_valid);
         assert!(!slave.start(&mut esc.driver()).unwrap().reset);
         Self {
             esc,
@@ -152,11 +157,11 @@ fn an_update_over_foe_then_boot_to_init_resets() {
     assert!(out.reset, "BOOT -> INIT resets into the reset sequence");
     // The reset sequence installs it.
     let iap = r.slave.files_mut().iap_mut();
-    assert_eq!(check_image(iap, STAGING, &UPDATE_TARGET), Ok(header));
-    let s = startup(iap, &UPDATE_TARGET, false);
+    assert_eq!(check_image(iap, STAGING, &BOARD), Ok(header));
+    let s = startup(iap, &BOARD, false);
     assert!(s.installed);
     assert_eq!(s.application, Ok(header));
-    assert_eq!(check_image(iap, APP_SLOT, &UPDATE_TARGET), Ok(header));
+    assert_eq!(check_image(iap, APP_SLOT, &BOARD), Ok(header));
     assert!(iap.entry().violations().is_empty());
 }
 
@@ -202,7 +207,7 @@ fn the_boot_request_from_before_the_reset_is_taken_at_start() {
     esc.master_sm(1, inp.start, inp.len, 0x22, true);
     esc.master_al_control(0x03);
     esc.driver().read_al_control().unwrap();
-    let mut slave = BootSlave::new(iap, UPDATE_TARGET, bootstrap(), true);
+    let mut slave = BootSlave::new(iap, BOARD, bootstrap(), true);
     assert!(!slave.start(&mut esc.driver()).unwrap().reset);
     assert_eq!(slave.state(), AlState::Bootstrap);
     assert_eq!(esc.al_status(), (0x03, 0));

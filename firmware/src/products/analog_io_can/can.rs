@@ -29,7 +29,7 @@
 //! reaches SAFEOP/OP with the source on CAN only without RxPDOs assigned (0x001D invalid
 //! output configuration otherwise); RPDOs arriving while EtherCAT is the source are dropped.
 
-use super::capacity::{RX_PDOS, TX_PDOS};
+use crate::io::analog::process_data::{RX_PDOS, TX_PDOS};
 use coe_core::canopen::cob;
 use coe_core::canopen::params::{CommDefaults, PdoDefault};
 use coe_core::eds::EdsInfo;

@@ -9,7 +9,7 @@
 //! [`ScanPipeline`] follows the driver's pipeline rules (checked against the driver itself
 //! in the tests below).
 
-use crate::products::analog_io::capacity::AI_CHANNELS as CHANNELS;
+use crate::platform::board::AI_CHANNELS as CHANNELS;
 use ad7689::{Config, InputConfig, Reference, Sequencer};
 
 /// The CFG of the board (hardware-facts 6): overwrite, unipolar to GND (INCC 111), scan

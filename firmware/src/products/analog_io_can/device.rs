@@ -1,0 +1,15 @@
+//! The module's device description: `analog-io`'s ([`analog_io::device::description`])
+//! with this product's identity, names and dictionary; the EDS (CAN) is generated from it
+//! too, with the facts of [`super::can::EDS_INFO`].
+
+use super::identity::{IDENTITY, NAMES};
+use super::od::OD;
+use crate::products::analog_io;
+use coe_core::device::DeviceDescription;
+
+/// The module.
+pub static DEVICE: DeviceDescription = analog_io::device::description(IDENTITY, NAMES, &OD);
+
+const _: () = if let Err(e) = DEVICE.validate() {
+    panic!("{}", e.message())
+};
