@@ -7,8 +7,9 @@ and usable by hand against a real module:
 
     python3 tests/scripts/pysoem_update.py IFACE FILE.efw [BAD.efw ...]
 
-Every BAD file is written first and must be refused; FILE.efw last must be accepted. One line of
-JSON per step goes to stdout; the exit code is 0 when every step went as expected.
+Every BAD file is written first and must be refused; FILE.efw last must be accepted (FILE "-":
+no file is to be accepted, and the old application must answer afterwards). One line of JSON per
+step goes to stdout; the exit code is 0 when every step went as expected.
 """
 
 import json
@@ -55,6 +56,11 @@ def amend_mbx(slave, mailbox, start_address, size):
                 ) from e
 
 
+def product_code(slave):
+    """The running application's product code (0x1018:02)."""
+    return struct.unpack("<I", slave.sdo_read(0x1018, 2))[0]
+
+
 def describe(e):
     """The exception as text; pysoem's WkcError has no message, only a working counter."""
     text = f"{type(e).__name__}: {e}"
@@ -80,7 +86,7 @@ def main(iface, good, bad):
         report(step="found", name=slave.name, vendor=slave.man, product=slave.id,
                revision=slave.rev)
         version = slave.sdo_read(0x100A, 0).decode(errors="replace")
-        report(step="version before", version=version)
+        report(step="version before", version=version, product=product_code(slave))
 
         reach(slave, pysoem.INIT_STATE)
         rx_addr, rx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_RX_MBX))
@@ -92,7 +98,7 @@ def main(iface, good, bad):
         report(step="boot")
 
         ok = True
-        for path in bad + [good]:
+        for path in bad + ([] if good == "-" else [good]):
             with open(path, "rb") as f:
                 data = f.read()
             # SOEM returns > 0 for a file the slave took; an FoE error from the slave comes
@@ -119,12 +125,13 @@ def main(iface, good, bad):
                 found = master.config_init()
                 slave = master.slaves[0]
                 version = slave.sdo_read(0x100A, 0).decode(errors="replace")
+                product = product_code(slave)
                 break
             except Exception:
                 if time.monotonic() > deadline:
                     raise
         report(step="back", found=found, state=slave.state)
-        report(step="version after", version=version)
+        report(step="version after", version=version, product=product)
         return 0 if ok else 1
     finally:
         master.close()

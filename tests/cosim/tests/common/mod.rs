@@ -3,9 +3,10 @@
 
 use firmware::platform::boot::header::{HeaderRepr, Target};
 use firmware::platform::boot::layout::HEADER_BLOCK;
-use firmware::products::analog_io::identity::NAMES;
+use firmware::products::Product;
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_path, image_target, load_image};
+use lpc1754_cosim::image::Image;
+use lpc1754_cosim::run::{image_path_of, image_target, load_image, load_image_of};
 use serde_json::Value;
 use std::ffi::OsString;
 use std::path::PathBuf;
@@ -45,8 +46,30 @@ pub fn run_script_against_image(
     pcap_name: &str,
     seconds: f64,
 ) -> Result<ScriptRun, String> {
+    run_script_against(load_image()?, script, vec![args], pcap_name, seconds)
+}
+
+/// [`run_script_against_image`] on `product`'s release image, the script run once per
+/// entry of `runs` (its arguments after the interface), one after the other against the
+/// same board; the lines of all runs, in order, and `script_ok` when every run exited 0.
+pub fn run_script_against_image_of(
+    product: &str,
+    script: PathBuf,
+    runs: Vec<Vec<OsString>>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    run_script_against(load_image_of(product)?, script, runs, pcap_name, seconds)
+}
+
+fn run_script_against(
+    image: Image,
+    script: PathBuf,
+    runs: Vec<Vec<OsString>>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
     veth_pair_in_new_namespace("vb0", "vb1")?;
-    let image = load_image()?;
     let (target, handle) = image_target(image, Options::default())?;
     let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(pcap_name);
     let cfg = SimConfig {
@@ -64,13 +87,21 @@ pub fn run_script_against_image(
         while !ready2.load(Ordering::Acquire) && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(20));
         }
-        let out = Command::new("python3")
-            .arg(&script)
-            .arg("vb0")
-            .args(&args)
-            .output();
+        let mut outs = Vec::new();
+        for args in runs {
+            let out = Command::new("python3")
+                .arg(&script)
+                .arg("vb0")
+                .args(&args)
+                .output();
+            let failed = !matches!(&out, Ok(o) if o.status.success());
+            outs.push(out);
+            if failed {
+                break;
+            }
+        }
         stop2.store(true, Ordering::Release);
-        out
+        outs
     });
     let served = sim::run_wall_clock(&cfg, target, &stop, &mut |l| {
         if let Line::Result(s) = l {
@@ -80,21 +111,31 @@ pub fn run_script_against_image(
         }
     })
     .map_err(|e| e.to_string())?;
-    let out = master
+    let outs = master
         .join()
         .map_err(|_| "the master thread panicked".to_string())?
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
         .map_err(|e| format!("python3: {e}"))?;
     let facts = handle
         .with(|c| c.facts())
         .ok_or("the co-simulator did not start")?;
     Ok(ScriptRun {
         served: served.ecat.frames,
-        script_ok: out.status.success(),
-        lines: String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .filter_map(|l| serde_json::from_str(l).ok())
+        script_ok: outs.iter().all(|o| o.status.success()),
+        lines: outs
+            .iter()
+            .flat_map(|o| {
+                String::from_utf8_lossy(&o.stdout)
+                    .lines()
+                    .filter_map(|l| serde_json::from_str(l).ok())
+                    .collect::<Vec<_>>()
+            })
             .collect(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        stderr: outs
+            .iter()
+            .map(|o| String::from_utf8_lossy(&o.stderr).into_owned())
+            .collect(),
         clean: facts.fault.is_none() && facts.reports.is_empty(),
         facts: facts.summary(),
         pcap,
@@ -104,9 +145,14 @@ pub fn run_script_against_image(
 /// The release update file with the software version string replaced by `version`
 /// wherever its image holds it, and a header made for the new image and `target`.
 pub fn new_update_file(version: &str, target: &Target) -> Vec<u8> {
-    let path = image_path().with_extension("efw");
+    new_update_file_of(firmware::products::default(), version, target)
+}
+
+/// [`new_update_file`] from `product`'s release update file.
+pub fn new_update_file_of(product: &Product, version: &str, target: &Target) -> Vec<u8> {
+    let path = image_path_of(product.name).with_extension("efw");
     let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let old = NAMES.software_version.as_bytes();
+    let old = product.device.names.software_version.as_bytes();
     assert_eq!(old.len(), version.len());
     let mut image = efw[HEADER_BLOCK as usize..].to_vec();
     let at: Vec<usize> = image
