@@ -188,7 +188,7 @@ mod rtic_app {
         #[cfg(feature = "canopen-node")]
         let can = can.start(CAN_TIMING);
         #[cfg(not(feature = "canopen-node"))]
-        drop(can); // CAN1 stays in reset mode
+        let _ = can; // CAN1 stays in reset mode: the product has no CAN
 
         // Outputs to 0 V first: after an MCU-only reset the DAC still drives the old values.
         if dac.init().is_err() {
@@ -247,7 +247,8 @@ mod rtic_app {
     /// now / preload the input registers for the next edge (DC fast path).
     #[task(binds = TIMER1, priority = 3, local = [sync0, dac, latch, stage_dac])]
     fn sync0_dac(cx: sync0_dac::Context) {
-        let stage = *cx.local.stage_dac;
+        // The stage's fields by offsets from one register on the way to the LDAC edge.
+        let stage = hw::in_register(*cx.local.stage_dac);
         let result = match cx.local.sync0.on_interrupt() {
             Timer1Event::Sync0(edge) => {
                 // LDAC first: the capture's time is only bookkeeping for the PDI side.

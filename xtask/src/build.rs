@@ -38,8 +38,8 @@ pub const BIN: &str = "application";
 pub const BOOT_BIN: &str = "bootloader";
 /// The cargo profile the bootloader is built with (the workspace's Cargo.toml says why).
 pub const BOOT_PROFILE: &str = "bootloader";
-/// The environment variable that gives the target's rustflags (replacing
-/// `.cargo/config.toml`'s), per product.
+/// The environment variable that gives the target's rustflags, per product (cargo joins it
+/// with `.cargo/config.toml`'s, which therefore sets none).
 const RUSTFLAGS_ENV: &str = "CARGO_TARGET_THUMBV7M_NONE_EABI_RUSTFLAGS";
 /// The machine outliner on every function (not only the "z" ones).
 const OUTLINER: &str = "-C llvm-args=-enable-machine-outliner=always";

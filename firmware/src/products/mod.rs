@@ -10,7 +10,7 @@
 //! | [`analog_io_can`] | thesis board with CAN transceiver | the same plus the CANopen node on CAN1 |
 //!
 //! Adding a product: a folder with its `mod.rs` giving `PRODUCT` (a [`Product`]), its line
-//! in [`products!`] below, and the cargo feature of its name in `firmware/Cargo.toml`
+//! in `products!` below, and the cargo feature of its name in `firmware/Cargo.toml`
 //! (which names the stacks its image runs); the build refuses a list and features that
 //! disagree.
 

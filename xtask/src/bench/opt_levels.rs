@@ -74,8 +74,9 @@ impl Setting {
 
 /// The figures of one setting.
 struct Measured {
-    /// Flash of each product's image, in [`PRODUCTS`] order.
-    flash: Vec<u64>,
+    /// Flash of each product's image, in [`PRODUCTS`] order (`None`: it does not link,
+    /// larger than the application slot).
+    flash: Vec<Option<u64>>,
     pdi_outputs: u64,
     pdi_inputs: u64,
     derived: Derived,
@@ -85,11 +86,19 @@ struct Measured {
 fn measure(setting: &Setting, bus: &bus_cost::BusReport) -> Result<Measured> {
     let mut flash = Vec::new();
     for product in PRODUCTS {
-        let elf = build::link(product, &setting.profile())?;
+        let Ok(elf) = build::link(product, &setting.profile()) else {
+            eprintln!(
+                "[bench --opt-levels] {}: does not link with this setting (the linker's \
+                 message above)",
+                product.name
+            );
+            flash.push(None);
+            continue;
+        };
         let data =
             std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
         let sections = image::sections(&data).map_err(|e| e.to_string())?;
-        flash.push(image::usage(&sections, u64::from(APP_VECTORS)).flash);
+        flash.push(Some(image::usage(&sections, u64::from(APP_VECTORS)).flash));
     }
     let cpu = cm3::measure(1, &setting.profile())?;
     Ok(Measured {
@@ -129,9 +138,10 @@ pub fn run() -> Result {
             .zip(&m.flash)
             .map(|(p, used)| {
                 let budget = build::budget_of(p).flash;
-                match budget.checked_sub(*used) {
-                    Some(free) => format!("{used} B ({free} B free)"),
-                    None => format!("{used} B (**{} B over**)", used - budget),
+                match used.map(|u| (u, budget.checked_sub(u))) {
+                    Some((used, Some(free))) => format!("{used} B ({free} B free)"),
+                    Some((used, None)) => format!("{used} B (**{} B over**)", used - budget),
+                    None => "**does not link** (over the application slot)".to_string(),
                 }
             })
             .collect();

@@ -16,7 +16,7 @@
 //! filter modes and fault values outside 0..=0x7FFF (0x06090030), and 0x1003:00 other than
 //! 0 (0x06090030, CiA 301).
 
-use super::outputs::{AnalogOutputs, ErrorMode, OutputStage, SetOutcome};
+use super::outputs::{AnalogOutputs, ErrorMode, OutputStage};
 use super::process_data::{ProcessData, SlotValues, MAX_IMAGE};
 use super::sampler::{PublishMode, Sampler};
 use super::settings::SETTINGS_INDEX;
@@ -27,7 +27,6 @@ use crate::stacks::ethercat::sync::{le_u16, le_u32, Figures, SyncMonitor};
 use crate::stacks::ethercat::{Application, Effects};
 use coe_core::device::SyncManagerDesc;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
-use coe_core::sdo_server::Emergency;
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
 use et1100::SyncManager;
 
@@ -67,42 +66,12 @@ impl<F: Figures> AnalogIo<F> {
     }
 
     /// New output values: staged for the DAC when `in_op` ([`AnalogOutputs::set_values`]),
+    /// and what the output task must do added to `effects`: the apply request when staged,
     /// and the Emergency the out-of-range rule asks for: 0xFF01 (data byte 0: the channels)
-    /// when a value becomes negative, the error reset when all are back in range.
-    pub fn set_outputs(
-        &mut self,
-        values: [i16; AO_CHANNELS],
-        in_op: bool,
-        stage: &OutputStage,
-    ) -> (SetOutcome, Option<Emergency>) {
-        let set = self.outputs.set_values(values, in_op, stage);
-        let emergency = if set.newly_out_of_range {
-            let mask = values
-                .iter()
-                .enumerate()
-                .fold(0u8, |m, (i, v)| if *v < 0 { m | 1 << i } else { m });
-            Some(
-                self.diag
-                    .raise(ERR_MANUFACTURER, EMCY_AO_OUT_OF_RANGE, [mask, 0, 0, 0, 0]),
-            )
-        } else if !set.out_of_range {
-            self.diag.clear(ERR_MANUFACTURER)
-        } else {
-            None
-        };
-        (set, emergency)
-    }
-
-    /// The application parameters back to their power-on values (a reset of the
-    /// application, e.g. CAN NMT reset node): AO fault configuration and AI filter.
-    pub fn reset_parameters(&mut self) {
-        *self.outputs.fault_config_mut() = *AnalogOutputs::new().fault_config();
-        self.sampler.set_mode(PublishMode::Latest);
-    }
-
-    /// New output values staged (`in_op`: the fieldbus that sent them runs process data),
-    /// and what the output task must do added to `effects`. (Out of line: several callers.)
-    #[inline(never)]
+    /// when a value becomes negative, the error reset when all are back in range. (The
+    /// Emergency is written only when there is one: the process-data path calls this every
+    /// cycle. Out of line in the CAN product's image, where several callers share it and
+    /// flash is short.)
     pub fn stage_outputs(
         &mut self,
         values: [i16; AO_CHANNELS],
@@ -110,11 +79,30 @@ impl<F: Figures> AnalogIo<F> {
         stage: &OutputStage,
         effects: &mut Effects,
     ) {
-        let (set, emergency) = self.set_outputs(values, in_op, stage);
+        let set = self.outputs.set_values(values, in_op, stage);
         effects.apply_outputs |= set.staged;
-        if emergency.is_some() {
-            effects.emergency = emergency;
+        if set.newly_out_of_range {
+            let mask = values
+                .iter()
+                .enumerate()
+                .fold(0u8, |m, (i, v)| if *v < 0 { m | 1 << i } else { m });
+            effects.emergency = Some(self.diag.raise(
+                ERR_MANUFACTURER,
+                EMCY_AO_OUT_OF_RANGE,
+                [mask, 0, 0, 0, 0],
+            ));
+        } else if !set.out_of_range {
+            if let Some(e) = self.diag.clear(ERR_MANUFACTURER) {
+                effects.emergency = Some(e);
+            }
         }
+    }
+
+    /// The application parameters back to their power-on values (a reset of the
+    /// application, e.g. CAN NMT reset node): AO fault configuration and AI filter.
+    pub fn reset_parameters(&mut self) {
+        *self.outputs.fault_config_mut() = *AnalogOutputs::new().fault_config();
+        self.sampler.set_mode(PublishMode::Latest);
     }
 
     /// The dictionary.
@@ -340,10 +328,12 @@ impl<F: Figures> Application for AnalogIo<F> {
     #[inline(always)]
     fn take_outputs(&mut self, stage: &OutputStage) -> Effects {
         match self.pd.unpack_ao(self.outputs.values(), AlState::Op) {
-            Ok(ao) => Effects {
-                apply_outputs: true,
-                emergency: self.set_outputs(ao, true, stage).1,
-            },
+            Ok(ao) => {
+                let mut effects = Effects::default();
+                self.stage_outputs(ao, true, stage, &mut effects);
+                effects.apply_outputs = true;
+                effects
+            }
             Err(_) => Effects::default(),
         }
     }

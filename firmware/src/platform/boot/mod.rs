@@ -9,7 +9,7 @@
 //! | [`request`] | the application's "start the bootloader" word in RAM |
 //! | [`staging`] | the FoE file store of the bootloader: a received file into the staging area, checked |
 //! | [`install`] | what the bootloader does at reset: check, install from staging, start or stay |
-//! | [`slave`] | the bootloader's EtherCAT slave: INIT and BOOT, FoE on the bootstrap mailbox |
+//! | [`crate::stacks::ethercat::boot_slave`] | the bootloader's EtherCAT slave: INIT and BOOT, FoE on the bootstrap mailbox |
 //!
 //! Never bricked: the bootloader (sectors 0..=2) is never written by itself. A file goes to
 //! the staging area first and is checked there (identity, length, CRC) before the

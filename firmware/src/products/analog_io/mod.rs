@@ -16,6 +16,13 @@
 //!
 //! `analog-io-can` is this product plus CANopen on CAN1: it takes its dictionary's
 //! analog objects, its layout and its figures from here.
+//!
+//! [`PRODUCT`]: crate::products::analog_io::PRODUCT
+//! [`identity`]: crate::products::analog_io::identity
+//! [`sync`]: crate::products::analog_io::sync
+//! [`layout`]: crate::products::analog_io::layout
+//! [`od`]: crate::products::analog_io::od
+//! [`device`]: crate::products::analog_io::device
 
 pub mod device;
 pub mod identity;
@@ -46,9 +53,12 @@ pub static PRODUCT: Product = Product {
         flash: 40 * 1024,
         ram: 6 * 1024,
     },
+    // Speed first within the budget (`cargo xtask bench --opt-levels`, docs/book/
+    // products.md): "s" without the outliner has the shortest process-data cycle of all
+    // settings; 2 and 3 are 10 KB and more over the budget.
     build: ImageBuild {
         opt_level: "s",
-        machine_outliner: true,
+        machine_outliner: false,
     },
 };
 

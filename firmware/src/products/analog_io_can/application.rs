@@ -7,7 +7,7 @@
 //!   mailbox too, and CAN's SDO server sees the slave application's sync objects (which
 //!   the analog I/O keeps).
 //! - The slave application's Emergencies go out on CAN too; an application Emergency raised
-//!   by a CAN call goes out on both ([`can_call`]).
+//!   by a CAN call goes out on both (`AnalogCan::can_call`).
 //! - [`PROCESS_DATA_SOURCE_INDEX`] decides which fieldbus drives the outputs
 //!   (`super::can`): EtherCAT reaches SAFEOP with RxPDOs only while it is the source, SDO
 //!   writes of 0x6411 drive the outputs only from the source, RPDOs only while CAN is; the
@@ -248,7 +248,9 @@ impl Application for AnalogCan {
         self.analog.output_image()
     }
 
-    #[inline(always)]
+    /// Out of line: the PDI task's handler stays smaller (measured: 272 B of flash in this
+    /// image, for a call on the outputs' path).
+    #[inline(never)]
     fn take_outputs(&mut self, stage: &OutputStage) -> Effects {
         self.analog.take_outputs(stage)
     }

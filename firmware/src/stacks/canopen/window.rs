@@ -53,7 +53,7 @@ pub const TICK_NS: u32 = 1_000_000;
 /// What a node call does, for the bound of its duration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CallKind {
-    /// The node's timers and queued work ([`super::SlaveApp::poll_can`]).
+    /// The node's timers and queued work (a call without a frame).
     Timers,
     /// One PDO step of the node: an RPDO or TPDO layout read, or a TPDO packed.
     PdoStep,
