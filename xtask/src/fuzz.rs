@@ -364,8 +364,9 @@ mod tests {
         assert_eq!(&sessions[0][4..], &request);
         let sessions = frames.master_sessions();
         assert_eq!(sessions.len(), 1);
-        assert_eq!(&sessions[0][..2], &[0, 16]);
-        assert_eq!(&sessions[0][2..18], &request);
-        assert_eq!(sessions[0][18..], [3]);
+        // The product (the first one), the request written, its reply read.
+        assert_eq!(&sessions[0][..3], &[0, 0, 16]);
+        assert_eq!(&sessions[0][3..19], &request);
+        assert_eq!(sessions[0][19..], [3]);
     }
 }

@@ -55,7 +55,7 @@ pub static PRODUCT: Product = Product {
     },
     // Speed first within the budget (`cargo xtask bench --opt-levels`, docs/book/
     // products.md): "s" without the outliner has the shortest process-data cycle of all
-    // settings; 2 and 3 are 10 KB and more over the budget.
+    // settings; 2 and 3 do not fit.
     build: ImageBuild {
         opt_level: "s",
         machine_outliner: false,

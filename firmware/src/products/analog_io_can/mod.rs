@@ -57,7 +57,7 @@ pub static PRODUCT: Product = Product {
         ram: 6 * 1024,
     },
     // The fastest setting that fits (`cargo xtask bench --opt-levels`, docs/book/
-    // products.md): without the outliner the image is 312 B larger and over its budget.
+    // products.md): without the outliner the image is over its budget.
     build: ImageBuild {
         opt_level: "s",
         machine_outliner: true,
