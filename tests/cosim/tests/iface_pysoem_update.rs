@@ -14,14 +14,13 @@
 
 mod common;
 
-use common::{
-    new_update_file, new_update_file_of, run_script_against_image, run_script_against_image_of,
-};
+use common::{new_update_file, new_update_file_of, run_script_against_image_of, ScriptRun};
 use firmware::platform::boot::header::Target;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES, UPDATE_TARGET};
 use firmware::products::analog_io_can;
 use lpc1754_cosim::run::image_path_of;
 use serde_json::Value;
+use std::ffi::OsString;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
@@ -54,32 +53,19 @@ fn pysoem_updates_the_image_over_a_veth_pair() {
         bad.into_os_string(),
         can.into_os_string(),
     ];
-    // Wall time, bounded even if the script hangs.
-    let o = std::thread::spawn(move || {
-        run_script_against_image(script(), args, "iface-pysoem-update.pcap", 180.0)
-    })
-    .join()
-    .expect("namespace thread")
-    .unwrap();
-    for l in &o.lines {
-        eprintln!("pysoem: {l}");
-    }
-    assert!(
-        o.script_ok,
-        "pysoem failed: {:?}\n{}\n{}",
-        o.lines, o.stderr, o.facts
+    let o = run(
+        firmware::products::default().name,
+        vec![args],
+        "iface-pysoem-update.pcap",
+        180.0,
     );
-    assert!(o.clean, "{}", o.facts);
     let version = |name| steps(&o.lines, name).next().map(|l| l["version"].clone());
     assert_eq!(
         version("version before"),
         Some(NAMES.software_version.into())
     );
-    let writes: Vec<(&Value, &Value)> = steps(&o.lines, "foe write")
-        .map(|l| (&l["file"], &l["accepted"]))
-        .collect();
     assert_eq!(
-        writes,
+        writes(&o),
         [
             (&Value::from("bad-crc.efw"), &Value::from(false)),
             (&Value::from("analog-io-can.efw"), &Value::from(false)),
@@ -133,32 +119,9 @@ fn pysoem_updates_the_can_image_after_refused_files() {
         ],
         vec![write("analog-io-can.efw", &new)],
     ];
-    let o = std::thread::spawn(move || {
-        run_script_against_image_of(
-            product.name,
-            script(),
-            runs,
-            "iface-pysoem-update-can.pcap",
-            300.0,
-        )
-    })
-    .join()
-    .expect("namespace thread")
-    .unwrap();
-    for l in &o.lines {
-        eprintln!("pysoem: {l}");
-    }
-    assert!(
-        o.script_ok,
-        "pysoem failed: {:?}\n{}\n{}",
-        o.lines, o.stderr, o.facts
-    );
-    assert!(o.clean, "{}", o.facts);
-    let writes: Vec<(&Value, &Value)> = steps(&o.lines, "foe write")
-        .map(|l| (&l["file"], &l["accepted"]))
-        .collect();
+    let o = run(product.name, runs, "iface-pysoem-update-can.pcap", 300.0);
     assert_eq!(
-        writes,
+        writes(&o),
         [
             (&Value::from("other-board.efw"), &Value::from(false)),
             (&Value::from("bad-crc.efw"), &Value::from(false)),
@@ -191,6 +154,36 @@ fn pysoem_updates_the_can_image_after_refused_files() {
         "before and after the refused files, before and after the update"
     );
     tshark::assert_clean(&o.pcap);
+}
+
+/// The script run against `product`'s image once per entry of `runs`, in a thread of its
+/// own (bounded in wall time even if the script hangs); every run exited 0 and the
+/// co-simulator saw no fault and no report.
+fn run(product: &'static str, runs: Vec<Vec<OsString>>, pcap: &str, seconds: f64) -> ScriptRun {
+    let pcap = pcap.to_owned();
+    let o = std::thread::spawn(move || {
+        run_script_against_image_of(product, script(), runs, &pcap, seconds)
+    })
+    .join()
+    .expect("namespace thread")
+    .unwrap();
+    for l in &o.lines {
+        eprintln!("pysoem: {l}");
+    }
+    assert!(
+        o.script_ok,
+        "pysoem failed: {:?}\n{}\n{}",
+        o.lines, o.stderr, o.facts
+    );
+    assert!(o.clean, "{}", o.facts);
+    o
+}
+
+/// The files written, each with whether the slave took it.
+fn writes(o: &ScriptRun) -> Vec<(&Value, &Value)> {
+    steps(&o.lines, "foe write")
+        .map(|l| (&l["file"], &l["accepted"]))
+        .collect()
 }
 
 fn script() -> PathBuf {
