@@ -124,6 +124,14 @@ impl Timer {
     }
 
     fn catch_up(&mut self, t: Tick) {
+        // Nothing due and nothing to re-anchor: the cached next match stands (the common
+        // case: every event of the chip asks every timer).
+        if self.running()
+            && self.pclk_hz == t.pclk_hz
+            && self.next.is_none_or(|(at, _)| at > t.now_ns)
+        {
+            return;
+        }
         while let Some((at, tc)) = self.compute_next_match() {
             if at > t.now_ns {
                 break;
