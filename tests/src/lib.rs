@@ -49,6 +49,7 @@ pub mod models {
     pub mod can;
     pub mod dac;
     pub mod esc;
+    pub mod shared_esc;
     pub mod spi;
 }
 
@@ -72,6 +73,7 @@ pub mod tools {
     pub mod dwarf;
     pub mod iface;
     pub mod image_figures;
+    pub mod latency;
     pub mod loopback;
     pub mod pcap;
     pub mod sim;

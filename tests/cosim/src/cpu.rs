@@ -408,6 +408,39 @@ impl Core {
         Ok(())
     }
 
+    /// The virtual time the core must run at next: now while it runs or has an interrupt to
+    /// take, else (asleep in WFI, or faulted) the machine's next event.
+    pub fn next_wake_ns(&self) -> u64 {
+        let m = self.machine.borrow();
+        let (_, basepri, faultmask) = masks(&self.uc);
+        let runs = !self.sleeping || m.scs.wakes_from_wfi(basepri, faultmask);
+        if runs && self.fault.is_none() {
+            m.now_ns()
+        } else {
+            m.next_event_ns().max(m.now_ns())
+        }
+    }
+
+    /// Asleep in WFI: sleeps on up to `t_ns`, serving the chip's own events on the way, and
+    /// stops at the first that wakes the core (or resets the chip). The board's inputs are
+    /// not looked at: what changed there is seen from the time reached on. Returns that time.
+    pub fn idle_until(&mut self, t_ns: u64) -> u64 {
+        loop {
+            let now = self.machine.borrow().now_ns();
+            if now >= t_ns || !self.sleeping || self.fault.is_some() {
+                return now;
+            }
+            let (_, basepri, faultmask) = masks(&self.uc);
+            let mut m = self.machine.borrow_mut();
+            if m.stop.is_some() || m.scs.wakes_from_wfi(basepri, faultmask) {
+                return now;
+            }
+            let next = m.next_event_ns().min(t_ns);
+            m.sleep_until(next);
+            m.service_due();
+        }
+    }
+
     /// Runs until virtual time `t_ns` (or a fault).
     pub fn run_until(&mut self, t_ns: u64) {
         for _ in 0..10_000_000u64 {

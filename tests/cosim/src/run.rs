@@ -94,6 +94,19 @@ impl PdiCpu for BoardCpu {
     fn next_timer_ns(&self) -> Option<u64> {
         self.0 .0.borrow().as_ref().and_then(|c| c.next_timer_ns())
     }
+    fn next_wake_ns(&self, io: &BoardIo) -> u64 {
+        self.0
+             .0
+            .borrow()
+            .as_ref()
+            .map_or(u64::MAX, |c| c.next_wake_ns(io))
+    }
+    fn idle_until(&mut self, io: &mut BoardIo, t_ns: u64) -> u64 {
+        match self.0 .0.borrow_mut().as_mut() {
+            Some(c) => c.idle_until(io, t_ns),
+            None => io.now_ns(),
+        }
+    }
 }
 
 /// The image on the co-simulator as the sim's PDI side, with the SII image generated from

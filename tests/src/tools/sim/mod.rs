@@ -1008,10 +1008,12 @@ pub fn run_wall_clock(
         &opts,
         &mut |s| {
             out(Line::Progress(format!(
-                "{:6.1} s: {} EtherCAT frames answered, AL status {:#06x}",
+                "{:6.1} s: {} EtherCAT frames answered, AL status {:#06x}, virtual time {:.2} ms \
+                 behind",
                 s.elapsed.as_secs_f64(),
                 s.frames,
-                s.al_status
+                s.al_status,
+                s.lag.end_ns as f64 * 1e-6
             )))
         },
     )
@@ -1031,6 +1033,7 @@ pub fn run_wall_clock(
         board.dac().borrow().output_volts(0).unwrap_or(0.0),
         board.dac().borrow().output_volts(1).unwrap_or(0.0),
     )));
+    out(Line::Result(serving_summary(&stats, sock.is_some())));
     if let Some((s, frames)) = &report.can {
         out(Line::Result(format!(
             "CAN: {frames} frames on the bus; socketcand: {} connections, {} frames in, {} out",
@@ -1047,6 +1050,29 @@ pub fn run_wall_clock(
         )));
     }
     Ok(report)
+}
+
+/// The timing of a wall-clock run: the frames' answer latency and how far the CPU's
+/// virtual time was behind the wall clock.
+pub fn serving_summary(stats: &ServeStats, frames: bool) -> String {
+    let mut s = String::new();
+    if frames {
+        s.push_str(&format!(
+            "frame answer latency (arrival on the interface to the reply's send): {}; answered \
+             at {}\n",
+            stats.latency.summary("frames"),
+            if stats.realtime {
+                format!("real-time priority (SCHED_FIFO {})", iface::ANSWER_PRIORITY)
+            } else {
+                "normal priority (real-time needs root)".to_string()
+            }
+        ));
+    }
+    s.push_str(&format!(
+        "virtual time behind the wall clock: {}",
+        stats.lag.summary(stats.elapsed)
+    ));
+    s
 }
 
 #[cfg(test)]
