@@ -62,6 +62,7 @@ pub mod rig {
     pub mod foe_client;
     pub mod master;
     pub mod module_cpu;
+    pub mod pi_mutex;
     pub mod scripted;
     pub mod sdo_client;
     pub mod sii_builder;

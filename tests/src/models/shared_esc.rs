@@ -12,21 +12,16 @@
 //! ([`SharedEsc::take_edges`]).
 
 use crate::models::esc::{Esc, SyncEdge};
+use crate::rig::pi_mutex::{PiGuard, PiMutex};
 use std::ops::{Deref, DerefMut};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError, TryLockError};
+use std::sync::Arc;
 use std::time::Instant;
 
-/// A handle on the ESC model; clones share it, across threads too.
+/// A handle on the ESC model; clones share it, across threads too. The lock inherits
+/// priority ([`PiMutex`]): the frame-answering thread never waits on a holder that a
+/// thread of middle priority keeps from running.
 #[derive(Clone)]
-pub struct SharedEsc(Arc<Shared>);
-
-struct Shared {
-    held: Mutex<Held>,
-    /// The thread holding the lock ([`thread_mark`]), so that a thread locking it a second
-    /// time fails loudly instead of waiting for itself.
-    holder: AtomicUsize,
-}
+pub struct SharedEsc(Arc<PiMutex<Held>>);
 
 struct Held {
     esc: Esc,
@@ -47,18 +42,9 @@ impl WallClock {
     }
 }
 
-/// A distinct address per thread.
-fn thread_mark() -> usize {
-    thread_local! {
-        static MARK: u8 = const { 0 };
-    }
-    MARK.with(|m| m as *const u8 as usize)
-}
-
 /// The locked ESC (dereferences to [`Esc`]); the lock is released when it is dropped.
 pub struct EscGuard<'a> {
-    held: MutexGuard<'a, Held>,
-    holder: &'a AtomicUsize,
+    held: PiGuard<'a, Held>,
 }
 
 impl Deref for EscGuard<'_> {
@@ -74,46 +60,22 @@ impl DerefMut for EscGuard<'_> {
     }
 }
 
-impl Drop for EscGuard<'_> {
-    fn drop(&mut self) {
-        self.holder.store(0, Ordering::Relaxed);
-    }
-}
-
 impl SharedEsc {
     /// Shares `esc`, on the board's virtual time.
     pub fn new(esc: Esc) -> Self {
-        Self(Arc::new(Shared {
-            held: Mutex::new(Held {
-                esc,
-                wall: None,
-                edges: Vec::new(),
-            }),
-            holder: AtomicUsize::new(0),
-        }))
+        Self(Arc::new(PiMutex::new(Held {
+            esc,
+            wall: None,
+            edges: Vec::new(),
+        })))
     }
 
     /// Locks the ESC (on the wall clock: brought to the wall clock's time first). The name
     /// and [`SharedEsc::borrow_mut`] are the `RefCell` ones the board's code grew up with:
     /// both take the same lock, and a thread must not hold two guards at once.
     pub fn borrow(&self) -> EscGuard<'_> {
-        let me = thread_mark();
-        let held = match self.0.held.try_lock() {
-            Ok(g) => g,
-            Err(TryLockError::Poisoned(p)) => p.into_inner(),
-            Err(TryLockError::WouldBlock) => {
-                assert_ne!(
-                    self.0.holder.load(Ordering::Relaxed),
-                    me,
-                    "the ESC model is locked twice by one thread"
-                );
-                self.0.held.lock().unwrap_or_else(PoisonError::into_inner)
-            }
-        };
-        self.0.holder.store(me, Ordering::Relaxed);
         let mut g = EscGuard {
-            held,
-            holder: &self.0.holder,
+            held: self.0.lock(),
         };
         if let Some(wall) = g.held.wall {
             let (now, t) = (g.held.esc.now_ns(), wall.now_ns());
