@@ -1,7 +1,7 @@
 //! What the co-simulator's system tests share.
 #![allow(dead_code)]
 
-use firmware::boot::header::{HeaderRepr, Target};
+use firmware::boot::header::{HeaderRepr, Target as UpdateTarget};
 use firmware::boot::layout::HEADER_BLOCK;
 use firmware::product::identity::NAMES;
 use lpc1754_cosim::cosim::Options;
@@ -13,8 +13,8 @@ use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use virtual_board::tools::iface::veth_pair_in_new_namespace;
-use virtual_board::tools::sim::{self, Line, SimConfig};
+use virtual_board::tools::iface::{veth_pair_in_new_namespace, ServeStats};
+use virtual_board::tools::sim::{self, Line, SimConfig, Target};
 
 /// What a master script did against the image served on a veth pair.
 pub struct ScriptRun {
@@ -34,20 +34,46 @@ pub struct ScriptRun {
     pub pcap: PathBuf,
 }
 
-/// Serves the release image on vb1 of a veth pair in a new network namespace (of the calling
-/// thread), as `cargo xtask sim --image --iface vb1` does, and runs `python3 SCRIPT vb0 ARGS`
-/// as the master once the board answers; the capture goes to `pcap_name` in the test's
-/// temporary directory. Bounded in wall time (the board by `seconds`, the master's start
-/// by a minute).
-pub fn run_script_against_image(
-    script: PathBuf,
-    args: Vec<OsString>,
+/// A master script: `python3 PATH vb0 ARGS`.
+pub struct Script {
+    /// The script.
+    pub path: PathBuf,
+    /// Its arguments after the interface.
+    pub args: Vec<OsString>,
+}
+
+/// What one script did.
+pub struct ScriptOutcome {
+    /// Its exit status was 0.
+    pub ok: bool,
+    /// Its JSON lines.
+    pub lines: Vec<Value>,
+    /// Its stderr.
+    pub stderr: String,
+}
+
+/// Scripts run one after the other against one board on a veth pair.
+pub struct BoardRun {
+    /// Each script's outcome, in order.
+    pub scripts: Vec<ScriptOutcome>,
+    /// The board's side: frames, answer latency, lag behind the wall clock.
+    pub served: ServeStats,
+    /// The capture of the run.
+    pub pcap: PathBuf,
+}
+
+/// Serves `target` on vb1 of a veth pair in a new network namespace (of the calling thread),
+/// as `cargo xtask sim --iface vb1` does, and runs each of `scripts` as `python3 SCRIPT vb0
+/// ARGS`, one after the other, once the board answers; the capture goes to `pcap_name` in
+/// the test's temporary directory. Bounded in wall time (the board by `seconds`, the
+/// masters' start by a minute).
+pub fn run_scripts_on_veth(
+    target: Target,
+    scripts: Vec<Script>,
     pcap_name: &str,
     seconds: f64,
-) -> Result<ScriptRun, String> {
+) -> Result<BoardRun, String> {
     veth_pair_in_new_namespace("vb0", "vb1")?;
-    let image = load_image()?;
-    let (target, handle) = image_target(image, Options::default())?;
     let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(pcap_name);
     let cfg = SimConfig {
         iface: Some("vb1".into()),
@@ -58,19 +84,24 @@ pub fn run_script_against_image(
     let ready = Arc::new(AtomicBool::new(false));
     let stop = Arc::new(AtomicBool::new(false));
     let (ready2, stop2) = (ready.clone(), stop.clone());
-    // The master in its own process, started once the board answers on vb1.
-    let master = std::thread::spawn(move || {
+    // The masters in their own processes, started once the board answers on vb1.
+    let masters = std::thread::spawn(move || {
         let deadline = Instant::now() + Duration::from_secs(60);
         while !ready2.load(Ordering::Acquire) && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(20));
         }
-        let out = Command::new("python3")
-            .arg(&script)
-            .arg("vb0")
-            .args(&args)
-            .output();
+        let outs: Vec<_> = scripts
+            .iter()
+            .map(|s| {
+                Command::new("python3")
+                    .arg(&s.path)
+                    .arg("vb0")
+                    .args(&s.args)
+                    .output()
+            })
+            .collect();
         stop2.store(true, Ordering::Release);
-        out
+        outs
     });
     let served = sim::run_wall_clock(&cfg, target, &stop, &mut |l| {
         if let Line::Result(s) = l {
@@ -80,30 +111,64 @@ pub fn run_script_against_image(
         }
     })
     .map_err(|e| e.to_string())?;
-    let out = master
+    let outs = masters
         .join()
-        .map_err(|_| "the master thread panicked".to_string())?
-        .map_err(|e| format!("python3: {e}"))?;
+        .map_err(|_| "the masters' thread panicked".to_string())?;
+    let scripts = outs
+        .into_iter()
+        .map(|o| {
+            let o = o.map_err(|e| format!("python3: {e}"))?;
+            Ok(ScriptOutcome {
+                ok: o.status.success(),
+                lines: String::from_utf8_lossy(&o.stdout)
+                    .lines()
+                    .filter_map(|l| serde_json::from_str(l).ok())
+                    .collect(),
+                stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+            })
+        })
+        .collect::<Result<_, String>>()?;
+    Ok(BoardRun {
+        scripts,
+        served: served.ecat,
+        pcap,
+    })
+}
+
+/// [`run_scripts_on_veth`] with the release image and one script, with the co-simulator's
+/// facts.
+pub fn run_script_against_image(
+    script: PathBuf,
+    args: Vec<OsString>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    let image = load_image()?;
+    let (target, handle) = image_target(image, Options::default())?;
+    let mut run = run_scripts_on_veth(
+        target,
+        vec![Script { path: script, args }],
+        pcap_name,
+        seconds,
+    )?;
     let facts = handle
         .with(|c| c.facts())
         .ok_or("the co-simulator did not start")?;
+    let script = run.scripts.remove(0);
     Ok(ScriptRun {
-        served: served.ecat.frames,
-        script_ok: out.status.success(),
-        lines: String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .filter_map(|l| serde_json::from_str(l).ok())
-            .collect(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        served: run.served.frames,
+        script_ok: script.ok,
+        lines: script.lines,
+        stderr: script.stderr,
         clean: facts.fault.is_none() && facts.reports.is_empty(),
         facts: facts.summary(),
-        pcap,
+        pcap: run.pcap,
     })
 }
 
 /// The release update file with the software version string replaced by `version`
 /// wherever its image holds it, and a header made for the new image and `target`.
-pub fn new_update_file(version: &str, target: &Target) -> Vec<u8> {
+pub fn new_update_file(version: &str, target: &UpdateTarget) -> Vec<u8> {
     let path = image_path().with_extension("efw");
     let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let old = NAMES.software_version.as_bytes();
