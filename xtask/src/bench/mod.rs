@@ -11,10 +11,13 @@
 //! 7. The release image on the LPC1754 co-simulator ([`image_rows`]): the shortest DC cycle,
 //!    SYNC0 -> LDAC and the sampler's share (beside the formulas of 3 and 5, which they
 //!    supersede), per task cycles and stack, flash and RAM of the same ELF.
+//! 8. Frames on a network interface ([`frames`]): the image's frame answer latency under
+//!    SOEM (root only).
 
 mod advertised;
 mod by_function;
 mod cm3;
+mod frames;
 mod image_rows;
 mod model;
 mod opt_levels;
@@ -126,6 +129,8 @@ pub fn run(args: &Args) -> Result {
     eprintln!("[bench] 7/7 the release image on the co-simulated LPC1754");
     let (on_image, min_cycle) = image_and_rule(args.quick)?;
     let image = image_rows::rows(&on_image);
+    eprintln!("[bench] frames on a network interface (sim --image --iface, as root)");
+    let frames = frames::rows(args.quick);
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
@@ -141,6 +146,7 @@ pub fn run(args: &Args) -> Result {
     rows.extend(adc_rows(&adc, &adc_share));
     rows.extend(loopback_rows(&sim)?);
     rows.extend(image.tasks);
+    rows.extend(frames);
 
     let plot_path = args
         .plot
