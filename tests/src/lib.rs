@@ -39,9 +39,11 @@
 //!   of the image co-simulator's bench figures ([`tools::image_figures`]) and the socketcand
 //!   server that brings the CAN bus to python-can ([`tools::socketcand`]).
 //!
-//! Time: nothing here reads the wall clock. Each frame advances the board's virtual
+//! Time: in process nothing reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
-//! watchdog and ADC sampling all use that time.
+//! watchdog and ADC sampling all use that time. On a network interface
+//! ([`tools::iface`]) the ESC keeps the wall clock's time and the CPU's virtual time is
+//! stepped towards it ([`models::shared_esc`]).
 
 /// The chips: ET1100 (with its SPI front end), AD5663, AD7689.
 pub mod models {
