@@ -14,11 +14,14 @@
 //! | answer | abort |
 //! |---|---|
 //! | another command specifier than the step expects, or a malformed frame | 0x05040001 |
-//! | index or subindex not the requested ones | 0x08000000 |
 //! | segment with the wrong toggle bit | 0x05030000 |
 //! | more data than the client's buffer (`BUF`) | 0x05040005 |
 //! | segments that do not add up to the indicated size | 0x06070010 |
 //! | nothing within the timeout | 0x05040000 |
+//!
+//! An initiate answer for another index or subindex is ignored: it answers an earlier
+//! request of a transfer that was dropped (the node booted up again and its boot began
+//! anew), and the answer to this request follows.
 
 use super::super::cob;
 use super::super::frame::CanFrame;
@@ -293,7 +296,7 @@ impl<const BUF: usize> SdoClient<BUF> {
                 },
             ) => {
                 if (index, sub_index) != (self.index, self.sub) {
-                    return self.abort(SdoAbortCode::GeneralError);
+                    return Progress::default();
                 }
                 match data {
                     InitData::Expedited { .. } => {
@@ -345,7 +348,7 @@ impl<const BUF: usize> SdoClient<BUF> {
                 },
             ) => {
                 if (index, sub_index) != (self.index, self.sub) {
-                    return self.abort(SdoAbortCode::GeneralError);
+                    return Progress::default();
                 }
                 if expedited {
                     return self.finish(Ok(0));
@@ -504,10 +507,15 @@ mod tests {
         let p = c.poll(101_000);
         assert_eq!(abort_code(frame(&p)), 0x0504_0000);
         assert!(p.done.unwrap().unwrap_err().is_timeout());
-        // Wrong multiplexer.
+        // The answer to an earlier request (another multiplexer) is not this one's.
         c.upload(0x1000, 0, 0).unwrap();
         let p = c.receive(&[0x43, 0x01, 0x10, 0x00, 1, 2, 3, 4], 0);
-        assert_eq!(abort_code(frame(&p)), 0x0800_0000);
+        assert_eq!(p, Progress::default());
+        assert!(c.busy());
+        assert_eq!(
+            c.receive(&[0x43, 0x00, 0x10, 0x00, 1, 2, 3, 4], 0).done,
+            Some(Ok(4))
+        );
         // Wrong service.
         c.upload(0x1000, 0, 0).unwrap();
         let p = c.receive(&[0x60, 0x00, 0x10, 0x00, 0, 0, 0, 0], 0);
