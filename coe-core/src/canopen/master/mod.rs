@@ -534,7 +534,6 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     pub fn stop(&mut self) {
         self.started = false;
         self.sync_pending = false;
-        self.sync.start(0);
         self.sync = SyncProducer::new(
             self.cfg.sync_cob_id,
             self.cfg.sync_period_us,
