@@ -16,7 +16,7 @@ mod frame;
 mod sii;
 mod sm;
 
-pub use dc::{Sync0Fault, SyncEdge, SyncSignal};
+pub use dc::{sync1_period, Sync0Fault, SyncEdge, SyncSignal};
 pub use frame::{cmd, parse_frame, FrameBuilder, ParsedDatagram, ETHERTYPE_ECAT};
 pub use sii::{check_config_area, sii_crc8, SiiConfigError};
 
