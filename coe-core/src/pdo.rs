@@ -18,6 +18,9 @@ use crate::abort::SdoAbortCode;
 use crate::esm::AlState;
 use crate::od::{DataType, ObjectAccess, ObjectDictionary};
 
+pub mod runs;
+pub use runs::{ImageRun, ImageRuns};
+
 /// Direction of a PDO.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
