@@ -18,6 +18,7 @@
 use super::{
     default_count, default_u32, find_object, DcOpMode, DescError, DescErrorKind, DeviceDescription,
 };
+use crate::abort::SdoAbortCode;
 use crate::pdo::{PdoDirection, PdoEntry};
 
 /// A replicated PDO: mapping objects `base .. base + max_factor - 1`.
@@ -145,6 +146,30 @@ impl Oversampling {
     /// but the replicas after a group's base.
     pub const fn is_listed(&self, pdo: u16) -> bool {
         !matches!(self.group_of(pdo), Some((_, k)) if k > 0)
+    }
+
+    /// Checks a PDO assignment (0x1C12/0x1C13 when sub 0 is written): the replicas of a
+    /// group follow its base one by one, in order, and a group appears once, so the image
+    /// holds the first n copies; else 0x06040043 (general parameter incompatibility).
+    pub fn check_assignment(&self, pdos: &[u16]) -> Result<(), SdoAbortCode> {
+        for (i, pdo) in pdos.iter().enumerate() {
+            let Some((group, k)) = self.group_of(*pdo) else {
+                continue;
+            };
+            let previous = i.checked_sub(1).and_then(|p| pdos.get(p));
+            let follows = match k {
+                0 => !pdos.iter().take(i).any(|p| self.is_in(group, *p)),
+                k => previous == Some(&(group.base + u16::from(k) - 1)),
+            };
+            if !follows {
+                return Err(SdoAbortCode::ParameterIncompatible);
+            }
+        }
+        Ok(())
+    }
+
+    fn is_in(&self, group: &PdoReplicas, pdo: u16) -> bool {
+        group.replica(pdo).is_some()
     }
 
     /// Checks this part against `desc`; usable in a `const` item. Rejected: factor limits

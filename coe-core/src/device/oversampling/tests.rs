@@ -367,3 +367,63 @@ const _: () = {
     let ok = Oversampling::NONE;
     let _ = ok.is_listed(0x1A00);
 };
+
+#[test]
+fn an_assignment_takes_the_replicas_in_order_after_their_base() {
+    let ok = |pdos: &[u16]| OS.check_assignment(pdos);
+    let bad = Err(crate::abort::SdoAbortCode::ParameterIncompatible);
+    assert_eq!(ok(&[0x1A10, 0x1A11, 0x1A20, 0x1A21, 0x1A22]), Ok(()));
+    assert_eq!(ok(&[0x1A20, 0x1A21, 0x1A00]), Ok(()));
+    assert_eq!(ok(&[0x1A00]), Ok(()));
+    assert_eq!(ok(&[]), Ok(()));
+    assert_eq!(ok(&[0x1A21]), bad, "a replica without its base");
+    assert_eq!(ok(&[0x1A20, 0x1A22]), bad, "a gap");
+    assert_eq!(ok(&[0x1A20, 0x1A10, 0x1A21]), bad, "another PDO in between");
+    assert_eq!(ok(&[0x1A20, 0x1A21, 0x1A20]), bad, "the group twice");
+    assert_eq!(ok(&[0x1620, 0x1621, 0x1622]), Ok(()));
+    assert_eq!(Oversampling::NONE.check_assignment(&[0x1A21]), Ok(()));
+}
+
+/// 0x1C13 over SDO with the mappings read from the dictionary's defaults (fixed sample
+/// PDOs need no RAM), the group order checked when sub 0 is written.
+#[test]
+fn an_assignment_of_fixed_pdos_is_written_and_checked() {
+    use crate::abort::SdoAbortCode;
+    use crate::pdo::PdoAssignment;
+    let desc = os_device();
+    let bits_of = |pdo: u16| {
+        let _ = desc.od.find(pdo)?;
+        Some(desc.pdo_entries(pdo).map(|e| u32::from(e.bit_len)).sum())
+    };
+    let mut a: PdoAssignment<8> = PdoAssignment::new(0x1C13);
+    let write = |a: &mut PdoAssignment<8>, sub: u8, data: &[u8]| {
+        a.write_sub_with(sub, data, bits_of, |p| OS.check_assignment(p), 64 * 8)
+    };
+    for (sub, pdo) in [(1u8, 0x1A10u16), (2, 0x1A11), (3, 0x1A20), (4, 0x1A21)] {
+        assert_eq!(write(&mut a, sub, &pdo.to_le_bytes()), Ok(()));
+    }
+    assert_eq!(write(&mut a, 0, &[4]), Ok(()));
+    assert_eq!(a.pdos(), [0x1A10, 0x1A11, 0x1A20, 0x1A21]);
+    // 6 + 8 + 2 x 16 = 46 bytes fit the 64 allowed here; six PDOs (78 bytes) do not.
+    assert_eq!(write(&mut a, 0, &[0]), Ok(()));
+    assert_eq!(write(&mut a, 5, &0x1A22u16.to_le_bytes()), Ok(()));
+    assert_eq!(write(&mut a, 6, &0x1A23u16.to_le_bytes()), Ok(()));
+    assert_eq!(write(&mut a, 0, &[6]), Err(SdoAbortCode::PdoLengthExceeded));
+    // Out of order: refused when sub 0 is written, the assignment keeps sub 0 = 0.
+    assert_eq!(write(&mut a, 3, &0x1A21u16.to_le_bytes()), Ok(()));
+    assert_eq!(write(&mut a, 4, &0x1A20u16.to_le_bytes()), Ok(()));
+    assert_eq!(
+        write(&mut a, 0, &[4]),
+        Err(SdoAbortCode::ParameterIncompatible)
+    );
+    assert_eq!(a.count(), 0);
+    // An RxPDO or an unknown PDO in the TxPDO assignment.
+    assert_eq!(
+        write(&mut a, 1, &0x1620u16.to_le_bytes()),
+        Err(SdoAbortCode::ValueRangeExceeded)
+    );
+    assert_eq!(
+        write(&mut a, 1, &0x1A77u16.to_le_bytes()),
+        Err(SdoAbortCode::ValueRangeExceeded)
+    );
+}
