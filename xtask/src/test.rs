@@ -23,7 +23,8 @@ const ROOT_TESTS: [&str; 4] = [
     "pysoem_updates_the_image_over_a_veth_pair",
 ];
 
-/// The `no_std` crates that must build for every embedded target.
+/// The `no_std` crates others reuse: they must build for every embedded target, and they
+/// are ready to publish (`cargo publish --dry-run`).
 const PORTABLE_CRATES: [&str; 5] = ["coe-core", "et1100", "ad5663", "ad7689", "lpc17xx-iap"];
 
 #[derive(clap::Args)]
@@ -62,6 +63,7 @@ pub fn run(args: &Args) -> Result {
         }
         exec(doc.env("RUSTDOCFLAGS", "-D warnings"))?;
     }
+    publish_dry_run()?;
     // The LPC1754 images first: release builds, checksum, CRP word and budgets verified on
     // the BINs; the co-simulator's system tests (tests/cosim) run these very programs (the
     // bootloader and the update file are found next to the application's ELF).
@@ -111,6 +113,20 @@ pub fn run(args: &Args) -> Result {
         ..Default::default()
     })?;
     Ok(())
+}
+
+/// `cargo publish --dry-run` of the reusable crates: each is packaged (manifest, README,
+/// licence files) and the package alone is built, as crates.io would take it. The crates go
+/// in one command so that et1100's dependency on coe-core resolves to the coe-core packaged
+/// beside it, which the registry does not have yet. `--allow-dirty`: a developer runs this
+/// with changes not yet committed; CI's clone is clean anyway.
+fn publish_dry_run() -> Result {
+    let mut cmd = cargo();
+    cmd.args(["publish", "--dry-run", "--allow-dirty"]);
+    for c in PORTABLE_CRATES {
+        cmd.args(["-p", c]);
+    }
+    exec(&mut cmd)
 }
 
 /// The tests ignored by default because they need what a developer's machine may lack:
