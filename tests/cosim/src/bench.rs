@@ -549,6 +549,14 @@ fn latency(ns: &[u64]) -> Latency {
         min_ns: *ns.iter().min().expect("not empty"),
         mean_ns: ns.iter().sum::<u64>() as f64 / ns.len() as f64,
         max_ns: *ns.iter().max().expect("not empty"),
+        histogram: ns
+            .iter()
+            .fold(std::collections::BTreeMap::new(), |mut h, &n| {
+                *h.entry(n).or_insert(0u64) += 1;
+                h
+            })
+            .into_iter()
+            .collect(),
     }
 }
 

@@ -131,6 +131,10 @@ pub struct Latency {
     pub mean_ns: f64,
     /// Longest (ns).
     pub max_ns: u64,
+    /// How often each latency occurred: (ns, edges), shortest first (the latencies are
+    /// whole CPU cycles, so a few distinct values cover a run).
+    #[serde(default)]
+    pub histogram: Vec<(u64, u64)>,
 }
 
 /// A DC cycle run with 2 AO + 8 AI, and the criteria it is judged by.
