@@ -4,6 +4,7 @@
 
 mod bench;
 mod build;
+mod docs;
 mod esi;
 mod flash;
 mod fuzz;
@@ -34,6 +35,10 @@ enum Command {
     Test(test::Args),
     /// Install what the project needs on this machine (idempotent).
     Setup,
+    /// Build the manual (docs/, an mdBook) into target/book, with the tables generated from
+    /// the code; fails on a broken link or anchor and on a `cargo xtask` command it shows
+    /// that does not exist.
+    Docs,
     /// Run the virtual board with a real EtherCAT master (in process, or on a network
     /// interface with --iface): ESM walk, SDO identity, AI -> AO loop-back figures.
     Sim(sim::Args),
@@ -62,6 +67,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Test(args) => test::run(&args),
         Command::Setup => setup::all(),
+        Command::Docs => docs::run(),
         Command::Sim(args) => sim::run(&args),
         Command::Build(args) => build::run(&args),
         Command::Size(args) => size::run(&args),
