@@ -56,7 +56,6 @@ const INPUT: RGBColor = RGBColor(31, 119, 180);
 const OUTPUT: RGBColor = RGBColor(214, 39, 40);
 const GOOD: RGBColor = RGBColor(44, 160, 44);
 const GRID: RGBColor = RGBColor(215, 215, 215);
-const FINE_GRID: RGBColor = RGBColor(242, 242, 242);
 
 /// Registers DejaVu Sans under [`FAMILY`] once. Text stays at 15 px or more: below that,
 /// plotters' ab_glyph backend rounds small glyphs such as '.' a pixel or two off the baseline.
@@ -115,13 +114,13 @@ pub fn loopback(path: &Path, title: &str, traces: &[Trace]) -> Result {
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
-            .light_line_style(FINE_GRID)
+            .light_line_style(TRANSPARENT)
             .bold_line_style(GRID)
             .y_labels(6)
             .y_label_formatter(&|v| format!("{v:.1}"))
             .x_desc("time (ms)")
             .y_desc("voltage (V)")
-            .label_style(text(15))
+            .label_style(text(16))
             .axis_desc_style(text(16))
             .draw()
             .map_err(|e| err(&e))?;
@@ -198,13 +197,13 @@ pub fn cycle_sweep(
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
-            .light_line_style(FINE_GRID)
+            .light_line_style(TRANSPARENT)
             .bold_line_style(GRID)
             .x_label_formatter(&|v| format!("{v:.0}"))
             .y_label_formatter(&|v| format!("{v:.0}"))
             .x_desc("DC cycle time (us)")
             .y_desc(what)
-            .label_style(text(15))
+            .label_style(text(16))
             .axis_desc_style(text(16))
             .draw()
             .map_err(|e| err(&e))?;
@@ -280,13 +279,13 @@ pub fn latency_histogram(
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
-        .light_line_style(FINE_GRID)
+        .light_line_style(TRANSPARENT)
         .bold_line_style(GRID)
         .y_label_formatter(&|v| format!("{v:.0}"))
         .x_label_formatter(&|v| format!("{v:.2}"))
         .x_desc("SYNC0 edge -> LDAC edge (us)")
         .y_desc(format!("SYNC0 edges (of {edges})"))
-        .label_style(text(15))
+        .label_style(text(16))
         .axis_desc_style(text(16))
         .draw()
         .map_err(|e| err(&e))?;
@@ -324,7 +323,7 @@ pub fn cpu_per_task(path: &Path, title: &str, tasks: &[(String, f64)]) -> Result
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
-        .light_line_style(FINE_GRID)
+        .light_line_style(TRANSPARENT)
         .bold_line_style(GRID)
         .disable_y_mesh()
         .y_labels(tasks.len())
@@ -337,7 +336,7 @@ pub fn cpu_per_task(path: &Path, title: &str, tasks: &[(String, f64)]) -> Result
         })
         .x_label_formatter(&|v| format!("{v:.0}"))
         .x_desc("share of the CPU (%)")
-        .label_style(text(15))
+        .label_style(text(16))
         .axis_desc_style(text(16))
         .draw()
         .map_err(|e| err(&e))?;
