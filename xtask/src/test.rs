@@ -1,7 +1,7 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, have, Result};
-use crate::{bench, build, esi, flash, fuzz, setup};
+use crate::{bench, build, docs, esi, flash, fuzz, setup};
 use std::path::Path;
 
 /// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
@@ -80,6 +80,8 @@ pub fn run(args: &Args) -> Result {
     exec(cargo().args(["test", "-p", "coe-core", "--no-default-features"]))?;
     // The device description files, the ESI validated against the ETG.2000 schema.
     esi::run(&esi::Args::default())?;
+    // The manual: its generated tables, its links and the commands it shows.
+    docs::run()?;
     for target in setup::TARGETS {
         let mut cmd = cargo();
         cmd.args(["build", "--release", "--target", target]);
