@@ -63,7 +63,7 @@ const SWEEP_UP_US: [u64; 6] = [125, 150, 200, 300, 500, 1000];
 /// never meet.
 const SWEEP_MIN_WINDOW_NS: u64 = 150_000_000;
 
-/// How much to run: the short form for CI, the full one for the README.
+/// How much to run: the short form for CI, the full one for the book's Performance chapter.
 #[derive(Clone, Copy, Debug)]
 pub struct Plan {
     /// Judged cycles of the profile run.
