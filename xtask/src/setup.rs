@@ -23,6 +23,10 @@ pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "
 /// (libclang) at every build.
 pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
 
+/// Debian packages of the SOES peer (`cargo xtask peer soes`, tests/soes): the C compiler for
+/// the Cortex-M3 and the C library (newlib) it links.
+pub const PEER_PACKAGES: [&str; 2] = ["gcc-arm-none-eabi", "libnewlib-arm-none-eabi"];
+
 /// Python packages (PyPI name, version) the system tests use, pinned so each test drives the
 /// software it was written against: pysoem (SOEM's Python binding, a wheel with SOEM inside),
 /// the second EtherCAT master on a veth pair and of the firmware update test; python-canopen,
@@ -39,6 +43,7 @@ pub fn all() -> Result {
     targets()?;
     flip_link()?;
     debian(&DEBIAN_PACKAGES);
+    debian(&PEER_PACKAGES);
     python(&PYTHON_PACKAGES);
     cosim()
 }

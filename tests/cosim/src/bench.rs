@@ -13,7 +13,7 @@
 use crate::cosim::{Facts, Options};
 use crate::image::Image;
 use crate::profile::THREAD;
-use crate::run::image_target;
+use crate::run::{image_target, CosimHandle};
 use coe_core::canopen::{cob, CanFrame, NmtCommand};
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage};
@@ -282,6 +282,29 @@ where
     Ok(())
 }
 
+/// A program the DC runs drive on the co-simulated board: the release image, or a peer
+/// stack ([`crate::peer`]) with the same process data (2 AO, 8 AI).
+#[derive(Clone, Copy)]
+pub struct Program<'a> {
+    /// The flash.
+    pub image: &'a Image,
+    /// How it becomes the board's CPU (with its SII image).
+    pub target: fn(Image, Options) -> Result<(virtual_board::tools::sim::Target, CosimHandle), String>,
+    /// The shortest SYNC0 cycle it accepts at PRE-OP -> SAFE-OP (0x1C32:05).
+    pub min_cycle_ns: u64,
+}
+
+impl<'a> Program<'a> {
+    /// The release image.
+    pub fn release(image: &'a Image) -> Self {
+        Self {
+            image,
+            target: image_target,
+            min_cycle_ns: u64::from(MIN_CYCLE_TIME_NS),
+        }
+    }
+}
+
 /// Runs the image from reset to OP with DC SYNC0 at `cycle_ns` and judges `cycles` cycles
 /// ([`DcCheck`]); with `mailbox`, mailbox traffic in PRE-OP first.
 pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Result<DcRun, String> {
@@ -296,7 +319,19 @@ pub fn dc_run_with_can(
     mailbox: bool,
     can_load: Option<CanLoad>,
 ) -> Result<DcRun, String> {
-    let (mut target, handle) = image_target(image.clone(), Options::default())?;
+    dc_run_program(&Program::release(image), cycle_ns, cycles, mailbox, can_load)
+}
+
+/// [`dc_run_with_can`] for any [`Program`] (mailbox traffic and CAN load are the release
+/// image's).
+pub fn dc_run_program(
+    program: &Program,
+    cycle_ns: u64,
+    cycles: u64,
+    mailbox: bool,
+    can_load: Option<CanLoad>,
+) -> Result<DcRun, String> {
+    let (mut target, handle) = (program.target)(program.image.clone(), Options::default())?;
     let board = Rc::new(RefCell::new(VirtualBoard::new({
         let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
         cfg.capture = false;
@@ -358,7 +393,7 @@ pub fn dc_run_with_can(
         // The firmware refuses a SYNC0 cycle below its advertised minimum at PRE-OP ->
         // SAFE-OP (0x0035); it reads the cycle there only. Below it, the check sees the
         // minimum and the DC unit runs the cycle under test from SAFE-OP on.
-        let checked_ns = cycle_ns.max(u64::from(MIN_CYCLE_TIME_NS));
+        let checked_ns = cycle_ns.max(program.min_cycle_ns);
         let group = group
             .configure_dc_sync(
                 &md,
@@ -808,10 +843,20 @@ pub fn sweep(
     also_ns: Option<u64>,
     progress: &mut dyn FnMut(&DcCheck),
 ) -> Sweep {
+    sweep_program(&Program::release(image), plan, also_ns, progress)
+}
+
+/// [`sweep`] for any [`Program`].
+pub fn sweep_program(
+    program: &Program,
+    plan: &Plan,
+    also_ns: Option<u64>,
+    progress: &mut dyn FnMut(&DcCheck),
+) -> Sweep {
     let mut points: Vec<DcCheck> = Vec::new();
     let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| -> bool {
         let cycles = plan.sweep_cycles(cycle_ns);
-        let check = match dc_run(image, cycle_ns, cycles, false) {
+        let check = match dc_run_program(program, cycle_ns, cycles, false, None) {
             Ok(r) => r.check,
             Err(e) => DcCheck {
                 cycle_ns,
@@ -882,7 +927,7 @@ pub fn measure(
         elf: elf.to_string(),
         flash_bytes: u64::from(image.flash_bytes),
         static_ram_bytes: u64::from(image.static_ram),
-        stack_bytes: u64::from(image.initial_sp().saturating_sub(crate::cpu::SRAM.0)),
+        stack_bytes: u64::from(image.initial_sp().saturating_sub(image.stack_floor)),
         cpi: (crate::machine::CPI_NUM, crate::machine::CPI_DEN),
         cclk_hz,
         profile,
