@@ -106,7 +106,10 @@ pub fn build_soes() -> Result<PathBuf> {
     link.args(["-nostartfiles", "--specs=nano.specs"])
         .arg(format!("-T{}", port.join("lpc1754.ld").display()))
         .arg("-Wl,--gc-sections")
-        .arg(format!("-Wl,-Map={}", out.join("soes-analog-io.map").display()))
+        .arg(format!(
+            "-Wl,-Map={}",
+            out.join("soes-analog-io.map").display()
+        ))
         .args(&objects)
         .arg("-o")
         .arg(&elf);

@@ -46,7 +46,7 @@ pub const INPUTS_V: [f64; 8] = [1.0, 2.0, 3.0, 4.0, 5.0, 7.5, 8.0, 9.0];
 /// Cycles run in OP before the judged ones (the first SYNC0 edges meet no outputs yet).
 const WARM_UP_CYCLES: u64 = 20;
 /// Cycles run after the judged ones (the last judged edge needs the next edge).
-const TAIL_CYCLES: u64 = 2;
+pub const TAIL_CYCLES: u64 = 2;
 
 /// The cycle of the profile run: the virtual board's default (`cargo xtask sim`).
 pub const PROFILE_CYCLE_NS: u64 = virtual_board::tools::sim::DEFAULT_CYCLE_US as u64 * 1000;
@@ -134,6 +134,8 @@ pub struct DcRun {
     pub phases: Phases,
     /// The CAN traffic of the run ([`dc_run_with_can`]; zero without).
     pub can: CanSeen,
+    /// The AL control and AL status writes of the run (the ESC's log).
+    pub al_log: Vec<virtual_board::models::esc::AlWrite>,
 }
 
 /// CANopen traffic on CAN1 during a DC run: the image's node is started (TPDO2 on every
@@ -289,7 +291,8 @@ pub struct Program<'a> {
     /// The flash.
     pub image: &'a Image,
     /// How it becomes the board's CPU (with its SII image).
-    pub target: fn(Image, Options) -> Result<(virtual_board::tools::sim::Target, CosimHandle), String>,
+    pub target:
+        fn(Image, Options) -> Result<(virtual_board::tools::sim::Target, CosimHandle), String>,
     /// The shortest SYNC0 cycle it accepts at PRE-OP -> SAFE-OP (0x1C32:05).
     pub min_cycle_ns: u64,
 }
@@ -319,7 +322,13 @@ pub fn dc_run_with_can(
     mailbox: bool,
     can_load: Option<CanLoad>,
 ) -> Result<DcRun, String> {
-    dc_run_program(&Program::release(image), cycle_ns, cycles, mailbox, can_load)
+    dc_run_program(
+        &Program::release(image),
+        cycle_ns,
+        cycles,
+        mailbox,
+        can_load,
+    )
 }
 
 /// [`dc_run_with_can`] for any [`Program`] (mailbox traffic and CAN load are the release
@@ -509,12 +518,14 @@ pub fn dc_run_program(
     if let Some(b) = &before {
         judge(&board, &sent, start, adc_violations, b, &after, &mut check);
     }
+    let al_log = board.borrow().esc().borrow().al_log.clone();
     Ok(DcRun {
         check,
         before,
         after,
         phases,
         can: can_seen,
+        al_log,
     })
 }
 

@@ -242,7 +242,11 @@ impl Core {
     }
 
     fn paint_stack(&mut self) {
-        paint(&mut self.uc, self.image.stack_floor, self.image.initial_sp());
+        paint(
+            &mut self.uc,
+            self.image.stack_floor,
+            self.image.initial_sp(),
+        );
     }
 
     /// The image.

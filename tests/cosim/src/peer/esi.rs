@@ -28,12 +28,10 @@ fn text<'a>(node: Node<'a, '_>, name: &str) -> Result<&'a str, String> {
 }
 
 fn attr(node: Node<'_, '_>, name: &str) -> Result<u32, String> {
-    number(node.attribute(name).ok_or_else(|| {
-        format!(
-            "ESI: <{}> has no {name} attribute",
-            node.tag_name().name()
-        )
-    })?)
+    number(
+        node.attribute(name)
+            .ok_or_else(|| format!("ESI: <{}> has no {name} attribute", node.tag_name().name()))?,
+    )
 }
 
 /// CoE data type code of an ESI base type name (ETG.1000.6 table 64).
@@ -81,12 +79,8 @@ pub fn sii_from_esi(xml: &str) -> Result<Vec<u8>, String> {
     let device = child(child(child(root, "Descriptions")?, "Devices")?, "Device")?;
     let ty = child(device, "Type")?;
     let order = ty.text().unwrap_or_default().trim();
-    let mut sii = SiiBuilder::new().identity(
-        vendor,
-        attr(ty, "ProductCode")?,
-        attr(ty, "RevisionNo")?,
-        0,
-    );
+    let mut sii =
+        SiiBuilder::new().identity(vendor, attr(ty, "ProductCode")?, attr(ty, "RevisionNo")?, 0);
     let eeprom = child(device, "Eeprom")?;
     let config = text(eeprom, "ConfigData")?;
     if config.len() != 28 {
