@@ -1,7 +1,7 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, have, Result};
-use crate::{bench, build, esi, flash, fuzz, setup};
+use crate::{bench, build, esi, flash, fuzz, peer, setup};
 use std::path::Path;
 
 /// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
@@ -14,11 +14,12 @@ const PYTHON_CANOPEN_TEST: &str = "python_canopen_drives_the_board_over_socketca
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
-/// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, SOEM
-/// updating the module's firmware on the virtual board and on the image, each on a veth pair.
-const ROOT_TESTS: [&str; 4] = [
+/// ethercrab and the virtual board, SOEM (pysoem) and the image (and SOES) on the
+/// co-simulator, SOEM updating the module's firmware on the virtual board and on the image, each on a veth pair.
+const ROOT_TESTS: [&str; 5] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
+    "pysoem_drives_soes_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
     "pysoem_updates_the_image_over_a_veth_pair",
 ];
@@ -67,12 +68,15 @@ pub fn run(args: &Args) -> Result {
     // bootloader and the update file are found next to the application's ELF).
     let image = build::build(&build::Args::default())?;
     build::print_report(&image);
+    // SOES for the same board (tests/soes), which the co-simulator's peer tests run.
+    let soes = peer::build_soes()?;
     exec(
         cargo()
             .args(["test", "--workspace"])
-            .env("LPC1754_IMAGE", &image.elf),
+            .env("LPC1754_IMAGE", &image.elf)
+            .env(peer::SOES_IMAGE_ENV, &soes),
     )?;
-    ignored_tests(&image.elf)?;
+    ignored_tests(&image.elf, &soes)?;
     // coe-core as the firmware builds it (without the `real` feature, which the workspace
     // test run unifies back on), so the no-REAL paths are tested too.
     exec(cargo().args(["test", "-p", "coe-core", "--no-default-features"]))?;
@@ -118,7 +122,7 @@ pub fn run(args: &Args) -> Result {
 /// the network-interface tests (root: run when this is root, else said loudly). The tests
 /// that read the shared vectors beside the checkout show as ignored where they are absent
 /// and run with the others where they are present (`has_shared_vectors`).
-fn ignored_tests(image: &Path) -> Result {
+fn ignored_tests(image: &Path, soes: &Path) -> Result {
     if !have("tshark") {
         return Err(
             "tshark is not installed, so the capture checks (tests named \
@@ -137,7 +141,8 @@ fn ignored_tests(image: &Path) -> Result {
         TSHARK_TESTS,
         PYTHON_CANOPEN_TEST,
     ])
-    .env("LPC1754_IMAGE", image);
+    .env("LPC1754_IMAGE", image)
+    .env(peer::SOES_IMAGE_ENV, soes);
     if setup::is_root() {
         cmd.args(ROOT_TESTS);
     } else {

@@ -212,6 +212,21 @@ pub fn step_to(board: &Board, t: u64) {
     }
 }
 
+/// Runs the board until the DC unit's first SYNC0 pulse (its start time, 0x0990) is past.
+pub fn sync0_started(board: &Board) {
+    let (start, sys) = {
+        let b = board.borrow();
+        let esc = b.esc().borrow();
+        let mut t = [0u8; 8];
+        esc.peek(regs::DC_START_TIME, &mut t);
+        (u64::from_le_bytes(t), esc.dc_system_time())
+    };
+    if start > sys {
+        let now = board.borrow().now_ns();
+        step_to(board, now + (start - sys) + 1_000);
+    }
+}
+
 /// AL status and AL status code as the ESC holds them.
 pub fn al_status(board: &Board) -> (u16, u16) {
     let b = board.borrow();
@@ -295,6 +310,9 @@ pub struct Program<'a> {
         fn(Image, Options) -> Result<(virtual_board::tools::sim::Target, CosimHandle), String>,
     /// The shortest SYNC0 cycle it accepts at PRE-OP -> SAFE-OP (0x1C32:05).
     pub min_cycle_ns: u64,
+    /// Virtual time the master waits before its first frame (the slave's boot, so the
+    /// ESM rows time the transitions alone).
+    pub boot_ns: u64,
 }
 
 impl<'a> Program<'a> {
@@ -304,6 +322,7 @@ impl<'a> Program<'a> {
             image,
             target: image_target,
             min_cycle_ns: u64::from(MIN_CYCLE_TIME_NS),
+            boot_ns: 0,
         }
     }
 }
@@ -377,6 +396,7 @@ pub fn dc_run_program(
     let mut before: Option<Facts> = None;
     let mut start = 0u64;
     let mut adc_violations = 0;
+    step_to(&board, program.boot_ns);
     let master = async {
         phases.enter(0, "boot and INIT -> PRE-OP");
         // DC time from the board's clock, not the wall clock: the cycle's phase against the
@@ -428,6 +448,9 @@ pub fn dc_run_program(
                 .await
                 .map_err(|e| format!("SYNC0 reprogrammed to {cycle_ns} ns: {e}"))?;
         }
+        // SAFE-OP -> OP once SYNC0 runs (the DC start time passed), as masters do: a slave
+        // may count SM2 events against SYNC0 edges from OP on (SOES does).
+        sync0_started(&board);
         let group = group
             .into_op(&md)
             .await
@@ -581,6 +604,7 @@ fn judge(
     check.lost_samples = (after.samples.lost - before.samples.lost)
         + (after.ssp1_overruns - before.ssp1_overruns)
         + (b.adc().borrow().cycle_violations - adc_violations);
+    check.conversions = after.traffic.adc_conversions - before.traffic.adc_conversions;
     let cycles = after.cycles - before.cycles;
     let sleep = after.sleep_cycles - before.sleep_cycles;
     check.cpu_load = 1.0 - sleep as f64 / cycles.max(1) as f64;

@@ -76,5 +76,6 @@ pub fn program(image: &Image) -> Result<crate::bench::Program<'_>, String> {
         image,
         target,
         min_cycle_ns: min_cycle_ns()?,
+        boot_ns: 0,
     })
 }
