@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use virtual_board::tools::iface::veth_pair_in_new_namespace;
-use virtual_board::tools::sim::{self, Line, SimConfig, Target};
+use virtual_board::tools::sim::{self, Line, SimConfig};
 
 /// What a master script did against the image served on a veth pair.
 pub struct ScriptRun {
@@ -57,7 +57,7 @@ pub fn run_script_against_image(
 /// [`run_script_against_image`] for any program on the co-simulator (`target` makes it
 /// the board's CPU: the release image, or a peer such as SOES).
 pub fn run_script_against(
-    target: impl FnOnce() -> Result<(Target, CosimHandle), String>,
+    target: impl FnOnce() -> Result<(sim::Target, CosimHandle), String>,
     script: PathBuf,
     args: Vec<OsString>,
     pcap_name: &str,
