@@ -7,9 +7,14 @@ use std::path::Path;
 /// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
 const CI_FUZZ_SECONDS: u32 = 30;
 
-/// The test ignored by default because it needs python3 with python-canopen and python-can
-/// (the setup installs them; without them it fails, naming what is missing).
-const PYTHON_CANOPEN_TEST: &str = "python_canopen_drives_the_board_over_socketcand";
+/// The tests ignored by default because they need python3 with python-canopen, python-can
+/// and durand (the setup installs them; without them they fail, naming what is missing):
+/// python-canopen driving the board, and coe-core's master driving durand, python-canopen's
+/// LocalNode and the firmware's node.
+const PYTHON_CAN_TESTS: [&str; 2] = [
+    "python_canopen_drives_the_board_over_socketcand",
+    "the_master_runs_durand_python_canopen_and_the_firmware_node",
+];
 
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
@@ -139,8 +144,8 @@ fn ignored_tests(image: &Path, soes: &Path) -> Result {
         "--",
         "--ignored",
         TSHARK_TESTS,
-        PYTHON_CANOPEN_TEST,
     ])
+    .args(PYTHON_CAN_TESTS)
     .env("LPC1754_IMAGE", image)
     .env(peer::SOES_IMAGE_ENV, soes);
     if setup::is_root() {
