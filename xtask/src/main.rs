@@ -9,6 +9,7 @@ mod esi;
 mod flash;
 mod fuzz;
 mod image;
+mod peer;
 mod setup;
 mod sim;
 mod size;
@@ -57,6 +58,9 @@ enum Command {
     Flash(flash::Args),
     /// Flash with probe-rs and show the firmware's defmt log over RTT.
     Run(flash::RunArgs),
+    /// Build a peer stack for the same board (`soes`: SOES from ../shared/peers/soes with
+    /// the port in tests/soes) into an ELF the co-simulator runs.
+    Peer(peer::Args),
     /// Run the cargo-fuzz targets of tests/fuzz (seeded from the real-world captures) for a
     /// while each; fails on a crash.
     Fuzz(fuzz::Args),
@@ -76,6 +80,7 @@ fn main() -> ExitCode {
         Command::Flash(args) => flash::run(&args),
         Command::Run(args) => flash::run_and_monitor(&args),
         Command::Fuzz(args) => fuzz::run(&args),
+        Command::Peer(args) => peer::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -23,15 +23,22 @@ pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "
 /// (libclang) at every build.
 pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
 
+/// Debian packages of the SOES peer (`cargo xtask peer soes`, tests/soes): the C compiler for
+/// the Cortex-M3 and the C library (newlib) it links.
+pub const PEER_PACKAGES: [&str; 2] = ["gcc-arm-none-eabi", "libnewlib-arm-none-eabi"];
+
 /// Python packages (PyPI name, version) the system tests use, pinned so each test drives the
 /// software it was written against: pysoem (SOEM's Python binding, a wheel with SOEM inside),
 /// the second EtherCAT master on a veth pair and of the firmware update test; python-canopen,
-/// the CANopen master of the CAN system test (`tests/python/canopen_master.py`); python-can,
-/// whose `socketcand` interface reaches the board's CAN bus.
-pub const PYTHON_PACKAGES: [(&str, &str); 3] = [
+/// the CANopen master of the CAN system test (`tests/python/canopen_master.py`) and, with its
+/// LocalNode, one of the slaves of coe-core's master (`tests/python/can_slaves.py`); python-can,
+/// whose `socketcand` interface reaches the board's CAN bus; durand, a pure-Python CANopen
+/// slave nobody here wrote, the master's other third-party slave.
+pub const PYTHON_PACKAGES: [(&str, &str); 4] = [
     ("pysoem", "1.1.13"),
     ("canopen", "2.4.1"),
     ("python-can", "4.6.1"),
+    ("durand", "0.5.0"),
 ];
 
 /// Everything: targets, cargo tools, Debian and Python packages.
@@ -40,6 +47,7 @@ pub fn all() -> Result {
     flip_link()?;
     mdbook()?;
     debian(&DEBIAN_PACKAGES);
+    debian(&PEER_PACKAGES);
     python(&PYTHON_PACKAGES);
     cosim()
 }

@@ -1,24 +1,30 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, have, Result};
-use crate::{bench, build, docs, esi, flash, fuzz, setup};
+use crate::{bench, build, docs, esi, flash, fuzz, peer, setup};
 use std::path::Path;
 
 /// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
 const CI_FUZZ_SECONDS: u32 = 30;
 
-/// The test ignored by default because it needs python3 with python-canopen and python-can
-/// (the setup installs them; without them it fails, naming what is missing).
-const PYTHON_CANOPEN_TEST: &str = "python_canopen_drives_the_board_over_socketcand";
+/// The tests ignored by default because they need python3 with python-canopen, python-can
+/// and durand (the setup installs them; without them they fail, naming what is missing):
+/// python-canopen driving the board, and coe-core's master driving durand, python-canopen's
+/// LocalNode and the firmware's node.
+const PYTHON_CAN_TESTS: [&str; 2] = [
+    "python_canopen_drives_the_board_over_socketcand",
+    "the_master_runs_durand_python_canopen_and_the_firmware_node",
+];
 
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
-/// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, SOEM
-/// updating the module's firmware on the virtual board and on the image, each on a veth pair.
-const ROOT_TESTS: [&str; 4] = [
+/// ethercrab and the virtual board, SOEM (pysoem) and the image (and SOES) on the
+/// co-simulator, SOEM updating the module's firmware on the virtual board and on the image, each on a veth pair.
+const ROOT_TESTS: [&str; 5] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
+    "pysoem_drives_soes_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
     "pysoem_updates_the_image_over_a_veth_pair",
 ];
@@ -69,12 +75,15 @@ pub fn run(args: &Args) -> Result {
     // bootloader and the update file are found next to the application's ELF).
     let image = build::build(&build::Args::default())?;
     build::print_report(&image);
+    // SOES for the same board (tests/soes), which the co-simulator's peer tests run.
+    let soes = peer::build_soes()?;
     exec(
         cargo()
             .args(["test", "--workspace"])
-            .env("LPC1754_IMAGE", &image.elf),
+            .env("LPC1754_IMAGE", &image.elf)
+            .env(peer::SOES_IMAGE_ENV, &soes),
     )?;
-    ignored_tests(&image.elf)?;
+    ignored_tests(&image.elf, &soes)?;
     // coe-core as the firmware builds it (without the `real` feature, which the workspace
     // test run unifies back on), so the no-REAL paths are tested too.
     exec(cargo().args(["test", "-p", "coe-core", "--no-default-features"]))?;
@@ -136,7 +145,7 @@ fn publish_dry_run() -> Result {
 /// the network-interface tests (root: run when this is root, else said loudly). The tests
 /// that read the shared vectors beside the checkout show as ignored where they are absent
 /// and run with the others where they are present (`has_shared_vectors`).
-fn ignored_tests(image: &Path) -> Result {
+fn ignored_tests(image: &Path, soes: &Path) -> Result {
     if !have("tshark") {
         return Err(
             "tshark is not installed, so the capture checks (tests named \
@@ -153,9 +162,10 @@ fn ignored_tests(image: &Path) -> Result {
         "--",
         "--ignored",
         TSHARK_TESTS,
-        PYTHON_CANOPEN_TEST,
     ])
-    .env("LPC1754_IMAGE", image);
+    .args(PYTHON_CAN_TESTS)
+    .env("LPC1754_IMAGE", image)
+    .env(peer::SOES_IMAGE_ENV, soes);
     if setup::is_root() {
         cmd.args(ROOT_TESTS);
     } else {

@@ -21,6 +21,7 @@ mod cm3;
 mod image_rows;
 mod model;
 mod opt_levels;
+mod peer;
 mod plot;
 mod report;
 
@@ -60,6 +61,11 @@ pub struct Args {
     /// in target/bench/by_function.json.
     #[arg(long, conflicts_with_all = ["quick", "json", "plot", "opt_levels", "min_cycle"])]
     pub by_function: bool,
+    /// Instead of the table: this project's image beside a peer stack built for the same
+    /// board (`soes`), measured the same way on the co-simulator, with the ratios, and the
+    /// conformance checks of both (--quick: the short sweep; --json: the figures as JSON).
+    #[arg(long, value_parser = ["soes"], conflicts_with_all = ["plot", "opt_levels", "min_cycle", "by_function"])]
+    pub peer: Option<String>,
 }
 
 const AFTER_HELP: &str = "\
@@ -113,6 +119,9 @@ pub fn run(args: &Args) -> Result {
     }
     if args.by_function {
         return by_function::run();
+    }
+    if args.peer.is_some() {
+        return peer::run(args.quick, args.json.as_deref());
     }
     let plan = Plan::new(args.quick);
     let cycle_ns = u64::from(CYCLE_US) * 1000;
