@@ -101,25 +101,28 @@ pub const PDO_NOT_ASSIGNED: u8 = 0xFF;
 /// Most strings the Strings category can hold (its count is one byte).
 pub const MAX_STRINGS: usize = 255;
 
-/// CRC-8 of the SII checksum: polynomial 0x07, initial value 0xFF, MSB first, no reflection,
-/// no final XOR (ESC datasheet section II, "SII EEPROM" / ETG.1000.6 5.4).
+/// The SII checksum's CRC: polynomial 0x07, initial value 0xFF, MSB first, no reflection,
+/// no final XOR (ESC datasheet section II, "SII EEPROM" / ETG.1000.6 5.4). No catalogue of
+/// the `crc` crate names these parameters, so they are given here.
+const SII_CRC: crc::Algorithm<u8> = crc::Algorithm {
+    width: 8,
+    poly: 0x07,
+    init: 0xFF,
+    refin: false,
+    refout: false,
+    xorout: 0x00,
+    check: 0xFB,
+    residue: 0x00,
+};
+
+/// Bit by bit: the checksum covers 14 bytes, and no lookup table lands in a firmware that
+/// reads SII images.
+const SII_CRC8: crc::Crc<u8, crc::NoTable> = crc::Crc::<u8, crc::NoTable>::new(&SII_CRC);
+
+/// CRC-8 of the SII checksum (word 7) over `data`: polynomial 0x07, initial value 0xFF, MSB
+/// first, no reflection, no final XOR.
 pub const fn crc8(data: &[u8]) -> u8 {
-    let mut crc: u8 = 0xFF;
-    let mut i = 0;
-    while i < data.len() {
-        crc ^= data[i];
-        let mut bit = 0;
-        while bit < 8 {
-            crc = if crc & 0x80 != 0 {
-                (crc << 1) ^ 0x07
-            } else {
-                crc << 1
-            };
-            bit += 1;
-        }
-        i += 1;
-    }
-    crc
+    SII_CRC8.checksum(data)
 }
 
 /// Why no image could be generated.

@@ -79,6 +79,7 @@ pub mod tools {
     pub mod image_figures;
     pub mod loopback;
     pub mod pcap;
+    pub mod peer_figures;
     pub mod sim;
     pub mod socketcand;
 }

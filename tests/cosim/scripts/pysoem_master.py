@@ -10,6 +10,7 @@ line on stdout: {"step": ..., ...}; the last line is {"step": "done", "ok": true
 The exit code is 0 only when every step worked.
 """
 
+import argparse
 import json
 import struct
 import sys
@@ -35,8 +36,15 @@ def wait_state(master, slave, state, timeout_us):
 
 
 def main():
-    iface = sys.argv[1]
-    cycles = int(sys.argv[2]) if len(sys.argv) > 2 else 200
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("iface", help="the network interface the module is on")
+    parser.add_argument(
+        "cycles", nargs="?", type=int, default=200, help="process-data exchanges in OP"
+    )
+    args = parser.parse_args()
+    iface, cycles = args.iface, args.cycles
     # SOEM waits 2 ms for a datagram by default; the co-simulated image answers from a
     # user-space thread, slower than real time on a loaded host. A real module answers in
     # microseconds, so the longer waits cost nothing there.

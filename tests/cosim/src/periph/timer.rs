@@ -33,13 +33,14 @@ pub struct Timer {
     held_tc: u32,
     pclk_hz: u64,
     dma_request: [bool; 2],
-    /// CRn holds a capture no read has taken yet.
+    /// CRn holds a capture no read has taken and whose interrupt is not acknowledged.
     cr_unread: [bool; 2],
     /// Matches fired, per MR.
     pub matches: [u64; 4],
     /// Captures into CRn, per n.
     pub captures: [u64; 2],
-    /// Captures overwritten by the next one before any read of CRn took them.
+    /// Captures overwritten by the next one before a read of CRn took them or the CPU
+    /// acknowledged their interrupt (IR): edges no handler served.
     pub captures_unread: [u64; 2],
     /// [`Timer::next_match`] as of the last change (asked for after every access).
     next: Option<(u64, u32)>,
@@ -237,6 +238,11 @@ impl Peripheral for Timer {
         match offset {
             0x00 => {
                 self.ir &= !value;
+                for n in 0..2 {
+                    if value & (1 << (4 + n)) != 0 {
+                        self.cr_unread[n] = false;
+                    }
+                }
                 if !unconfirmed::REQUEST_HELD || value & 3 != 0 {
                     for n in 0..2 {
                         if value & (1 << n) != 0 {
