@@ -11,6 +11,7 @@ Every BAD file is written first and must be refused; FILE.efw last must be accep
 JSON per step goes to stdout; the exit code is 0 when every step went as expected.
 """
 
+import argparse
 import json
 import os
 import struct
@@ -128,11 +129,15 @@ def main(iface, good, bad):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 3:
-        print(__doc__, file=sys.stderr)
-        sys.exit(2)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("iface", help="the network interface the module is on")
+    parser.add_argument("file", help="the update file that must be accepted (*.efw)")
+    parser.add_argument("bad", nargs="*", help="update files that must be refused, written first")
+    args = parser.parse_args()
     try:
-        sys.exit(main(sys.argv[1], sys.argv[2], sys.argv[3:]))
+        sys.exit(main(args.iface, args.file, args.bad))
     except Exception as e:  # the test shows the message
         report(step="error", message=describe(e))
         sys.exit(1)

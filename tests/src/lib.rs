@@ -21,6 +21,9 @@
 //!   - [`rig::master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
 //!   - [`rig::can_master::CanMaster`]: a CANopen master in process on the board's CAN bus
 //!     (NMT, SYNC, SDO client).
+//!   - [`rig::master_host`]: coe-core's CANopen master on a bus port, and a network of it
+//!     and in-process slaves ([`rig::can_slave`]: coe-core's CAN node on a generic I/O and
+//!     CiA 402-like device) in virtual time.
 //!   - [`rig::sdo_client`]: raw mailbox access as a master does it, and an SDO client on
 //!     it (segmented transfers, which ethercrab 0.7.1 cannot do), on ethercrab or on the
 //!     scripted master.
@@ -59,10 +62,12 @@ pub mod models {
 pub mod rig {
     pub mod board;
     pub mod can_master;
+    pub mod can_slave;
     pub mod clock;
     pub mod firmware_cpu;
     pub mod foe_client;
     pub mod master;
+    pub mod master_host;
     pub mod module_cpu;
     pub mod pi_mutex;
     pub mod scripted;
@@ -79,6 +84,7 @@ pub mod tools {
     pub mod latency;
     pub mod loopback;
     pub mod pcap;
+    pub mod peer_figures;
     pub mod sim;
     pub mod socketcand;
 }

@@ -7,7 +7,7 @@
 //! happens in a private network namespace created for the test
 //! (`unshare(CLONE_NEWNET)` on the test's own thread), so the veth pair never shows up
 //! on the host and disappears with the namespace when the test ends. The commands are
-//! the ones the README gives for a manual run:
+//! the ones the book gives for a manual run (docs/book/getting-started-virtual.md):
 //!
 //! ```text
 //! ip link add vb0 type veth peer name vb1

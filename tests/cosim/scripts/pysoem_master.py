@@ -25,6 +25,7 @@ One JSON object per line on stdout: {"step": ..., ...}; the last line is {"step"
 "ok": true|false}. The exit code is 0 only when every step worked.
 """
 
+import argparse
 import json
 import os
 import struct
@@ -237,9 +238,18 @@ def watchdog(master, slave, cycle_ns):
 
 
 def main():
-    iface = sys.argv[1]
-    cycles = int(sys.argv[2]) if len(sys.argv) > 2 else 2000
-    cycle_ns = (int(sys.argv[3]) if len(sys.argv) > 3 else 4000) * 1000
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("iface", help="the network interface the module is on")
+    parser.add_argument(
+        "cycles", nargs="?", type=int, default=2000, help="process-data exchanges in OP"
+    )
+    parser.add_argument(
+        "cycle_us", nargs="?", type=int, default=4000, help="the DC cycle (SYNC0) in us"
+    )
+    args = parser.parse_args()
+    iface, cycles, cycle_ns = args.iface, args.cycles, args.cycle_us * 1000
     say(step="master", realtime=realtime(), timeout_us=pysoem.settings.timeouts.ret)
     master = pysoem.Master()
     # The cyclic thread and the mailbox run side by side.

@@ -195,9 +195,9 @@ impl Core {
             // The stack is measured from the application's start: the bootloader before it
             // runs on the same RAM.
             let entry = u64::from(image.app_entry());
-            let top = image.initial_sp();
+            let (floor, top) = (image.stack_floor, image.initial_sp());
             uc.add_code_hook(entry, entry, move |uc: &mut Unicorn<'_, Shared>, _, _| {
-                paint(uc, top);
+                paint(uc, floor, top);
             })
             .map_err(err("application entry hook"))?;
         }
@@ -242,7 +242,11 @@ impl Core {
     }
 
     fn paint_stack(&mut self) {
-        paint(&mut self.uc, self.image.initial_sp());
+        paint(
+            &mut self.uc,
+            self.image.stack_floor,
+            self.image.initial_sp(),
+        );
     }
 
     /// The image.
@@ -253,13 +257,13 @@ impl Core {
     /// Deepest stack use since power-on: bytes below the initial SP that are no longer the
     /// paint.
     pub fn stack_high_water(&self) -> u32 {
-        let top = self.image.initial_sp();
-        if top <= SRAM.0 || top > SRAM.0 + SRAM.1 {
+        let (floor, top) = (self.image.stack_floor, self.image.initial_sp());
+        if !stack_in_sram(floor, top) {
             return 0;
         }
-        let n = (top - SRAM.0) as usize;
+        let n = (top - floor) as usize;
         let mut buf = vec![0u8; n];
-        if self.uc.mem_read(u64::from(SRAM.0), &mut buf).is_err() {
+        if self.uc.mem_read(u64::from(floor), &mut buf).is_err() {
             return 0;
         }
         let first_used = buf
@@ -269,9 +273,11 @@ impl Core {
         (n - 4 * first_used) as u32
     }
 
-    /// Stack size: the local SRAM below the initial SP (flip-link layout).
+    /// Stack size: the local SRAM from the stack's floor up to the initial SP.
     pub fn stack_size(&self) -> u32 {
-        self.image.initial_sp().saturating_sub(SRAM.0)
+        self.image
+            .initial_sp()
+            .saturating_sub(self.image.stack_floor)
     }
 
     fn reset_core(&mut self) -> Result<(), String> {
@@ -583,10 +589,15 @@ impl Core {
     }
 }
 
-/// Paints the local SRAM below `top` (a stack top) with [`STACK_PAINT`].
-fn paint(uc: &mut Unicorn<'_, Shared>, top: u32) {
-    if top > SRAM.0 && top <= SRAM.0 + SRAM.1 {
-        let n = (top - SRAM.0) as usize;
+/// Whether `floor..top` is a stack in the local SRAM.
+fn stack_in_sram(floor: u32, top: u32) -> bool {
+    floor >= SRAM.0 && top > floor && top <= SRAM.0 + SRAM.1
+}
+
+/// Paints the local SRAM from `floor` up to `top` (a stack) with [`STACK_PAINT`].
+fn paint(uc: &mut Unicorn<'_, Shared>, floor: u32, top: u32) {
+    if stack_in_sram(floor, top) {
+        let n = (top - floor) as usize;
         let bytes: Vec<u8> = STACK_PAINT
             .to_le_bytes()
             .iter()
@@ -594,7 +605,7 @@ fn paint(uc: &mut Unicorn<'_, Shared>, top: u32) {
             .cycle()
             .take(n)
             .collect();
-        let _ = uc.mem_write(u64::from(SRAM.0), &bytes);
+        let _ = uc.mem_write(u64::from(floor), &bytes);
     }
 }
 

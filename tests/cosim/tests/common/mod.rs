@@ -5,7 +5,7 @@ use firmware::boot::header::{HeaderRepr, Target as UpdateTarget};
 use firmware::boot::layout::HEADER_BLOCK;
 use firmware::product::identity::NAMES;
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_path, image_target, load_image};
+use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
 use serde_json::Value;
 use std::ffi::OsString;
 use std::path::PathBuf;
@@ -143,8 +143,25 @@ pub fn run_script_against_image(
     pcap_name: &str,
     seconds: f64,
 ) -> Result<ScriptRun, String> {
-    let image = load_image()?;
-    let (target, handle) = image_target(image, Options::default())?;
+    run_script_against(
+        || image_target(load_image()?, Options::default()),
+        script,
+        args,
+        pcap_name,
+        seconds,
+    )
+}
+
+/// [`run_script_against_image`] for any program on the co-simulator (`target` makes it
+/// the board's CPU: the release image, or a peer such as SOES).
+pub fn run_script_against(
+    target: impl FnOnce() -> Result<(Target, CosimHandle), String>,
+    script: PathBuf,
+    args: Vec<OsString>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    let (target, handle) = target()?;
     let mut run = run_scripts_on_veth(
         target,
         vec![Script { path: script, args }],

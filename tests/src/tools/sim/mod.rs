@@ -39,7 +39,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 /// Shortest cycle time accepted (us). Below it a cycle's LRW + FRMW frame no longer fits
-/// between two SYNC0 edges with the PDI work of the slave (see the README).
+/// between two SYNC0 edges with the PDI work of the slave.
 pub const MIN_CYCLE_US: u32 = 25;
 /// Longest cycle time accepted (us): 0x1C32:02 and 0x09A0 are 32-bit nanoseconds.
 pub const MAX_CYCLE_US: u32 = 4_000_000;
