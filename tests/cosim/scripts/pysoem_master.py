@@ -157,9 +157,9 @@ def go_op(master, slave):
     return ok and wait_state(master, slave, pysoem.OP_STATE)
 
 
-def run_op(master, slave, cycles, cycle_ns):
-    """DC mode: OP, `cycles` exchanges with new outputs each, the cycle monitor over SDO,
-    then PRE-OP with the cycle still running."""
+def run_op(master, slave, cycles, cycle_ns, monitor=True):
+    """DC mode: OP, `cycles` exchanges with new outputs each, the cycle monitor over SDO
+    (when `monitor`), then PRE-OP with the cycle still running."""
     if not wait_state(master, slave, pysoem.SAFEOP_STATE):
         master.read_state()
         say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
@@ -193,6 +193,8 @@ def run_op(master, slave, cycles, cycle_ns):
             al_status_code=slave.al_status,
         )
         ok = good - good_before == done - start and slave.state == pysoem.OP_STATE
+        if not monitor:
+            return wait_state(master, slave, pysoem.PREOP_STATE) and ok
         # The module's cycle monitor (ETG.1020), read in OP while the cycle goes on.
         monitor = {
             "sm_event_missed": u16(slave, 0x1C32, 0x0B),
@@ -248,6 +250,12 @@ def main():
     parser.add_argument(
         "cycle_us", nargs="?", type=int, default=4000, help="the DC cycle (SYNC0) in us"
     )
+    parser.add_argument(
+        "--op-only",
+        action="store_true",
+        help="only PRE-OP, SDO, DC, OP with the exchanges and INIT: for a slave without the "
+        "module's cycle monitor objects (0x1C32:0B..0x20), such as a SOES peer",
+    )
     args = parser.parse_args()
     iface, cycles, cycle_ns = args.iface, args.cycles, args.cycle_us * 1000
     say(step="master", realtime=realtime(), timeout_us=pysoem.settings.timeouts.ret)
@@ -285,7 +293,11 @@ def main():
         say(step="dc", found=bool(dc), cycle_ns=cycle_ns)
         size = master.config_map()
         say(step="config_map", bytes=size, outputs=len(slave.output), inputs=len(slave.input))
-        ok = run_op(master, slave, cycles, cycle_ns)
+        ok = run_op(master, slave, cycles, cycle_ns, monitor=not args.op_only)
+        if args.op_only:
+            wait_state(master, slave, pysoem.INIT_STATE)
+            say(step="init", state=slave.state)
+            return ok
         ok = watchdog(master, slave, cycle_ns) and ok
         # SDO Information last: SOEM asks for every subindex up to the highest, the gaps too
         # (0x1C32:0E..1F), which the module answers with an SDO Information error; SOEM keeps
