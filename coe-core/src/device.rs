@@ -13,6 +13,8 @@
 //! const _: () = if let Err(e) = DEVICE.validate() { panic!("{}", e.message()) };
 //! ```
 
+pub mod oversampling;
+
 use crate::od::{EntryDesc, ObjectDesc, ObjectDictionary, OdErrorKind, Value};
 use crate::pdo::{PdoDirection, PdoEntry};
 use crate::sdo_server::MIN_MAILBOX;
@@ -1234,6 +1236,19 @@ pub enum DescErrorKind {
     BadCycleLimits,
     /// The EEPROM size is not a multiple of 128 bytes between 256 bytes and 8 MB.
     BadEepromSize,
+    /// A replicated PDO's factor limits are 0 or reversed, or exclude its default factor
+    /// (index = the base PDO).
+    BadOversamplingFactors,
+    /// A replica of a replicated PDO is missing, of the other direction, or does not map
+    /// what the base maps moved by the index increment (index = the replica, subindex =
+    /// its number).
+    ReplicaMismatch,
+    /// An op mode names a SyncManager without process data, a PDO that does not exist or is
+    /// of the other direction, a replica instead of its base, or a factor outside the
+    /// group's limits or on a plain PDO (index = the PDO, subindex = the SyncManager).
+    BadOpModePdo,
+    /// An op mode's PDO assignment is larger than its SyncManager (subindex = the SM).
+    OpModeImageLargerThanSm,
 }
 
 impl DescErrorKind {
@@ -1268,6 +1283,16 @@ impl DescErrorKind {
             Self::ImageLargerThanSm => "default process image larger than its SyncManager",
             Self::BadCycleLimits => "DC cycle limits zero or minimum above maximum",
             Self::BadEepromSize => "EEPROM size not a multiple of 128 bytes in 256 B..8 MB",
+            Self::BadOversamplingFactors => {
+                "replicated PDO: factor limits zero or reversed, or excluding the default"
+            }
+            Self::ReplicaMismatch => {
+                "replicated PDO: a replica is missing or does not map the base's objects moved by the index increment"
+            }
+            Self::BadOpModePdo => {
+                "op mode: SyncManager without process data, unknown PDO, PDO of the other direction, a replica instead of its base, or a bad factor"
+            }
+            Self::OpModeImageLargerThanSm => "op mode: PDO assignment larger than its SyncManager",
         }
     }
 }

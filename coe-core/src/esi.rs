@@ -23,8 +23,13 @@
 //!   `Index` `#x0`.
 //! - `Eeprom/ConfigData` is SII words 0..7 (PDI configuration, alias, checksum) as the SII
 //!   generator writes them, so the two cannot differ.
+//! - With [`write_esi_with`], the oversampling part ([`Oversampling`]): a replicated PDO is
+//!   listed once, its base with `OSFac`, `OSMin`, `OSMax` and `OSIndexInc` (the replicas
+//!   stay in the dictionary); its op modes follow the plain ones, each with its `Sm`
+//!   elements and `Pdo OSFac`.
 
-use crate::device::{DescError, DeviceDescription, MailboxProtocols};
+use crate::device::oversampling::{OpModeSm, Oversampling};
+use crate::device::{DcOpMode, DescError, DeviceDescription, MailboxProtocols};
 use crate::od::{Access, DataType, EntryDesc, EsiTypeName, ObjectCode, ObjectDesc, Value};
 use crate::pdo::PdoDirection;
 use crate::sdo_server::Layout;
@@ -97,7 +102,17 @@ impl From<fmt::Error> for EsiError {
 /// Writes the ESI file of `desc` into `out`. The description is validated first; a
 /// description that does not validate, or of which no SII image can be made, writes nothing.
 pub fn write_esi<W: Write>(desc: &DeviceDescription, out: &mut W) -> Result<(), EsiError> {
+    write_esi_with(desc, &Oversampling::NONE, out)
+}
+
+/// [`write_esi`] with the oversampling part `os` of the description (validated with it).
+pub fn write_esi_with<W: Write>(
+    desc: &DeviceDescription,
+    os: &Oversampling,
+    out: &mut W,
+) -> Result<(), EsiError> {
     desc.validate()?;
+    os.validate(desc)?;
     let config = config_data(desc)?;
     check_entry_names(desc)?;
     let mut xml = Xml {
@@ -105,7 +120,7 @@ pub fn write_esi<W: Write>(desc: &DeviceDescription, out: &mut W) -> Result<(), 
         depth: 0,
         bad_text: None,
     };
-    xml.document(desc, &config)?;
+    xml.document(desc, os, &config)?;
     match xml.bad_text {
         Some(s) => Err(EsiError::UnrepresentableText(s)),
         None => Ok(()),
@@ -351,7 +366,12 @@ impl<W: Write> Xml<'_, W> {
         Ok(())
     }
 
-    fn document(&mut self, desc: &DeviceDescription, config: &[u8]) -> fmt::Result {
+    fn document(
+        &mut self,
+        desc: &DeviceDescription,
+        os: &Oversampling,
+        config: &[u8],
+    ) -> fmt::Result {
         self.out
             .write_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n")?;
         self.start("EtherCATInfo")?;
@@ -371,13 +391,18 @@ impl<W: Write> Xml<'_, W> {
         self.close("Group")?;
         self.close("Groups")?;
         self.open("Devices")?;
-        self.device(desc, config)?;
+        self.device(desc, os, config)?;
         self.close("Devices")?;
         self.close("Descriptions")?;
         self.close("EtherCATInfo")
     }
 
-    fn device(&mut self, desc: &DeviceDescription, config: &[u8]) -> fmt::Result {
+    fn device(
+        &mut self,
+        desc: &DeviceDescription,
+        os: &Oversampling,
+        config: &[u8],
+    ) -> fmt::Result {
         self.start("Device")?;
         self.attr("Physics", Physics(desc))?;
         self.open_end()?;
@@ -402,10 +427,10 @@ impl<W: Write> Xml<'_, W> {
             }
         }
         self.sync_managers(desc)?;
-        self.pdos(desc, PdoDirection::Rx)?;
-        self.pdos(desc, PdoDirection::Tx)?;
+        self.pdos(desc, os, PdoDirection::Rx)?;
+        self.pdos(desc, os, PdoDirection::Tx)?;
         self.mailbox(desc)?;
-        self.dc(desc)?;
+        self.dc(desc, os)?;
         self.open("Eeprom")?;
         self.leaf("ByteSize", desc.eeprom.size_bytes)?;
         self.leaf("ConfigData", HexBytes(config))?;
@@ -617,13 +642,21 @@ impl<W: Write> Xml<'_, W> {
         Ok(())
     }
 
-    fn pdos(&mut self, desc: &DeviceDescription, direction: PdoDirection) -> fmt::Result {
+    fn pdos(
+        &mut self,
+        desc: &DeviceDescription,
+        os: &Oversampling,
+        direction: PdoDirection,
+    ) -> fmt::Result {
         let tag = match direction {
             PdoDirection::Rx => "RxPdo",
             PdoDirection::Tx => "TxPdo",
         };
         for object in desc.pdo_objects(direction) {
             let index = object.index;
+            if !os.is_listed(index) {
+                continue;
+            }
             self.start(tag)?;
             if desc.pdo_is_fixed(index) {
                 self.attr("Fixed", 1)?;
@@ -635,6 +668,12 @@ impl<W: Write> Xml<'_, W> {
                 if let Some(sm) = desc.sm_of_pdo(index) {
                     self.attr("Sm", sm)?;
                 }
+            }
+            if let Some((group, _)) = os.group_of(index) {
+                self.attr("OSFac", group.default_factor)?;
+                self.attr("OSMin", group.min_factor)?;
+                self.attr("OSMax", group.max_factor)?;
+                self.attr("OSIndexInc", group.index_increment)?;
             }
             self.open_end()?;
             self.leaf("Index", idx(index))?;
@@ -692,34 +731,54 @@ impl<W: Write> Xml<'_, W> {
         self.close("Mailbox")
     }
 
-    fn dc(&mut self, desc: &DeviceDescription) -> fmt::Result {
-        if desc.dc.op_modes.is_empty() {
+    fn dc(&mut self, desc: &DeviceDescription, os: &Oversampling) -> fmt::Result {
+        if desc.dc.op_modes.is_empty() && os.op_modes.is_empty() {
             return Ok(());
         }
         self.open("Dc")?;
         for mode in desc.dc.op_modes {
-            self.open("OpMode")?;
-            self.leaf_text("Name", mode.name)?;
-            if !mode.description.is_empty() {
-                self.leaf_text("Desc", mode.description)?;
-            }
-            self.leaf("AssignActivate", Hex(u32::from(mode.assign_activate), 4))?;
-            if mode.assign_activate != 0 {
-                self.start("CycleTimeSync0")?;
-                self.attr("Factor", mode.sync0_factor)?;
-                self.body_end("CycleTimeSync0", mode.cycle_time_sync0)?;
-                self.leaf("ShiftTimeSync0", mode.shift_time_sync0)?;
-                if mode.sync1_factor != 0 {
-                    // The SYNC1 cycle follows from the factor alone.
-                    self.start("CycleTimeSync1")?;
-                    self.attr("Factor", mode.sync1_factor)?;
-                    self.body_end("CycleTimeSync1", 0)?;
-                    self.leaf("ShiftTimeSync1", mode.shift_time_sync1)?;
-                }
-            }
-            self.close("OpMode")?;
+            self.op_mode(mode, &[])?;
+        }
+        for mode in os.op_modes {
+            self.op_mode(&mode.mode, mode.sms)?;
         }
         self.close("Dc")
+    }
+
+    fn op_mode(&mut self, mode: &DcOpMode, sms: &[OpModeSm]) -> fmt::Result {
+        self.open("OpMode")?;
+        self.leaf_text("Name", mode.name)?;
+        if !mode.description.is_empty() {
+            self.leaf_text("Desc", mode.description)?;
+        }
+        self.leaf("AssignActivate", Hex(u32::from(mode.assign_activate), 4))?;
+        if mode.assign_activate != 0 {
+            self.start("CycleTimeSync0")?;
+            self.attr("Factor", mode.sync0_factor)?;
+            self.body_end("CycleTimeSync0", mode.cycle_time_sync0)?;
+            self.leaf("ShiftTimeSync0", mode.shift_time_sync0)?;
+            if mode.sync1_factor != 0 {
+                // The SYNC1 cycle follows from the factor alone.
+                self.start("CycleTimeSync1")?;
+                self.attr("Factor", mode.sync1_factor)?;
+                self.body_end("CycleTimeSync1", 0)?;
+                self.leaf("ShiftTimeSync1", mode.shift_time_sync1)?;
+            }
+        }
+        for sm in sms {
+            self.start("Sm")?;
+            self.attr("No", sm.sm)?;
+            self.open_end()?;
+            for pdo in sm.pdos {
+                self.start("Pdo")?;
+                if pdo.factor != 0 {
+                    self.attr("OSFac", pdo.factor)?;
+                }
+                self.body_end("Pdo", idx(pdo.index))?;
+            }
+            self.close("Sm")?;
+        }
+        self.close("OpMode")
     }
 }
 

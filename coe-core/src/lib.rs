@@ -1,6 +1,4 @@
-//! CANopen over EtherCAT (CoE) application-layer core (ETG.1000.6).
-//!
-//! `no_std`, no allocation, no `unsafe`, and no panic on any input.
+#![doc = include_str!("../README.md")]
 #![no_std]
 #![forbid(unsafe_code)]
 #![cfg_attr(

@@ -18,6 +18,9 @@ use crate::abort::SdoAbortCode;
 use crate::esm::AlState;
 use crate::od::{DataType, ObjectAccess, ObjectDictionary};
 
+pub mod runs;
+pub use runs::{ImageRun, ImageRuns};
+
 /// Direction of a PDO.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -396,28 +399,59 @@ impl<const N: usize> PdoAssignment<N> {
         mappings: &[PdoMapping<M>],
         max_bits: u32,
     ) -> Result<(), SdoAbortCode> {
+        let direction = self.direction();
         write_assignment_sub(
-            self.direction(),
             &mut self.count,
             &mut self.pdos,
             subindex,
             data,
-            mappings,
+            &mut |pdo| mapping_bits(direction, pdo, mappings),
+            &mut |_| Ok(()),
+            max_bits,
+        )
+    }
+
+    /// [`PdoAssignment::write_sub`] for PDOs that are not all in RAM (fixed mappings of
+    /// sample arrays read from the dictionary's defaults): `bits_of(pdo)` gives the length
+    /// of a PDO (`None`: no such PDO; one of the other direction is refused first, both
+    /// 0x06090030), and `check(pdos)` may refuse a whole assignment when sub 0 is written,
+    /// after the length check (e.g.
+    /// [`crate::device::oversampling::Oversampling::check_assignment`]).
+    pub fn write_sub_with(
+        &mut self,
+        subindex: u8,
+        data: &[u8],
+        mut bits_of: impl FnMut(u16) -> Option<u32>,
+        mut check: impl FnMut(&[u16]) -> Result<(), SdoAbortCode>,
+        max_bits: u32,
+    ) -> Result<(), SdoAbortCode> {
+        let direction = self.direction();
+        let mut bits = |pdo: u16| match PdoDirection::of_mapping_index(pdo) {
+            Some(d) if Some(d) == direction => bits_of(pdo).ok_or(SdoAbortCode::ValueRangeExceeded),
+            _ => Err(SdoAbortCode::ValueRangeExceeded),
+        };
+        write_assignment_sub(
+            &mut self.count,
+            &mut self.pdos,
+            subindex,
+            data,
+            &mut bits,
+            &mut check,
             max_bits,
         )
     }
 }
 
-// The checks and downloads of an assignment do not depend on its capacity: one copy in a
-// program with assignments of several sizes (cold code, run when a master configures the
-// process data).
-fn write_assignment_sub<const M: usize>(
-    direction: Option<PdoDirection>,
+// The checks and downloads of an assignment do not depend on its capacity nor on where the
+// mappings are: one copy in a program with assignments of several sizes (cold code, run
+// when a master configures the process data).
+fn write_assignment_sub(
     count: &mut u8,
     pdos: &mut [u16],
     subindex: u8,
     data: &[u8],
-    mappings: &[PdoMapping<M>],
+    bits: &mut dyn FnMut(u16) -> Result<u32, SdoAbortCode>,
+    check: &mut dyn FnMut(&[u16]) -> Result<(), SdoAbortCode>,
     max_bits: u32,
 ) -> Result<(), SdoAbortCode> {
     if subindex == 0 {
@@ -425,7 +459,14 @@ fn write_assignment_sub<const M: usize>(
         let assigned = pdos
             .get(..usize::from(n))
             .ok_or(SdoAbortCode::ValueTooHigh)?;
-        validate_assigned(direction, assigned, mappings, max_bits)?;
+        let mut total = 0u32;
+        for pdo in assigned {
+            total += bits(*pdo)?;
+        }
+        if total > max_bits {
+            return Err(SdoAbortCode::PdoLengthExceeded);
+        }
+        check(assigned)?;
         *count = n;
         return Ok(());
     }
@@ -436,7 +477,7 @@ fn write_assignment_sub<const M: usize>(
     if *count != 0 {
         return Err(SdoAbortCode::SubindexZeroMustBeZero);
     }
-    mapping_bits(direction, pdo, mappings)?;
+    bits(pdo)?;
     *slot = pdo;
     Ok(())
 }

@@ -16,11 +16,14 @@
 //! | 0x40.. | categories: type u16, length u16 in words, data; 0xFFFF ends the list |
 //!
 //! Categories written: Strings (10), General (30), FMMU (40), SyncM (41), TxPDO (50),
-//! RxPDO (51), DC (60).
+//! RxPDO (51), DC (60). With [`generate_with`], the oversampling part of the description
+//! ([`Oversampling`]): a replicated PDO appears once (its base, as in Beckhoff's EL2262
+//! EEPROM), and its op modes follow the plain ones in the DC category.
 
 pub mod reader;
 
-use crate::device::{DescError, DeviceDescription, SmRole};
+use crate::device::oversampling::Oversampling;
+use crate::device::{DcOpMode, DescError, DeviceDescription, SmRole};
 use crate::od::ObjectDesc;
 use crate::pdo::{PdoDirection, PdoEntry};
 use core::fmt;
@@ -98,25 +101,28 @@ pub const PDO_NOT_ASSIGNED: u8 = 0xFF;
 /// Most strings the Strings category can hold (its count is one byte).
 pub const MAX_STRINGS: usize = 255;
 
-/// CRC-8 of the SII checksum: polynomial 0x07, initial value 0xFF, MSB first, no reflection,
-/// no final XOR (ESC datasheet section II, "SII EEPROM" / ETG.1000.6 5.4).
+/// The SII checksum's CRC: polynomial 0x07, initial value 0xFF, MSB first, no reflection,
+/// no final XOR (ESC datasheet section II, "SII EEPROM" / ETG.1000.6 5.4). No catalogue of
+/// the `crc` crate names these parameters, so they are given here.
+const SII_CRC: crc::Algorithm<u8> = crc::Algorithm {
+    width: 8,
+    poly: 0x07,
+    init: 0xFF,
+    refin: false,
+    refout: false,
+    xorout: 0x00,
+    check: 0xFB,
+    residue: 0x00,
+};
+
+/// Bit by bit: the checksum covers 14 bytes, and no lookup table lands in a firmware that
+/// reads SII images.
+const SII_CRC8: crc::Crc<u8, crc::NoTable> = crc::Crc::<u8, crc::NoTable>::new(&SII_CRC);
+
+/// CRC-8 of the SII checksum (word 7) over `data`: polynomial 0x07, initial value 0xFF, MSB
+/// first, no reflection, no final XOR.
 pub const fn crc8(data: &[u8]) -> u8 {
-    let mut crc: u8 = 0xFF;
-    let mut i = 0;
-    while i < data.len() {
-        crc ^= data[i];
-        let mut bit = 0;
-        while bit < 8 {
-            crc = if crc & 0x80 != 0 {
-                (crc << 1) ^ 0x07
-            } else {
-                crc << 1
-            };
-            bit += 1;
-        }
-        i += 1;
-    }
-    crc
+    SII_CRC8.checksum(data)
 }
 
 /// Why no image could be generated.
@@ -278,7 +284,24 @@ impl Writer<'_> {
 /// the EEPROM is the caller's, conventionally 0xFF). `out` may be empty to measure the image:
 /// the error then is [`SiiError::BufferTooSmall`] with the size.
 pub fn generate(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiError> {
+    generate_with(desc, &Oversampling::NONE, out)
+}
+
+/// [`generate`] with the oversampling part `os` of the description (validated with it).
+pub fn generate_with(
+    desc: &DeviceDescription,
+    os: &Oversampling,
+    out: &mut [u8],
+) -> Result<usize, SiiError> {
     desc.validate().map_err(SiiError::Description)?;
+    os.validate(desc).map_err(SiiError::Description)?;
+    let listed = |o: &&ObjectDesc| os.is_listed(o.index);
+    let op_modes = || {
+        desc.dc
+            .op_modes
+            .iter()
+            .chain(os.op_modes.iter().map(|m| &m.mode))
+    };
     let mut strings = StringTable::new();
     // Collect every string first, in the order the categories use them.
     let names = &desc.names;
@@ -286,7 +309,7 @@ pub fn generate(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiEr
     let order = strings.index(names.order_code)?;
     let name = strings.index(names.device_name)?;
     for direction in [PdoDirection::Tx, PdoDirection::Rx] {
-        for object in desc.pdo_objects(direction) {
+        for object in desc.pdo_objects(direction).filter(listed) {
             strings.index(object.name)?;
             for entry in desc.pdo_entries(object.index) {
                 if let Some(e) = desc.mapped_entry(entry) {
@@ -295,7 +318,7 @@ pub fn generate(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiEr
             }
         }
     }
-    for mode in desc.dc.op_modes {
+    for mode in op_modes() {
         strings.index(mode.name)?;
         strings.index(mode.description)?;
     }
@@ -335,27 +358,19 @@ pub fn generate(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiEr
         (PdoDirection::Tx, category::TXPDO),
         (PdoDirection::Rx, category::RXPDO),
     ] {
-        if desc.pdo_objects(direction).next().is_some() {
+        if desc.pdo_objects(direction).any(|o| listed(&o)) {
             w.category(kind, 0, |w| {
-                for object in desc.pdo_objects(direction) {
+                for object in desc.pdo_objects(direction).filter(listed) {
                     write_pdo(desc, w, &mut strings, object)?;
                 }
                 Ok(())
             })?;
         }
     }
-    if !desc.dc.op_modes.is_empty() {
+    if op_modes().next().is_some() {
         w.category(category::DC, 0, |w| {
-            for mode in desc.dc.op_modes {
-                w.u32(mode.cycle_time_sync0);
-                w.u32(mode.shift_time_sync0);
-                w.u32(mode.shift_time_sync1);
-                w.u16(mode.sync1_factor as u16);
-                w.u16(mode.assign_activate);
-                w.u16(mode.sync0_factor as u16);
-                w.u8(strings.index(mode.name)?);
-                w.u8(strings.index(mode.description)?);
-                w.zeros(4);
+            for mode in op_modes() {
+                write_op_mode(w, &mut strings, mode)?;
             }
             Ok(())
         })?;
@@ -379,21 +394,48 @@ pub fn generate(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiEr
 /// up to [`EepromDesc::size_bytes`](crate::device::EepromDesc); returns that size. `out`
 /// must hold the whole EEPROM.
 pub fn generate_eeprom(desc: &DeviceDescription, out: &mut [u8]) -> Result<usize, SiiError> {
+    generate_eeprom_with(desc, &Oversampling::NONE, out)
+}
+
+/// [`generate_eeprom`] with the oversampling part `os` of the description.
+pub fn generate_eeprom_with(
+    desc: &DeviceDescription,
+    os: &Oversampling,
+    out: &mut [u8],
+) -> Result<usize, SiiError> {
     let size = desc.eeprom.size_bytes as usize;
     let Some(eeprom) = out.get_mut(..size) else {
         // Report a bad description or an image too large for the EEPROM first.
-        return match generate(desc, &mut []) {
+        return match generate_with(desc, os, &mut []) {
             Ok(_) | Err(SiiError::BufferTooSmall { .. }) => {
                 Err(SiiError::BufferTooSmall { needed: size })
             }
             Err(e) => Err(e),
         };
     };
-    let len = generate(desc, eeprom)?;
+    let len = generate_with(desc, os, eeprom)?;
     if let Some(rest) = eeprom.get_mut(len..) {
         rest.fill(0xFF);
     }
     Ok(size)
+}
+
+/// One DC category entry (ETG.2010 table 14).
+fn write_op_mode(
+    w: &mut Writer<'_>,
+    strings: &mut StringTable,
+    mode: &DcOpMode,
+) -> Result<(), SiiError> {
+    w.u32(mode.cycle_time_sync0);
+    w.u32(mode.shift_time_sync0);
+    w.u32(mode.shift_time_sync1);
+    w.u16(mode.sync1_factor as u16);
+    w.u16(mode.assign_activate);
+    w.u16(mode.sync0_factor as u16);
+    w.u8(strings.index(mode.name)?);
+    w.u8(strings.index(mode.description)?);
+    w.zeros(4);
+    Ok(())
 }
 
 fn write_fixed_area(desc: &DeviceDescription, w: &mut Writer<'_>) {

@@ -12,6 +12,7 @@ no file is to be accepted, and the old application must answer afterwards). One 
 step goes to stdout; the exit code is 0 when every step went as expected.
 """
 
+import argparse
 import json
 import os
 import struct
@@ -40,20 +41,10 @@ def reach(slave, state):
         )
 
 
-def amend_mbx(slave, mailbox, start_address, size):
-    """pysoem's amend_mbx writes the SM registers with a fixed 2-4 ms datagram timeout of its
-    own (not pysoem.settings.timeouts), which the virtual board on a loaded host can miss: the
-    write is idempotent, so a lost datagram is retried (bounded) as SOEM retries its own
-    configuration writes."""
-    for attempt in range(1, 4):
-        try:
-            slave.amend_mbx(mailbox=mailbox, start_address=start_address, size=size)
-            return
-        except pysoem.WkcError as e:
-            if attempt == 3:
-                raise RuntimeError(
-                    f"writing the {mailbox} mailbox's SM registers: working counter {e.wkc}"
-                ) from e
+def emergency(e):
+    """The module's Emergencies are reported, not raised (pysoem raises them from the
+    mailbox call that received them otherwise)."""
+    report(step="emergency", fields=[int(a) for a in e.args])
 
 
 def product_code(slave):
@@ -69,13 +60,7 @@ def describe(e):
 
 
 def main(iface, good, bad):
-    # SOEM waits 2 ms for a datagram by default; the virtual board answers from a user-space
-    # thread, which a loaded host can keep waiting longer. A real module answers in
-    # microseconds, so the longer waits cost nothing there.
-    timeouts = pysoem.settings.timeouts
-    timeouts.ret = max(timeouts.ret, 50_000)
-    timeouts.safe = max(timeouts.safe, 200_000)
-    timeouts.eeprom = max(timeouts.eeprom, 200_000)
+    # SOEM's default timeouts (2 ms per datagram): the module answers every frame at once.
     master = pysoem.Master()
     master.open(iface)
     try:
@@ -83,8 +68,10 @@ def main(iface, good, bad):
         if found < 1:
             raise RuntimeError("no slave found")
         slave = master.slaves[0]
+        slave.add_emergency_callback(emergency)
         report(step="found", name=slave.name, vendor=slave.man, product=slave.id,
                revision=slave.rev)
+        reach(slave, pysoem.PREOP_STATE)
         version = slave.sdo_read(0x100A, 0).decode(errors="replace")
         report(step="version before", version=version, product=product_code(slave))
 
@@ -92,8 +79,8 @@ def main(iface, good, bad):
         rx_addr, rx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_RX_MBX))
         tx_addr, tx_len = struct.unpack("<HH", slave.eeprom_read(SII_BOOT_TX_MBX))
         report(step="bootstrap mailbox", out=[rx_addr, rx_len], **{"in": [tx_addr, tx_len]})
-        amend_mbx(slave, "out", rx_addr, rx_len)
-        amend_mbx(slave, "in", tx_addr, tx_len)
+        slave.amend_mbx(mailbox="out", start_address=rx_addr, size=rx_len)
+        slave.amend_mbx(mailbox="in", start_address=tx_addr, size=tx_len)
         reach(slave, pysoem.BOOT_STATE)
         report(step="boot")
 
@@ -116,33 +103,48 @@ def main(iface, good, bad):
         # BOOT -> INIT: the bootloader installs the file and starts the new application.
         slave.state = pysoem.INIT_STATE
         slave.write_state()
-        # The installation takes a while (the flash erased and written): look again until
-        # the new application answers, bounded.
-        deadline = time.monotonic() + 20
-        while True:
-            time.sleep(0.5)
-            try:
-                found = master.config_init()
-                slave = master.slaves[0]
-                version = slave.sdo_read(0x100A, 0).decode(errors="replace")
-                product = product_code(slave)
-                break
-            except Exception:
-                if time.monotonic() > deadline:
-                    raise
-        report(step="back", found=found, state=slave.state)
-        report(step="version after", version=version, product=product)
-        return 0 if ok else 1
     finally:
         master.close()
+    # The installation takes a while (the flash erased and written, then the application's
+    # start): a new master session, as a user starts one, until the new application is in
+    # PRE-OP and answers, bounded. (A new session each time: SOEM keeps every mailbox error
+    # in its list, and pysoem raises the oldest from later calls.)
+    deadline = time.monotonic() + 20
+    while True:
+        time.sleep(0.5)
+        master = pysoem.Master()
+        master.open(iface)
+        try:
+            found = master.config_init()
+            slave = master.slaves[0]
+            slave.add_emergency_callback(emergency)
+            if slave.state_check(pysoem.PREOP_STATE, TIMEOUT_US) == pysoem.PREOP_STATE:
+                version = slave.sdo_read(0x100A, 0).decode(errors="replace")
+                product = product_code(slave)
+                state = slave.state
+                break
+        except Exception:
+            if time.monotonic() > deadline:
+                raise
+        finally:
+            master.close()
+        if time.monotonic() > deadline:
+            raise RuntimeError("the new application did not reach PRE-OP")
+    report(step="back", found=found, state=state)
+    report(step="version after", version=version, product=product)
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 3:
-        print(__doc__, file=sys.stderr)
-        sys.exit(2)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("iface", help="the network interface the module is on")
+    parser.add_argument("file", help="the update file that must be accepted (*.efw)")
+    parser.add_argument("bad", nargs="*", help="update files that must be refused, written first")
+    args = parser.parse_args()
     try:
-        sys.exit(main(sys.argv[1], sys.argv[2], sys.argv[3:]))
+        sys.exit(main(args.iface, args.file, args.bad))
     except Exception as e:  # the test shows the message
         report(step="error", message=describe(e))
         sys.exit(1)

@@ -21,6 +21,9 @@
 //!   - [`rig::master::tx_rx_task`]: ethercrab's PDU loop wired to a board.
 //!   - [`rig::can_master::CanMaster`]: a CANopen master in process on the board's CAN bus
 //!     (NMT, SYNC, SDO client).
+//!   - [`rig::master_host`]: coe-core's CANopen master on a bus port, and a network of it
+//!     and in-process slaves ([`rig::can_slave`]: coe-core's CAN node on a generic I/O and
+//!     CiA 402-like device) in virtual time.
 //!   - [`rig::sdo_client`]: raw mailbox access as a master does it, and an SDO client on
 //!     it (segmented transfers, which ethercrab 0.7.1 cannot do), on ethercrab or on the
 //!     scripted master.
@@ -39,9 +42,11 @@
 //!   of the image co-simulator's bench figures ([`tools::image_figures`]) and the socketcand
 //!   server that brings the CAN bus to python-can ([`tools::socketcand`]).
 //!
-//! Time: nothing here reads the wall clock. Each frame advances the board's virtual
+//! Time: in process nothing reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
-//! watchdog and ADC sampling all use that time.
+//! watchdog and ADC sampling all use that time. On a network interface
+//! ([`tools::iface`]) the ESC keeps the wall clock's time and the CPU's virtual time is
+//! stepped towards it ([`models::shared_esc`]).
 
 /// The chips: ET1100 (with its SPI front end), AD5663, AD7689.
 pub mod models {
@@ -49,6 +54,7 @@ pub mod models {
     pub mod can;
     pub mod dac;
     pub mod esc;
+    pub mod shared_esc;
     pub mod spi;
 }
 
@@ -56,11 +62,14 @@ pub mod models {
 pub mod rig {
     pub mod board;
     pub mod can_master;
+    pub mod can_slave;
     pub mod clock;
     pub mod firmware_cpu;
     pub mod foe_client;
     pub mod master;
+    pub mod master_host;
     pub mod module_cpu;
+    pub mod pi_mutex;
     pub mod scripted;
     pub mod sdo_client;
     pub mod sii_builder;
@@ -72,8 +81,10 @@ pub mod tools {
     pub mod dwarf;
     pub mod iface;
     pub mod image_figures;
+    pub mod latency;
     pub mod loopback;
     pub mod pcap;
+    pub mod peer_figures;
     pub mod sim;
     pub mod socketcand;
 }

@@ -25,6 +25,24 @@ fn pcap_header_and_records() {
     );
 }
 
+/// The whole file, byte for byte: classic pcap, the nanosecond magic, little-endian, version
+/// 2.4, snap length 65535, Ethernet; each record seconds, nanoseconds, captured and original
+/// length, data.
+#[test]
+fn pcap_file_bytes() {
+    let mut p = PcapWriter::new();
+    p.record(1_500_000_123, &[1, 2, 3]);
+    p.record(2_000_000_000, &[]);
+    #[rustfmt::skip]
+    let golden = [
+        0x4D, 0x3C, 0xB2, 0xA1, 2, 0, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFF, 0, 0, 1, 0, 0, 0,
+        1, 0, 0, 0, 0x7B, 0x65, 0xCD, 0x1D, 3, 0, 0, 0, 3, 0, 0, 0, 1, 2, 3,
+        2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+    ];
+    assert_eq!(p.bytes(), golden);
+    assert_eq!(p.frames(), 2);
+}
+
 /// Counts IRQ calls and acknowledges AL control by reading it (direct PDI access).
 struct AckCpu {
     irqs: std::rc::Rc<std::cell::Cell<u32>>,

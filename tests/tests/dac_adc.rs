@@ -5,7 +5,7 @@ use embedded_hal::spi::{Operation, SpiDevice};
 use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::models::adc::{Ad7689, AdcSpi, Signal, Source};
-use virtual_board::models::dac::{Ad5663, DacSpi, LdacPin, PowerMode};
+use virtual_board::models::dac::{Ad5663, DacSpi, LdacEdge, LdacPin, PowerMode};
 use virtual_board::rig::clock::Clock;
 
 fn dac() -> (Clock, Rc<RefCell<Ad5663>>, DacSpi, LdacPin) {
@@ -246,4 +246,171 @@ fn adc_samples_signals_at_the_conversion_time() {
     spi.transfer_in_place(&mut [0, 0]).unwrap();
     spi.transfer_in_place(&mut [0, 0]).unwrap();
     assert_eq!(a.borrow().cycle_violations, 1, "CNV edges closer than tCYC");
+}
+
+// ---------------------------------------------------------------- pin level
+
+/// The two 12-bit items of one 24-bit DAC word (an SSP with 12-bit frames).
+fn items12(w: u32) -> [u32; 2] {
+    [(w >> 12) & 0xFFF, w & 0xFFF]
+}
+
+/// A frame in two 12-bit pieces with SCLK idle between them executes when its 24th bit is
+/// in, at that time; LDAC then loads both channels at its falling edge, and every LDAC edge
+/// is kept with its time.
+#[test]
+fn dac_frames_in_pieces_and_ldac_edges_with_their_times() {
+    let (clock, d, _, mut ldac) = dac();
+    for (t, w) in [(1_000, 0x00_1234u32), (3_000, 0x01_ABCD)] {
+        clock.set_ns(t);
+        d.borrow_mut().sync_falling();
+        let [a, b] = items12(w);
+        d.borrow_mut().clock_bits(a, 12);
+        assert_eq!(d.borrow().frames, u64::from(t == 3_000), "12 bits: not yet");
+        clock.set_ns(t + 700);
+        d.borrow_mut().clock_bits(b, 12);
+        d.borrow_mut().sync_rising();
+    }
+    assert_eq!(d.borrow().input, [0x1234, 0xABCD]);
+    assert_eq!(
+        d.borrow().dac,
+        [0, 0],
+        "LDAC register 0, pin high: no change"
+    );
+    clock.set_ns(20_000);
+    ldac.set_low().unwrap();
+    clock.set_ns(20_200);
+    ldac.set_high().unwrap();
+    ldac.set_high().unwrap(); // no edge
+    let dd = d.borrow();
+    assert_eq!(dd.dac, [0x1234, 0xABCD]);
+    assert!(dd.last_pair_simultaneous());
+    assert_eq!(dd.updates.last().unwrap().time_ns, 20_000);
+    assert_eq!(
+        dd.ldac_edges,
+        [
+            LdacEdge {
+                time_ns: 20_000,
+                falling: true
+            },
+            LdacEdge {
+                time_ns: 20_200,
+                falling: false
+            }
+        ]
+    );
+    assert_eq!(dd.ldac_falls_since(20_001).count(), 0);
+    assert_eq!(dd.ldac_falls_since(0).count(), 1);
+}
+
+#[test]
+fn dac_pin_level_aborts_long_frames_and_deselected_bits() {
+    let (_, d, _, _) = dac();
+    let mut dd = d.borrow_mut();
+    dd.clock_bits(0xFFF, 12);
+    assert_eq!(dd.bits_while_deselected, 12, "SYNC high: ignored");
+    dd.sync_falling();
+    dd.clock_bits(0x180, 12);
+    dd.sync_rising();
+    assert_eq!(
+        (dd.aborted_frames, dd.frames),
+        (1, 0),
+        "SYNC rose after 12 bits"
+    );
+    // 32 bits in one piece: the first 24 are the word (write and update A), the rest ignored.
+    dd.sync_falling();
+    dd.clock_bits(0x18_8000 << 8 | 0xAA, 32);
+    dd.sync_rising();
+    assert_eq!((dd.frames, dd.long_frames), (1, 1));
+    assert_eq!(dd.dac[0], 0x8000);
+}
+
+#[test]
+fn ldac_grid_error_is_the_distance_to_the_nearest_grid_point() {
+    let e = |t| LdacEdge {
+        time_ns: t,
+        falling: true,
+    };
+    assert_eq!(e(1_000_050).grid_error_ns(0, 20_000), 50);
+    assert_eq!(e(999_970).grid_error_ns(0, 20_000), -30);
+    assert_eq!(e(1_010_000).grid_error_ns(0, 20_000), 10_000);
+    assert_eq!(e(1_010_001).grid_error_ns(0, 20_000), -9_999);
+    assert_eq!(
+        e(500).grid_error_ns(1_000, 20_000),
+        -500,
+        "before the origin"
+    );
+    assert_eq!(e(1_250).grid_error_ns(1_000, 0), 250);
+}
+
+/// The CNV waveform the firmware makes (rise, high 2.3 us, fall, read, next rise 4 us after
+/// the last): nothing to count; each breach counted by its kind.
+#[test]
+fn adc_checks_the_conversion_timing_at_its_pins() {
+    let (clock, a, _) = adc();
+    let cycle = |t0: u64, high: u64, read_at: Option<u64>| {
+        clock.set_ns(t0);
+        a.borrow_mut().cnv_rising();
+        clock.set_ns(t0 + high);
+        a.borrow_mut().cnv_falling();
+        if let Some(r) = read_at {
+            clock.set_ns(t0 + r);
+            a.borrow_mut().read(&[0, 0]);
+        }
+    };
+    // The power-up conversion runs: CNV starts high.
+    a.borrow_mut().cnv_falling();
+    for k in 0..10 {
+        cycle(10_000 + k * 4_000, 2_300, Some(2_320));
+    }
+    assert_eq!(a.borrow().timing_violations(), 0);
+    assert_eq!(a.borrow().conversions.len(), 11);
+    // CNV falls before tCONV(max): the result is not ready.
+    cycle(60_000, 2_000, Some(2_100));
+    assert_eq!(a.borrow().violations.conversion_cut, 1);
+    // A 5 ns pulse: too short, and the conversion is cut.
+    cycle(70_000, 5, None);
+    assert_eq!(a.borrow().violations.short_pulse, 1);
+    assert_eq!(a.borrow().violations.conversion_cut, 2);
+    // The next rise 3.99 us after the last: tCYC.
+    cycle(73_990, 2_300, Some(2_400));
+    assert_eq!(a.borrow().cycle_violations, 1);
+    // A read while CNV is high.
+    clock.set_ns(80_000);
+    a.borrow_mut().cnv_rising();
+    a.borrow_mut().read(&[0, 0]);
+    assert_eq!(a.borrow().violations.read_while_converting, 1);
+    assert_eq!(a.borrow().timing_violations(), 5);
+    // Repeated edges of one level are one edge.
+    a.borrow_mut().cnv_rising();
+    assert_eq!(a.borrow().conversions.len(), 15);
+}
+
+/// A read at the pin level carries a CFG like a frame: the scan it sets up follows the same
+/// pipeline (data of the first channel two conversions later).
+#[test]
+fn adc_pin_level_reads_follow_the_cfg_pipeline() {
+    let (clock, a, _) = adc();
+    for ch in 0..8 {
+        a.borrow_mut().inputs[ch] = Signal::Constant(ch as f64 + 1.0);
+    }
+    a.borrow_mut().cnv_falling();
+    let mut codes = Vec::new();
+    for k in 0..12u64 {
+        let t0 = 4_000 * (k + 1);
+        clock.set_ns(t0 - 1_500);
+        let cfg = if k == 0 { CFG_SCAN_EXT << 2 } else { 0 };
+        let miso = a.borrow_mut().read(&[(cfg >> 8) as u8, cfg as u8]);
+        codes.push(u16::from_be_bytes([miso[0], miso[1]]));
+        clock.set_ns(t0);
+        a.borrow_mut().cnv_rising();
+        clock.set_ns(t0 + 2_300);
+        a.borrow_mut().cnv_falling();
+    }
+    let expect = |v: f64| (v / 4.0 / 2.5 * 65536.0) as u16;
+    assert_eq!(&codes[..2], [0, 0], "power-up dummies");
+    for (k, code) in codes[2..].iter().enumerate() {
+        assert_eq!(*code, expect((k % 8) as f64 + 1.0), "read {}", k + 2);
+    }
+    assert_eq!(a.borrow().timing_violations(), 0);
 }

@@ -227,3 +227,188 @@ fn fault_sync0_jitter_displaces_each_edge_within_its_bound() {
     assert_eq!(run(7).1, edges);
     assert_ne!(run(8).1, edges);
 }
+
+// ---------------------------------------------------------------- SYNC1
+
+/// The SYNC1 edges (system times) among `edges`.
+fn sync1_times(edges: &[SyncEdge]) -> Vec<u64> {
+    edges
+        .iter()
+        .filter(|e| e.signal == SyncSignal::Sync1)
+        .map(|e| e.system_time_ns)
+        .collect()
+}
+
+/// The SYNC0 edges (system times) among `edges`.
+fn sync0_times(edges: &[SyncEdge]) -> Vec<u64> {
+    edges
+        .iter()
+        .filter(|e| e.signal == SyncSignal::Sync0)
+        .map(|e| e.system_time_ns)
+        .collect()
+}
+
+fn read_u64(esc: &mut virtual_board::models::esc::Esc, addr: u16) -> u64 {
+    let mut b = [0; 8];
+    esc.ecat_read(addr, &mut b);
+    u64::from_le_bytes(b)
+}
+
+/// 0x09A4 is the delay of SYNC1 after a SYNC0 pulse, and SYNC1 repeats every
+/// (floor(0x09A4 / 0x09A0) + 1) SYNC0 cycles: a delay below the SYNC0 cycle gives a SYNC1
+/// after every SYNC0, (n - 1) cycles one every n, a whole multiple plus a shift likewise,
+/// n cycles one every n + 1.
+#[test]
+fn sync1_repeats_every_floor_delay_over_cycle_plus_one_sync0_cycles() {
+    const T0: u64 = 100_000;
+    let cases: [(u64, u64); 6] = [
+        (0, T0),                   // with every SYNC0
+        (20_000, T0),              // 20 us after every SYNC0
+        (3 * T0, 4 * T0),          // factor 4: D = (n - 1) T0
+        (3 * T0 + 50_000, 4 * T0), // plus a shift below T0
+        (4 * T0, 5 * T0),          // D = n T0: one more SYNC0 cycle
+        (T0 - 1, T0),              // just below one cycle
+    ];
+    for (d, period) in cases {
+        assert_eq!(
+            virtual_board::models::esc::sync1_period(T0, d),
+            Some(period)
+        );
+        let mut esc = esc();
+        esc.ecat_write(regs::DC_SYNC1_CYCLE, &(d as u32).to_le_bytes());
+        let start = start_sync(&mut esc, 10_000, T0 as u32, 0x07);
+        assert_eq!(
+            read_u64(&mut esc, regs::DC_NEXT_SYNC1),
+            start + d,
+            "D = {d}: 0x0998 holds the first SYNC1 from the activation on"
+        );
+        let edges = esc.advance(10_000 + 20 * T0);
+        let s1 = sync1_times(&edges);
+        assert!(s1.len() >= 3, "D = {d}: {s1:?}");
+        for (j, t) in s1.iter().enumerate() {
+            assert_eq!(*t, start + d + j as u64 * period, "D = {d}, SYNC1 #{j}");
+        }
+        // Every SYNC1 lies D after a SYNC0 pulse.
+        let s0 = sync0_times(&edges);
+        assert!(s1.iter().all(|t| s0.contains(&(t - d))), "D = {d}");
+        assert_eq!(
+            read_u64(&mut esc, regs::DC_NEXT_SYNC1),
+            start + d + s1.len() as u64 * period,
+            "D = {d}: 0x0998 is the next SYNC1"
+        );
+        assert_eq!(esc.peek_u8(regs::DC_SYNC1_STATUS), 1);
+    }
+}
+
+/// Single-shot SYNC0 (cycle 0): one SYNC1, D after the one SYNC0 pulse.
+#[test]
+fn sync1_single_shot_follows_the_one_sync0_pulse() {
+    let mut esc = esc();
+    esc.ecat_write(regs::DC_SYNC1_CYCLE, &250_000u32.to_le_bytes());
+    let start = start_sync(&mut esc, 10_000, 0, 0x07);
+    let edges = esc.advance(10_000_000);
+    assert_eq!(sync0_times(&edges), vec![start]);
+    assert_eq!(sync1_times(&edges), vec![start + 250_000]);
+}
+
+/// The registers a master writes for oversampling factor `n` at bus cycle `t` (SYNC0 =
+/// t / n, SYNC1 = the bus cycle), and the SYNC1 edges that follow.
+struct Sync01Setup {
+    start: u64,
+    cycle0: u32,
+    cycle1: u32,
+}
+
+fn run_setup(
+    esc: &mut virtual_board::models::esc::Esc,
+    s: &Sync01Setup,
+    span: u64,
+) -> Vec<SyncEdge> {
+    esc.ecat_write(regs::DC_SYNC0_CYCLE, &s.cycle0.to_le_bytes());
+    esc.ecat_write(regs::DC_SYNC1_CYCLE, &s.cycle1.to_le_bytes());
+    esc.ecat_write(regs::DC_START_TIME, &s.start.to_le_bytes());
+    esc.ecat_write(regs::DC_ACTIVATION, &[0x07]);
+    let until = s.start - esc.dc_system_time() + span;
+    esc.advance(until)
+}
+
+/// SOEM `ecx_dcsync01(ctx, slave, TRUE, T0, T - T0, shift)` (pysoem `dc_sync(True, T0,
+/// shift, T - T0)`): 0x0981 = 0, 0x09A0 = T0, 0x09A4 = T - T0, start time aligned to
+/// `TrueCyclTime` = ((CyclTime1 / CyclTime0) + 1) * CyclTime0 plus the shift, 100 ms
+/// ahead, then 0x0981 = 0x07. SYNC1 comes once per bus cycle T, (n - 1) T0 after the
+/// first SYNC0 pulse of each cycle.
+#[test]
+fn sync1_as_soem_sets_it_for_factor_n() {
+    const T: u64 = 1_000_000;
+    for n in [2u64, 4, 10, 25] {
+        let t0 = T / n;
+        let mut esc = esc();
+        esc.advance(1_234_567);
+        esc.ecat_write(regs::DC_ACTIVATION, &[0]);
+        let (cycl0, cycl1, shift) = (t0, T - t0, 20_000u64);
+        let true_cycle = (cycl1 / cycl0 + 1) * cycl0;
+        assert_eq!(true_cycle, T);
+        let t1 = esc.dc_system_time();
+        let start = (t1 + 100_000_000) / true_cycle * true_cycle + true_cycle + shift;
+        let setup = Sync01Setup {
+            start,
+            cycle0: cycl0 as u32,
+            cycle1: cycl1 as u32,
+        };
+        let edges = run_setup(&mut esc, &setup, 5 * T - 1);
+        let s1 = sync1_times(&edges);
+        let expect: Vec<u64> = (0..5).map(|j| start + (n - 1) * t0 + j * T).collect();
+        assert_eq!(s1, expect, "n = {n}");
+        assert_eq!(sync0_times(&edges).len() as u64, 5 * n, "n = {n}");
+    }
+}
+
+/// IgH `ecrt_slave_config_dc(sc, 0x0730, T0, shift0, T - T0, 0)`: 0x09A0 = sync0_cycle,
+/// 0x09A4 = sync1_cycle + sync1_shift, the start time phased on sync0_cycle + sync1_cycle,
+/// then the 16-bit AssignActivate 0x0730 to 0x0980 (0x0980 = 0x30, 0x0981 = 0x07).
+#[test]
+fn sync1_as_igh_sets_it_for_factor_n() {
+    const T: u64 = 500_000;
+    let n = 5;
+    let t0 = T / n;
+    let mut esc = esc();
+    esc.advance(777_777);
+    let (sync1_cycle, sync1_shift, shift0) = (T - t0, 0u64, 0u64);
+    esc.ecat_write(regs::DC_SYNC0_CYCLE, &(t0 as u32).to_le_bytes());
+    esc.ecat_write(
+        regs::DC_SYNC1_CYCLE,
+        &((sync1_cycle + sync1_shift) as u32).to_le_bytes(),
+    );
+    let phase = t0 + sync1_cycle;
+    let start = (esc.dc_system_time() + 10_000_000) / phase * phase + shift0;
+    esc.ecat_write(regs::DC_START_TIME, &start.to_le_bytes());
+    esc.ecat_write(regs::DC_CYCLIC_UNIT_CONTROL, &0x0730u16.to_le_bytes());
+    assert_eq!(esc.peek_u8(regs::DC_ACTIVATION), 0x07);
+    let edges = esc.advance(start - esc.dc_system_time() + 4 * T - 1);
+    let expect: Vec<u64> = (0..4).map(|j| start + (n - 1) * t0 + j * T).collect();
+    assert_eq!(sync1_times(&edges), expect);
+}
+
+/// ethercrab: `DcSync::Sync01 { sync1_period }` is written raw to 0x09A4 with the start
+/// time rounded down to a whole SYNC0 period. `sync1_period = (n - 1) * T0` gives one SYNC1
+/// per bus cycle (what made an EL4732 work, ethercrab issue 368); `n * T0`, as its
+/// oversampling example writes, gives one every n + 1 SYNC0 pulses.
+#[test]
+fn sync1_as_ethercrab_sets_it_right_and_as_its_example_does() {
+    const T0: u64 = 50_000;
+    let n = 4;
+    for (sync1_period, period) in [((n - 1) * T0, n * T0), (n * T0, (n + 1) * T0)] {
+        let mut esc = esc();
+        esc.advance(3_333_333);
+        esc.ecat_write(regs::DC_ACTIVATION, &[0]);
+        let start = (esc.dc_system_time() + 100_000) / T0 * T0;
+        let setup = Sync01Setup {
+            start,
+            cycle0: T0 as u32,
+            cycle1: sync1_period as u32,
+        };
+        let edges = run_setup(&mut esc, &setup, 4 * period - 1);
+        let expect: Vec<u64> = (0..4).map(|j| start + sync1_period + j * period).collect();
+        assert_eq!(sync1_times(&edges), expect, "0x09A4 = {sync1_period}");
+    }
+}

@@ -318,6 +318,36 @@ fn three_buffer_inputs_are_always_readable() {
     assert_eq!((d.wkc, d.data.clone()), (1, vec![0x34, 0x12]));
 }
 
+/// The oversampling design writes an input image in two accesses: the header and the valid
+/// samples from the start, then the last byte alone, which completes the buffer; the bytes in
+/// between keep what that buffer held (docs/book/oversampling.md, PDI budget). Other PDI
+/// accesses may come between the two.
+#[test]
+fn three_buffer_write_completes_on_its_last_byte_with_bytes_skipped() {
+    let mut esc = esc();
+    esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);
+    config_sm(&mut esc, 3, 0x1180, 8, 0x20);
+    esc.pdi_write(0x1180, &[0xEE; 8]);
+    let read = |esc: &mut virtual_board::models::esc::Esc| {
+        one(esc, cmd::FPRD, 0x1000, 0x1180, &[0; 8]).data
+    };
+    assert_eq!(read(&mut esc), vec![0xEE; 8]);
+    esc.pdi_write(0x1180, &[1, 2, 3]);
+    assert_eq!(
+        read(&mut esc),
+        vec![0xEE; 8],
+        "not complete: the master reads the last one"
+    );
+    let mut events = [0; 2];
+    esc.pdi_read(0x0220, &mut events);
+    esc.pdi_write(0x1187, &[8]);
+    let image = read(&mut esc);
+    assert_eq!(image[..3], [1, 2, 3]);
+    assert_eq!(image[7], 8);
+    // The skipped bytes are what that physical buffer held before: never written here.
+    assert_eq!(image[3..7], [0; 4]);
+}
+
 #[test]
 fn pd_watchdog_expires_without_sm2_writes() {
     let mut esc = esc();

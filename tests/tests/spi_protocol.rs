@@ -3,10 +3,8 @@
 mod common;
 use common::*;
 use embedded_hal::spi::{Operation, SpiDevice};
-use std::cell::RefCell;
-use std::rc::Rc;
 use virtual_board::models::esc::regs;
-use virtual_board::models::spi::EscSpi;
+use virtual_board::models::spi::{EscSpi, SharedEsc};
 
 fn with_al_control_event() -> virtual_board::models::esc::Esc {
     let mut esc = esc();
@@ -94,7 +92,7 @@ fn missing_termination_is_a_pdi_error() {
 
 #[test]
 fn spi_device_splits_the_stream_across_operations() {
-    let esc = Rc::new(RefCell::new(with_al_control_event()));
+    let esc = SharedEsc::new(with_al_control_event());
     let mut spi = EscSpi::new(esc.clone());
     assert!(spi.irq());
     let mut ev = [0u8; 2];
@@ -127,7 +125,7 @@ fn spi_device_splits_the_stream_across_operations() {
 
 #[test]
 fn read_operation_without_termination_is_flagged() {
-    let esc = Rc::new(RefCell::new(esc()));
+    let esc = SharedEsc::new(esc());
     let mut spi = EscSpi::new(esc.clone());
     let mut data = [0u8; 2];
     spi.transaction(&mut [

@@ -7,7 +7,7 @@
 //! happens in a private network namespace created for the test
 //! (`unshare(CLONE_NEWNET)` on the test's own thread), so the veth pair never shows up
 //! on the host and disappears with the namespace when the test ends. The commands are
-//! the ones the README gives for a manual run:
+//! the ones the book gives for a manual run (docs/book/getting-started-virtual.md):
 //!
 //! ```text
 //! ip link add vb0 type veth peer name vb1
@@ -67,14 +67,11 @@ fn run_in_namespace() -> Result<Outcome, String> {
     let (tx, rx, pdu_loop) = storage.try_split().expect("split once");
     let md = MainDevice::new(
         pdu_loop,
+        // ethercrab's default timeouts (30 ms per PDU, 10 ms per EEPROM read): the board
+        // answers every frame at its arrival, as an ET1100 does.
         Timeouts {
             wait_loop_delay: Duration::from_millis(1),
             state_transition: Duration::from_secs(5),
-            // ethercrab's timeouts are wall-clock (10 ms per EEPROM read, 30 ms per PDU by
-            // default); a loaded host can take longer to answer over the veth pair (a
-            // `timeout: PDU` at init was seen at a load average of 8 on 2 cores).
-            eeprom: Duration::from_millis(500),
-            pdu: Duration::from_millis(500),
             ..Default::default()
         },
         MainDeviceConfig {

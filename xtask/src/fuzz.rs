@@ -5,11 +5,16 @@
 //! stable toolchain `RUSTC_BOOTSTRAP=1` lets them through. Every target starts from its kept
 //! corpus (`tests/fuzz/corpus/NAME`, not in git) plus seeds taken from the real-world vectors
 //! next to the checkout (`../shared/vectors`: mailbox frames of TwinCAT and SOEM captures, SII
-//! images of real devices) and from the firmware's own description; the seeds are regenerated
-//! on every run into `target/fuzz/seeds`, never copied into the repository.
+//! images of real devices) and from the firmware's own description, and the CAN targets from
+//! the traffic of coe-core's master booting and running in-process slaves on the virtual bus;
+//! the seeds are regenerated on every run into `target/fuzz/seeds`, never copied into the
+//! repository.
 
 use crate::setup;
 use crate::util::{cargo, display, root, Result};
+use coe_core::canopen::master::config::{Identity, MasterConfig, NodeConfig, PdoConfig};
+use coe_core::canopen::CanFrame;
+use coe_core::pdo::PdoEntry;
 use coe_core::wire::{Mailbox, MailboxRepr};
 use std::collections::BTreeSet;
 use std::fs;
@@ -17,6 +22,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 use virtual_board::models::esc::{cmd, parse_frame};
+use virtual_board::rig::can_slave::{InProcessSlave, SlaveIdentity};
+use virtual_board::rig::master_host::{CanNetwork, TestMaster};
 use virtual_board::tools::pcap::read_pcapng;
 
 /// The fuzz crate (its own workspace).
@@ -221,7 +228,138 @@ fn write_seeds(dir: &Path) -> Result {
     save(&dir.join("coe_wire_parsers"), frames.all.iter())?;
     save(&dir.join("coe_sdo_server"), frames.server_sessions().iter())?;
     save(&dir.join("slave_mailbox"), frames.master_sessions().iter())?;
+    let can = CanTraffic::record();
+    eprintln!(
+        "fuzz seeds: {} CAN frames from the nodes, {} from the master",
+        can.from_nodes.len(),
+        can.from_master.len()
+    );
+    save(&dir.join("can_master"), can_stream(&can.from_nodes).iter())?;
+    save(&dir.join("can_node"), can_stream(&can.from_master).iter())?;
     save(&dir.join("sii_reader"), siis.iter())
+}
+
+/// The CAN traffic of coe-core's master booting three in-process nodes (the configuration of
+/// the `can_master` target: 2 and 4 synchronous with heartbeat, 3 event-driven and guarded)
+/// and running them at 1 Mbit/s; the master's frames renumbered for node 5 (the `can_node`
+/// target's node).
+struct CanTraffic {
+    from_nodes: Vec<(u64, CanFrame)>,
+    from_master: Vec<(u64, CanFrame)>,
+}
+
+impl CanTraffic {
+    fn record() -> Self {
+        let node = |id: u8, transmission_type: u8| {
+            let mut n = NodeConfig::new(id);
+            n.identity = Identity {
+                device_type: 0x0002_0192,
+                vendor_id: 0x1234,
+                ..Identity::default()
+            };
+            let entries = [PdoEntry::new(0x6041, 0, 16), PdoEntry::new(0x6064, 0, 32)];
+            let outputs = [PdoEntry::new(0x6040, 0, 16), PdoEntry::new(0x607A, 0, 32)];
+            let mut t = PdoConfig::new(1, 0x180 + u16::from(id), transmission_type, &entries);
+            t.deadline_ms = 20;
+            n.tpdo[0] = Some(t);
+            let mut r = PdoConfig::new(1, 0x200 + u16::from(id), transmission_type, &outputs);
+            r.event_timer_ms = 10;
+            n.rpdo[0] = Some(r);
+            n.heartbeat_producer_ms = 10;
+            n.heartbeat_consumer_ms = 30;
+            n
+        };
+        let mut guarded = node(3, 255);
+        guarded.heartbeat_consumer_ms = 0;
+        guarded.guard_time_ms = 10;
+        guarded.life_time_factor = 2;
+        let mut places = [NodeConfig::EMPTY; 16];
+        places[..3].copy_from_slice(&[node(2, 1), guarded, node(4, 1)]);
+        let cfg = MasterConfig {
+            sync_period_us: 2_000,
+            boot_wait_ms: 20,
+            ..MasterConfig::default()
+        };
+        let Ok(master) = TestMaster::new(cfg, places) else {
+            return Self {
+                from_nodes: Vec::new(),
+                from_master: Vec::new(),
+            };
+        };
+        let mut net = CanNetwork::new(1_000_000, master);
+        for id in [2, 3, 4] {
+            let identity = SlaveIdentity {
+                device_type: 0x0002_0192,
+                vendor_id: 0x1234,
+                product_code: 1,
+                revision: 1,
+                serial: u32::from(id),
+            };
+            let s = InProcessSlave::attach(&mut net.bus, id, identity);
+            net.slaves.push(s);
+        }
+        net.master.master.start(0);
+        net.run(300_000_000, 2_000_000, &mut |net, k| {
+            for slot in 0..3 {
+                let _ = net
+                    .master
+                    .master
+                    .set_output(slot, 0, &[0x0F, 0, k as u8, 0, 0, 0]);
+            }
+        });
+        let master_port = net.master.port;
+        let (mut from_nodes, mut from_master) = (Vec::new(), Vec::new());
+        for (t, port, f) in &net.bus.log {
+            if *port == master_port {
+                from_master.push((*t, for_node_5(f)));
+            } else {
+                from_nodes.push((*t, *f));
+            }
+        }
+        Self {
+            from_nodes,
+            from_master,
+        }
+    }
+}
+
+/// A frame of the master for nodes 2..4 as one for node 5.
+fn for_node_5(f: &CanFrame) -> CanFrame {
+    let id = f.id();
+    let data = f.data();
+    if id == 0 && data.len() == 2 && data[1] != 0 {
+        return CanFrame::new(0, &[data[0], 5]).unwrap_or(*f);
+    }
+    let node_based = matches!(id & 0x780, 0x200 | 0x600 | 0x700) && (2..=4).contains(&(id & 0x7F));
+    if !node_based {
+        return *f;
+    }
+    let id = (id & !0x7F) | 5;
+    if f.is_remote() {
+        CanFrame::remote(id, f.dlc()).unwrap_or(*f)
+    } else {
+        CanFrame::new(id, data).unwrap_or(*f)
+    }
+}
+
+/// Frames in the CAN targets' input form (`tests/fuzz/fuzz_targets/can_stream.rs`), 64 per
+/// input.
+fn can_stream(frames: &[(u64, CanFrame)]) -> Vec<Vec<u8>> {
+    frames
+        .chunks(64)
+        .map(|chunk| {
+            let mut input = Vec::new();
+            let mut last = chunk.first().map_or(0, |(t, _)| *t);
+            for (t, f) in chunk {
+                let dt_ms = ((t - last) / 1_000_000).min(255) as u8;
+                last = *t;
+                let [lo, hi] = f.id().to_le_bytes();
+                input.extend_from_slice(&[u8::from(f.is_remote()), dt_ms, lo, hi, f.dlc()]);
+                input.extend_from_slice(f.data());
+            }
+            input
+        })
+        .collect()
 }
 
 fn files(dir: &Path, extension: &str) -> Result<Vec<PathBuf>> {
@@ -336,6 +474,29 @@ mod tests {
         assert_eq!(
             final_stat("nothing", "stat::number_of_executed_units:"),
             None
+        );
+    }
+
+    #[test]
+    fn can_seeds_from_the_masters_traffic() {
+        let can = CanTraffic::record();
+        // Boot SDO answers, heartbeats and TPDOs of the nodes; NMT, SDO requests, SYNC and
+        // guard requests of the master, renumbered for node 5.
+        assert!(can.from_nodes.iter().any(|(_, f)| f.id() == 0x582));
+        assert!(can.from_nodes.iter().any(|(_, f)| f.id() == 0x184));
+        assert!(can.from_master.iter().any(|(_, f)| f.id() == 0x605));
+        assert!(can
+            .from_master
+            .iter()
+            .any(|(_, f)| f.is_remote() && f.id() == 0x705));
+        assert!(can.from_master.iter().any(|(_, f)| f.id() == 0x080));
+        assert!(!can.from_master.iter().any(|(_, f)| f.id() == 0x602));
+        let inputs = can_stream(&can.from_master);
+        assert!(inputs.len() > 2);
+        let f = CanFrame::new(0x123, &[9, 8]).unwrap();
+        assert_eq!(
+            can_stream(&[(0, f), (3_000_000, f)]),
+            [vec![0, 0, 0x23, 0x01, 2, 9, 8, 0, 3, 0x23, 0x01, 2, 9, 8]]
         );
     }
 

@@ -4,10 +4,12 @@
 
 mod bench;
 mod build;
+mod docs;
 mod esi;
 mod flash;
 mod fuzz;
 mod image;
+mod peer;
 mod setup;
 mod sim;
 mod size;
@@ -34,6 +36,10 @@ enum Command {
     Test(test::Args),
     /// Install what the project needs on this machine (idempotent).
     Setup,
+    /// Build the manual (docs/, an mdBook) into target/book, with the tables generated from
+    /// the code; fails on a broken link or anchor and on a `cargo xtask` command it shows
+    /// that does not exist.
+    Docs,
     /// Run the virtual board with a real EtherCAT master (in process, or on a network
     /// interface with --iface): ESM walk, SDO identity, AI -> AO loop-back figures.
     Sim(sim::Args),
@@ -52,6 +58,9 @@ enum Command {
     Flash(flash::Args),
     /// Flash with probe-rs and show the firmware's defmt log over RTT.
     Run(flash::RunArgs),
+    /// Build a peer stack for the same board (`soes`: SOES from ../shared/peers/soes with
+    /// the port in tests/soes) into an ELF the co-simulator runs.
+    Peer(peer::Args),
     /// Run the cargo-fuzz targets of tests/fuzz (seeded from the real-world captures) for a
     /// while each; fails on a crash.
     Fuzz(fuzz::Args),
@@ -62,6 +71,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Test(args) => test::run(&args),
         Command::Setup => setup::all(),
+        Command::Docs => docs::run(),
         Command::Sim(args) => sim::run(&args),
         Command::Build(args) => build::run(&args),
         Command::Size(args) => size::run(&args),
@@ -70,6 +80,7 @@ fn main() -> ExitCode {
         Command::Flash(args) => flash::run(&args),
         Command::Run(args) => flash::run_and_monitor(&args),
         Command::Fuzz(args) => fuzz::run(&args),
+        Command::Peer(args) => peer::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -23,22 +23,31 @@ pub const DEBIAN_PACKAGES: [&str; 4] = ["tshark", "libxml2-utils", "iproute2", "
 /// (libclang) at every build.
 pub const COSIM_PACKAGES: [&str; 2] = ["cmake", "libclang-dev"];
 
+/// Debian packages of the SOES peer (`cargo xtask peer soes`, tests/soes): the C compiler for
+/// the Cortex-M3 and the C library (newlib) it links.
+pub const PEER_PACKAGES: [&str; 2] = ["gcc-arm-none-eabi", "libnewlib-arm-none-eabi"];
+
 /// Python packages (PyPI name, version) the system tests use, pinned so each test drives the
 /// software it was written against: pysoem (SOEM's Python binding, a wheel with SOEM inside),
 /// the second EtherCAT master on a veth pair and of the firmware update test; python-canopen,
-/// the CANopen master of the CAN system test (`tests/python/canopen_master.py`); python-can,
-/// whose `socketcand` interface reaches the board's CAN bus.
-pub const PYTHON_PACKAGES: [(&str, &str); 3] = [
+/// the CANopen master of the CAN system test (`tests/python/canopen_master.py`) and, with its
+/// LocalNode, one of the slaves of coe-core's master (`tests/python/can_slaves.py`); python-can,
+/// whose `socketcand` interface reaches the board's CAN bus; durand, a pure-Python CANopen
+/// slave nobody here wrote, the master's other third-party slave.
+pub const PYTHON_PACKAGES: [(&str, &str); 4] = [
     ("pysoem", "1.1.13"),
     ("canopen", "2.4.1"),
     ("python-can", "4.6.1"),
+    ("durand", "0.5.0"),
 ];
 
 /// Everything: targets, cargo tools, Debian and Python packages.
 pub fn all() -> Result {
     targets()?;
     flip_link()?;
+    mdbook()?;
     debian(&DEBIAN_PACKAGES);
+    debian(&PEER_PACKAGES);
     python(&PYTHON_PACKAGES);
     cosim()
 }
@@ -135,6 +144,35 @@ pub fn flip_link() -> Result {
     }
     eprintln!("flip-link is missing: installing it with cargo (once)");
     exec(Command::new("cargo").args(["install", "--locked", "flip-link"]))
+}
+
+/// The mdBook version the manual is built with (`cargo xtask docs`; pinned: the book's
+/// configuration and the HTML whose links the command checks are this version's).
+pub const MDBOOK_VERSION: &str = "0.5.4";
+
+/// mdBook, for `cargo xtask docs`. Built without its `serve` and `watch` features (no web
+/// server, no file watcher: the command builds the book once), which leaves out about half
+/// of its dependencies; about 3 minutes on two cores, once per machine.
+pub fn mdbook() -> Result {
+    let installed = Command::new("mdbook")
+        .arg("--version")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == format!("mdbook v{MDBOOK_VERSION}"))
+        .unwrap_or(false);
+    if installed {
+        return Ok(());
+    }
+    eprintln!("mdbook {MDBOOK_VERSION} is missing: installing it with cargo (once)");
+    exec(Command::new("cargo").args([
+        "install",
+        "--locked",
+        "mdbook",
+        "--version",
+        MDBOOK_VERSION,
+        "--no-default-features",
+        "--features",
+        "search",
+    ]))
 }
 
 /// The cargo-fuzz version `cargo xtask fuzz` installs (pinned: its flags and output format

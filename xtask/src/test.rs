@@ -1,31 +1,38 @@
 //! `cargo xtask test`: everything CI checks.
 
 use crate::util::{cargo, exec, have, Result};
-use crate::{bench, build, esi, flash, fuzz, setup};
+use crate::{bench, build, docs, esi, flash, fuzz, peer, setup};
 use std::path::Path;
 
 /// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
 const CI_FUZZ_SECONDS: u32 = 30;
 
-/// The test ignored by default because it needs python3 with python-canopen and python-can
-/// (the setup installs them; without them it fails, naming what is missing).
-const PYTHON_CANOPEN_TEST: &str = "python_canopen_drives_the_board_over_socketcand";
+/// The tests ignored by default because they need python3 with python-canopen, python-can
+/// and durand (the setup installs them; without them they fail, naming what is missing):
+/// python-canopen driving the board, and coe-core's master driving durand, python-canopen's
+/// LocalNode and the firmware's node.
+const PYTHON_CAN_TESTS: [&str; 2] = [
+    "python_canopen_drives_the_board_over_socketcand",
+    "the_master_runs_durand_python_canopen_and_the_firmware_node",
+];
 
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
-/// ethercrab and the virtual board, SOEM (pysoem) and the image on the co-simulator, SOEM
-/// updating the module's firmware on the virtual board and on the image, and the CAN
-/// product's image after refused files, each on a veth pair.
-const ROOT_TESTS: [&str; 5] = [
+/// ethercrab and the virtual board, SOEM (pysoem) and the image (and SOES) on the
+/// co-simulator, SOEM updating the module's firmware on the virtual board and on the image,
+/// and the CAN product's image after refused files, each on a veth pair.
+const ROOT_TESTS: [&str; 6] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
+    "pysoem_drives_soes_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
     "pysoem_updates_the_image_over_a_veth_pair",
     "pysoem_updates_the_can_image_after_refused_files",
 ];
 
-/// The `no_std` crates that must build for every embedded target.
+/// The `no_std` crates others reuse: they must build for every embedded target, and they
+/// are ready to publish (`cargo publish --dry-run`).
 const PORTABLE_CRATES: [&str; 5] = ["coe-core", "et1100", "ad5663", "ad7689", "lpc17xx-iap"];
 
 #[derive(clap::Args)]
@@ -64,6 +71,7 @@ pub fn run(args: &Args) -> Result {
         }
         exec(doc.env("RUSTDOCFLAGS", "-D warnings"))?;
     }
+    publish_dry_run()?;
     // The LPC1754 images of every product first: release builds, checksum, CRP word and
     // budgets verified on the BINs; the co-simulator's system tests (tests/cosim) run these
     // very programs (each product's bootloader and update file are found beside its
@@ -75,17 +83,22 @@ pub fn run(args: &Args) -> Result {
     images.iter().for_each(build::print_report);
     build::print_budgets(&images);
     let image = &images[0];
+    // SOES for the same board (tests/soes), which the co-simulator's peer tests run.
+    let soes = peer::build_soes()?;
     exec(
         cargo()
             .args(["test", "--workspace"])
-            .env("LPC1754_IMAGE", &image.elf),
+            .env("LPC1754_IMAGE", &image.elf)
+            .env(peer::SOES_IMAGE_ENV, &soes),
     )?;
-    ignored_tests(&image.elf)?;
+    ignored_tests(&image.elf, &soes)?;
     // coe-core as the firmware builds it (without the `real` feature, which the workspace
     // test run unifies back on), so the no-REAL paths are tested too.
     exec(cargo().args(["test", "-p", "coe-core", "--no-default-features"]))?;
     // The device description files, the ESI validated against the ETG.2000 schema.
     esi::run(&esi::Args::default())?;
+    // The manual: its generated tables, its links and the commands it shows.
+    docs::run()?;
     for target in setup::TARGETS {
         let mut cmd = cargo();
         cmd.args(["build", "--release", "--target", target]);
@@ -130,12 +143,26 @@ pub fn run(args: &Args) -> Result {
     Ok(())
 }
 
+/// `cargo publish --dry-run` of the reusable crates: each is packaged (manifest, README,
+/// licence files) and the package alone is built, as crates.io would take it. The crates go
+/// in one command so that et1100's dependency on coe-core resolves to the coe-core packaged
+/// beside it, which the registry does not have yet. `--allow-dirty`: a developer runs this
+/// with changes not yet committed; CI's clone is clean anyway.
+fn publish_dry_run() -> Result {
+    let mut cmd = cargo();
+    cmd.args(["publish", "--dry-run", "--allow-dirty"]);
+    for c in PORTABLE_CRATES {
+        cmd.args(["-p", c]);
+    }
+    exec(&mut cmd)
+}
+
 /// The tests ignored by default because they need what a developer's machine may lack:
 /// the capture checks (tshark, which the setup installs, so its absence is an error) and
 /// the network-interface tests (root: run when this is root, else said loudly). The tests
 /// that read the shared vectors beside the checkout show as ignored where they are absent
 /// and run with the others where they are present (`has_shared_vectors`).
-fn ignored_tests(image: &Path) -> Result {
+fn ignored_tests(image: &Path, soes: &Path) -> Result {
     if !have("tshark") {
         return Err(
             "tshark is not installed, so the capture checks (tests named \
@@ -152,9 +179,10 @@ fn ignored_tests(image: &Path) -> Result {
         "--",
         "--ignored",
         TSHARK_TESTS,
-        PYTHON_CANOPEN_TEST,
     ])
-    .env("LPC1754_IMAGE", image);
+    .args(PYTHON_CAN_TESTS)
+    .env("LPC1754_IMAGE", image)
+    .env(peer::SOES_IMAGE_ENV, soes);
     if setup::is_root() {
         cmd.args(ROOT_TESTS);
     } else {

@@ -53,6 +53,7 @@ use super::error_control::{
 };
 use super::frame::CanFrame;
 use super::nmt::{NmtCommandRepr, NmtSlave, NmtState, NmtTransition, Service};
+use super::outbox::Outbox;
 use super::params::{self, error_behaviour, Changed, CommDefaults, CommParameters};
 use super::pdo::{
     LengthCheck, MappingInfo, PdoData, PdoKind, RpdoRuntime, TpdoRuntime, Transmission,
@@ -158,81 +159,6 @@ mod fault {
 enum TpdoTrigger {
     Sync(Option<u8>),
     Timers(u64),
-}
-
-/// Frames waiting for the controller, each with its queueing number (the order among
-/// equal identifiers; no shifting of slots, so no `memmove` on the target).
-#[derive(Debug, Clone, Copy)]
-struct Outbox {
-    frames: [Option<(u32, CanFrame)>; OUTBOX],
-    next: u32,
-    /// Frames queued: the PDI task asks for every activation, without a scan.
-    queued: usize,
-}
-
-impl Outbox {
-    const fn new() -> Self {
-        Self {
-            frames: [None; OUTBOX],
-            next: 0,
-            queued: 0,
-        }
-    }
-
-    /// Queues a frame; false if the outbox is full.
-    fn push(&mut self, frame: CanFrame) -> bool {
-        match self.frames.iter_mut().find(|f| f.is_none()) {
-            Some(slot) => {
-                *slot = Some((self.next, frame));
-                self.next = self.next.wrapping_add(1);
-                self.queued += 1;
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Where the frame with the lowest identifier (the one that wins arbitration) is; among
-    /// equal identifiers the oldest (queueing numbers compared by wrapping difference: at
-    /// most [`OUTBOX`] apart).
-    fn best(&self) -> Option<usize> {
-        let mut best: Option<(usize, u16, u32)> = None;
-        for (i, f) in self.frames.iter().enumerate() {
-            if let Some((seq, f)) = f {
-                let better = best.is_none_or(|(_, id, s)| {
-                    f.id() < id || (f.id() == id && (seq.wrapping_sub(s) as i32) < 0)
-                });
-                if better {
-                    best = Some((i, f.id(), *seq));
-                }
-            }
-        }
-        best.map(|(i, _, _)| i)
-    }
-
-    fn peek(&self) -> Option<CanFrame> {
-        self.frames
-            .get(self.best()?)
-            .copied()
-            .flatten()
-            .map(|(_, f)| f)
-    }
-
-    fn pop(&mut self) -> Option<CanFrame> {
-        let i = self.best()?;
-        let (_, frame) = self.frames.get_mut(i)?.take()?;
-        self.queued -= 1;
-        Some(frame)
-    }
-
-    fn len(&self) -> usize {
-        self.queued
-    }
-
-    fn clear(&mut self) {
-        self.frames = [None; OUTBOX];
-        self.queued = 0;
-    }
 }
 
 /// What a reset of communication restarts: everything of the node but the SDO server, the
@@ -516,7 +442,7 @@ pub struct CanNode<
     defaults: &'static CommDefaults<R, T>,
     rt: Runtime<R, T, HB, Q>,
     sdo: CanSdoServer<BUF>,
-    outbox: Outbox,
+    outbox: Outbox<OUTBOX>,
     /// Communication errors raised and not yet cleared (bits of `fault`).
     faults: u8,
     stats: NodeStats,

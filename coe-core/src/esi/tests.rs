@@ -3,6 +3,8 @@
 //! computed here independently of the generator.
 
 use super::*;
+use crate::device::oversampling::tests::{os_device, OS};
+use crate::device::oversampling::{OpModePdo, OpModeSm, OpModeWithPdos, Oversampling, PdoReplicas};
 use crate::device::tests::valid;
 use crate::device::{
     CoeDetails, DcDesc, DcOpMode, DescErrorKind, EepromDesc, FmmuUsage, Identity, MailboxDesc,
@@ -1317,6 +1319,9 @@ fn the_file_validates_against_the_etg2000_schema() {
         std::fs::write(&file, esi(&desc)).unwrap();
         files.push(file);
     }
+    let os = dir.join("oversampling.xml");
+    std::fs::write(&os, esi_os(&os_device(), &OS)).unwrap();
+    files.push(os);
     let run = std::process::Command::new("xmllint")
         .arg("--noout")
         .arg("--schema")
@@ -1330,4 +1335,148 @@ fn the_file_validates_against_the_etg2000_schema() {
         "schema validation failed:\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+// ---- oversampling ----
+
+fn esi_os(desc: &DeviceDescription, os: &Oversampling) -> String {
+    let mut out = String::new();
+    write_esi_with(desc, os, &mut out).unwrap_or_else(|e| panic!("{e}"));
+    out
+}
+
+#[test]
+fn without_oversampling_the_file_is_the_plain_one() {
+    for (name, desc) in variants() {
+        assert_eq!(esi_os(&desc, &Oversampling::NONE), esi(&desc), "{name}");
+    }
+}
+
+/// The PDOs of `tag` in the file: index and the four oversampling attributes.
+fn listed(device: Node<'_, '_>, tag: &'static str) -> Vec<(i128, [Option<i128>; 4])> {
+    children(device, tag)
+        .iter()
+        .map(|p| {
+            (
+                child_num(*p, "Index"),
+                ["OSFac", "OSMin", "OSMax", "OSIndexInc"].map(|a| attr_num(*p, a)),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_replicated_pdo_is_listed_once_with_its_attributes() {
+    let desc = os_device();
+    let xml = esi_os(&desc, &OS);
+    let doc = Document::parse(&xml).unwrap();
+    let device = doc
+        .descendants()
+        .find(|n| n.has_tag_name("Device"))
+        .unwrap();
+    let none = [None; 4];
+    assert_eq!(
+        listed(device, "RxPdo"),
+        [
+            (0x1600, none),
+            (0x1610, none),
+            (0x1620, [Some(2), Some(1), Some(3), Some(1)]),
+        ]
+    );
+    assert_eq!(
+        listed(device, "TxPdo"),
+        [
+            (0x1A00, none),
+            (0x1A10, none),
+            (0x1A11, none),
+            (0x1A20, [Some(4), Some(1), Some(4), Some(1)]),
+        ]
+    );
+    // The base's entries as usual; every replica in the dictionary.
+    let base = children(device, "TxPdo")[3];
+    assert_eq!(children(base, "Entry").len(), 8);
+    let objects: Vec<i128> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("Object"))
+        .map(|o| child_num(o, "Index"))
+        .collect();
+    for index in [0x1621, 0x1622, 0x1A21, 0x1A22, 0x1A23, 0x6023, 0x7022] {
+        assert!(objects.contains(&index), "{index:#06X} in the dictionary");
+    }
+}
+
+#[test]
+fn an_op_mode_carries_its_assignment_after_the_plain_modes() {
+    let xml = esi_os(&os_device(), &OS);
+    let expected = "\
+\t\t\t\t<Dc>
+\t\t\t\t\t<OpMode>
+\t\t\t\t\t\t<Name>DC</Name>
+\t\t\t\t\t\t<Desc>DC SYNC0</Desc>
+\t\t\t\t\t\t<AssignActivate>#x0300</AssignActivate>
+\t\t\t\t\t\t<CycleTimeSync0 Factor=\"1\">0</CycleTimeSync0>
+\t\t\t\t\t\t<ShiftTimeSync0>0</ShiftTimeSync0>
+\t\t\t\t\t</OpMode>
+\t\t\t\t\t<OpMode>
+\t\t\t\t\t\t<Name>DC-OS</Name>
+\t\t\t\t\t\t<Desc>DC, 4 AO updates and 32 AI samples per cycle</Desc>
+\t\t\t\t\t\t<AssignActivate>#x0300</AssignActivate>
+\t\t\t\t\t\t<CycleTimeSync0 Factor=\"1\">0</CycleTimeSync0>
+\t\t\t\t\t\t<ShiftTimeSync0>0</ShiftTimeSync0>
+\t\t\t\t\t\t<Sm No=\"2\">
+\t\t\t\t\t\t\t<Pdo>#x1610</Pdo>
+\t\t\t\t\t\t\t<Pdo OSFac=\"2\">#x1620</Pdo>
+\t\t\t\t\t\t</Sm>
+\t\t\t\t\t\t<Sm No=\"3\">
+\t\t\t\t\t\t\t<Pdo>#x1A10</Pdo>
+\t\t\t\t\t\t\t<Pdo>#x1A11</Pdo>
+\t\t\t\t\t\t\t<Pdo OSFac=\"4\">#x1A20</Pdo>
+\t\t\t\t\t\t</Sm>
+\t\t\t\t\t</OpMode>
+\t\t\t\t</Dc>
+";
+    assert!(xml.contains(expected), "{xml}");
+    // Op modes with assignments alone make a Dc element too.
+    let mut desc = os_device();
+    desc.dc.op_modes = &[];
+    let xml = esi_os(&desc, &OS);
+    assert_eq!(xml.matches("<OpMode>").count(), 1);
+}
+
+#[test]
+fn a_bad_oversampling_part_writes_nothing() {
+    let desc = os_device();
+    let bad = Oversampling {
+        replicas: &[PdoReplicas {
+            base: 0x1A20,
+            default_factor: 9,
+            min_factor: 1,
+            max_factor: 4,
+            index_increment: 1,
+        }],
+        op_modes: &[],
+    };
+    let mut out = String::new();
+    let err = write_esi_with(&desc, &bad, &mut out).unwrap_err();
+    assert!(matches!(
+        err,
+        EsiError::Description(DescError {
+            kind: DescErrorKind::BadOversamplingFactors,
+            index: 0x1A20,
+            ..
+        })
+    ));
+    assert!(out.is_empty());
+    const WRONG_SM: [OpModeWithPdos; 1] = [OpModeWithPdos {
+        mode: OS.op_modes[0].mode,
+        sms: &[OpModeSm {
+            sm: 2,
+            pdos: &[OpModePdo::replicated(0x1A20, 1)],
+        }],
+    }];
+    let wrong_sm = Oversampling {
+        replicas: OS.replicas,
+        op_modes: &WRONG_SM,
+    };
+    assert!(write_esi_with(&desc, &wrong_sm, &mut out).is_err());
 }

@@ -454,33 +454,78 @@ const TYPE_OUT_OF_AREA: u16 = TYPE_BITS;
 const LAST_TYPE_CODE: u16 = 0x0FFF;
 
 /// An object's own default of one of its entries (an unsigned number: PDO mappings,
-/// COB-IDs, times), for entry tables shared by objects of one structure.
+/// COB-IDs, times), for entry tables shared by objects of one structure; or of a run of PDO
+/// mapping entries ([`EntryDefault::mapping_run`]).
 ///
 /// The value is kept as two 16-bit halves, so a default takes 6 bytes instead of 8 (a
-/// firmware's PDO mappings and communication parameters have dozens of them).
+/// firmware's PDO mappings and communication parameters have dozens of them); the run
+/// length sits in what would be padding.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EntryDefault {
-    /// Subindex.
+    /// Subindex (the first of a run).
     pub subindex: u8,
+    /// Subindices covered: 1, or the length of a mapping run.
+    run: u8,
     /// Default value ([`EntryDefault::value`]), low half first.
     halves: [u16; 2],
 }
 
 const _: () = assert!(core::mem::size_of::<EntryDefault>() == 6);
 
+/// What one step of a mapping run adds to a mapping entry: one to its subindex field
+/// (`index << 16 | subindex << 8 | bit length`, [`crate::pdo::PdoEntry`]).
+const MAPPING_RUN_STEP: u32 = 1 << 8;
+
 impl EntryDefault {
     /// The default `value` of sub `subindex`.
     pub const fn new(subindex: u8, value: u32) -> Self {
         Self {
             subindex,
+            run: 1,
             halves: [value as u16, (value >> 16) as u16],
         }
     }
 
-    /// Default value ([`Value::Uint`]).
+    /// The defaults of `count` PDO mapping entries from sub `first`: sub `first + i` maps
+    /// what `entry` maps with the subindex increased by `i` (e.g. `0x60200110` from sub 1,
+    /// 32 times: subs 1..32 map 0x6020:01..0x6020:20, 16 bits each). A PDO of a sample array
+    /// then costs one default instead of one per sample. [`ObjectDictionary::validate`]
+    /// refuses an empty run and one whose subindex field would pass 255
+    /// ([`OdErrorKind::BadMappingRun`]).
+    pub const fn mapping_run(first: u8, count: u8, entry: u32) -> Self {
+        Self {
+            subindex: first,
+            run: count,
+            halves: [entry as u16, (entry >> 16) as u16],
+        }
+    }
+
+    /// Default value of the first subindex ([`Value::Uint`]).
     pub const fn value(&self) -> u32 {
         self.halves[0] as u32 | (self.halves[1] as u32) << 16
+    }
+
+    /// Subindices covered (1 for a single default).
+    pub const fn run(&self) -> u8 {
+        self.run
+    }
+
+    /// The default of `subindex` if this covers it.
+    pub const fn value_of(&self, subindex: u8) -> Option<u32> {
+        if subindex < self.subindex || (subindex - self.subindex) as u16 >= self.run as u16 {
+            return None;
+        }
+        let step = (subindex - self.subindex) as u32 * MAPPING_RUN_STEP;
+        Some(self.value().wrapping_add(step))
+    }
+
+    /// Whether the run is well formed: not empty, the last subindex and the subindex field
+    /// of its last mapping entry at most 255.
+    const fn run_fits(&self) -> bool {
+        let last = self.subindex as u16 + self.run as u16;
+        let field = (self.value() >> 8 & 0xFF) as u16 + self.run as u16;
+        self.run >= 1 && (self.run == 1 || (last <= 256 && field <= 256))
     }
 }
 
@@ -566,9 +611,9 @@ impl ObjectDesc {
     pub const fn resolve(&self, entry: &EntryDesc) -> EntryDesc {
         let mut rest = self.defaults;
         while let [own, tail @ ..] = rest {
-            if own.subindex == entry.subindex {
+            if let Some(value) = own.value_of(entry.subindex) {
                 let mut own_entry = *entry;
-                own_entry.default = entry.default.with_uint(own.value());
+                own_entry.default = entry.default.with_uint(value);
                 return own_entry;
             }
             rest = tail;
@@ -780,12 +825,20 @@ const fn validate_object(object: &ObjectDesc) -> Result<(), OdError> {
     }
     let mut own = object.defaults;
     while let [default, tail @ ..] = own {
-        if object.entry_desc(default.subindex).is_none() {
+        if !default.run_fits() {
             return Err(OdError::new(
-                OdErrorKind::DefaultOfNoEntry,
+                OdErrorKind::BadMappingRun,
                 index,
                 default.subindex,
             ));
+        }
+        let mut i = 0;
+        while i < default.run() {
+            let sub = default.subindex + i;
+            if object.entry_desc(sub).is_none() {
+                return Err(OdError::new(OdErrorKind::DefaultOfNoEntry, index, sub));
+            }
+            i += 1;
         }
         own = tail;
     }
@@ -944,6 +997,9 @@ pub enum OdErrorKind {
     DefaultTooWideForLimits,
     /// An object's data type code lies outside the data type area 0x0000..=0x0FFF.
     ObjectTypeOutOfArea,
+    /// A run of mapping defaults ([`EntryDefault::mapping_run`]) is empty, or its last
+    /// subindex or the subindex field of its last mapping entry passes 255.
+    BadMappingRun,
 }
 
 impl OdErrorKind {
@@ -975,6 +1031,7 @@ impl OdErrorKind {
             Self::DefaultTooWideForLimits => {
                 "an entry with limits needs a default of at most 32 bits"
             }
+            Self::BadMappingRun => "a run of mapping defaults is empty or passes subindex 255",
         }
     }
 }

@@ -405,6 +405,111 @@ fn an_own_default_must_name_an_entry() {
     );
 }
 
+/// Sub 0 and 32 UNSIGNED32 mapping slots: the table of a PDO of 32 samples.
+static MAPPING_32: [EntryDesc; 33] = {
+    let mut out = [EntryDesc::count(32); 33];
+    let mut i = 1;
+    while i < 33 {
+        out[i] = EntryDesc::new(i as u8, "Entry", DataType::Unsigned32, Access::RO);
+        i += 1;
+    }
+    out
+};
+
+/// 0x1A20 maps 0x6020:01..20 and 0x1A21 0x6021:01..20, each with one run of defaults.
+static RUN_MAPPINGS: ObjectDictionary = ObjectDictionary::new(&[
+    ObjectDesc::record(0x1A20, "Samples 1", DataType::Unknown(0x21), &MAPPING_32)
+        .with_defaults(&[EntryDefault::mapping_run(1, 32, 0x6020_0110)]),
+    ObjectDesc::record(0x1A21, "Samples 2", DataType::Unknown(0x21), &MAPPING_32).with_defaults(&[
+        EntryDefault::new(0, 31),
+        EntryDefault::mapping_run(1, 31, 0x6021_0110),
+        EntryDefault::new(32, 0),
+    ]),
+]);
+const _: () = if let Err(e) = RUN_MAPPINGS.validate() {
+    panic!("{}", e.message())
+};
+
+#[test]
+fn a_mapping_run_gives_each_subindex_its_entry() {
+    let default = |index, sub| {
+        let (object, entry) = RUN_MAPPINGS.entry(index, sub).unwrap();
+        object.resolve(entry).default()
+    };
+    assert_eq!(default(0x1A20, 0), Value::Int(32), "the table's count");
+    assert_eq!(default(0x1A20, 1), Value::Uint(0x6020_0110));
+    assert_eq!(default(0x1A20, 2), Value::Uint(0x6020_0210));
+    assert_eq!(default(0x1A20, 32), Value::Uint(0x6020_2010));
+    assert_eq!(
+        default(0x1A21, 0),
+        Value::Uint(31),
+        "an own default beside the run"
+    );
+    assert_eq!(default(0x1A21, 31), Value::Uint(0x6021_1F10));
+    assert_eq!(
+        default(0x1A21, 32),
+        Value::Uint(0),
+        "a single default after it"
+    );
+    let run = EntryDefault::mapping_run(5, 3, 0x7000_0710);
+    assert_eq!(run.run(), 3);
+    assert_eq!(
+        (4..=8)
+            .map(|s| run.value_of(s))
+            .collect::<std::vec::Vec<_>>(),
+        [
+            None,
+            Some(0x7000_0710),
+            Some(0x7000_0810),
+            Some(0x7000_0910),
+            None
+        ]
+    );
+    assert_eq!(EntryDefault::new(7, 9).value_of(7), Some(9));
+    assert_eq!(EntryDefault::new(7, 9).value_of(8), None);
+    // A store starts from the run's values.
+    let store: OdStore<512> = OdStore::new(RUN_MAPPINGS).unwrap_or_else(|_| panic!());
+    assert_eq!(
+        store.get(0x1A20, 3),
+        Some(&0x6020_0310u32.to_le_bytes()[..])
+    );
+}
+
+#[test]
+fn a_mapping_run_must_fit_its_object_and_the_subindex_field() {
+    let with = |d: EntryDefault| {
+        let defaults: &'static [EntryDefault] = std::boxed::Box::leak(std::boxed::Box::new([d]));
+        let objects: &'static [ObjectDesc] =
+            std::boxed::Box::leak(std::boxed::Box::new([ObjectDesc::record(
+                0x1A00,
+                "m",
+                DataType::Unknown(0x21),
+                &MAPPING_32,
+            )
+            .with_defaults(defaults)]));
+        ObjectDictionary::new(objects)
+            .validate()
+            .map_err(|e| e.kind)
+    };
+    assert_eq!(with(EntryDefault::mapping_run(1, 32, 0x6000_0110)), Ok(()));
+    assert_eq!(
+        with(EntryDefault::mapping_run(2, 32, 0x6000_0110)),
+        Err(OdErrorKind::DefaultOfNoEntry),
+        "sub 33 does not exist"
+    );
+    assert_eq!(
+        with(EntryDefault::mapping_run(1, 0, 0x6000_0110)),
+        Err(OdErrorKind::BadMappingRun),
+        "empty"
+    );
+    assert_eq!(
+        with(EntryDefault::mapping_run(1, 2, 0x6000_FF10)),
+        Err(OdErrorKind::BadMappingRun),
+        "the subindex field would carry into the index"
+    );
+    assert_eq!(with(EntryDefault::mapping_run(1, 1, 0x6000_FF10)), Ok(()));
+}
+
 /// An entry with limits keeps them beside its default in the same packed field: every
 /// default of at most 32 bits reads back, with the unit and limits, in any order of the
 /// builders; a wider default (or a string) on a limited entry is refused by validation.

@@ -2,6 +2,7 @@
 //! 5.4 / hardware-facts section 2), sharing no code with the generator.
 
 use super::*;
+use crate::device::oversampling::Oversampling;
 use crate::device::tests::valid;
 use crate::device::{DcOpMode, DeviceDescription, Names};
 use crate::pdo::PdoDirection;
@@ -449,4 +450,60 @@ fn reader_parses_real_device_images_to_the_end_marker() {
             );
         }
     }
+}
+
+// ---- oversampling ----
+
+fn image_with(desc: &DeviceDescription, os: &Oversampling) -> Vec<u8> {
+    let mut buf = vec![0xFFu8; desc.eeprom.size_bytes as usize];
+    let n = generate_with(desc, os, &mut buf).expect("image");
+    buf.truncate(n);
+    buf
+}
+
+#[test]
+fn without_oversampling_the_image_is_the_plain_one() {
+    let d = valid();
+    assert_eq!(image_with(&d, &Oversampling::NONE), image_of(&d));
+    let os = crate::device::oversampling::tests::os_device();
+    assert_eq!(image_with(&os, &Oversampling::NONE), image_of(&os));
+    let (mut a, mut b) = (vec![0u8; 2048], vec![0u8; 2048]);
+    generate_eeprom(&d, &mut a).unwrap();
+    generate_eeprom_with(&d, &Oversampling::NONE, &mut b).unwrap();
+    assert_eq!(a, b);
+}
+
+/// Each replicated PDO once (its base), the op mode with its own DC entry after the plain
+/// one: 24 bytes, as the plain entries are written (golden bytes).
+#[test]
+fn replicated_pdos_appear_once_and_op_modes_add_dc_entries() {
+    use crate::device::oversampling::tests::{os_device, OS};
+    let d = os_device();
+    let sii = read_sii(&image_with(&d, &OS)).unwrap();
+    let indices = |pdos: &[Pdo]| pdos.iter().map(|p| p.index).collect::<Vec<_>>();
+    assert_eq!(indices(&sii.txpdo), [0x1A00, 0x1A10, 0x1A11, 0x1A20]);
+    assert_eq!(indices(&sii.rxpdo), [0x1600, 0x1610, 0x1620]);
+    let base = &sii.txpdo[3];
+    assert_eq!(base.entries.len(), 8);
+    assert_eq!(base.entries[7].0, 0x6020);
+    assert_eq!((base.entries[7].1, base.entries[7].4), (8, 16));
+    assert_eq!(base.sm, PDO_NOT_ASSIGNED, "not in the default assignment");
+    assert_eq!(sii.dc.len(), 2);
+    assert_eq!(sii.string(sii.dc[1][18]), "DC-OS");
+    assert_eq!(
+        sii.string(sii.dc[1][19]),
+        "DC, 4 AO updates and 32 AI samples per cycle"
+    );
+    let golden: [u8; 18] = [
+        0, 0, 0, 0, // cycle time SYNC0: the bus cycle
+        0, 0, 0, 0, // shift SYNC0
+        0, 0, 0, 0, // shift SYNC1
+        0, 0, // SYNC1 factor
+        0x00, 0x03, // AssignActivate 0x0300
+        1, 0, // SYNC0 factor; then the name and description indices
+    ];
+    assert_eq!(sii.dc[1][..18], golden);
+    assert_eq!(sii.dc[1][20..], [0, 0, 0, 0], "reserved");
+    // Fewer strings than with every replica listed: the replicas' names are not in it.
+    assert!(!sii.strings.iter().any(|s| s == "AI samples 9-16"));
 }

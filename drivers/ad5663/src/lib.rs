@@ -133,3 +133,8 @@ pub const MODE: Mode = MODE_1;
 /// Minimum SYNC high time between two frames, ns (AD5663R datasheet p. 21; the chip-select gap
 /// of the SpiDevice).
 pub const SYNC_HIGH_MIN_NS: u32 = 15;
+
+/// The README's example, compiled as a doctest so that it cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctest;

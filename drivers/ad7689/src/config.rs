@@ -383,7 +383,7 @@ mod tests {
 
     #[test]
     fn virtual_board_scan_word() {
-        // The firmware's scan word (firmware::app::adc_scan::SCAN_CONFIG): ext + buffer, IN0..IN7.
+        // The firmware's scan word (firmware::platform::adc_scan::SCAN_CONFIG): ext + buffer, IN0..IN7.
         let cfg = Config::new()
             .channel(7)
             .reference(Reference::ExternalBuffer)

@@ -138,3 +138,8 @@ pub const MODE_RAC: Mode = MODE_0;
 /// SPI mode for read after conversion with busy indicator: mode 3 (CPOL = 1, CPHA = 1), as
 /// the datasheet suggests (SCK idles high).
 pub const MODE_BUSY: Mode = MODE_3;
+
+/// The README's example, compiled as a doctest so that it cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctest;

@@ -106,3 +106,8 @@ pub use register::Register;
 pub use spi::SpiPdi;
 pub use sync_manager::{SmDirection, SmMode, SyncManager};
 pub use watchdog::{WatchdogCounters, WatchdogStatus};
+
+/// The README's example, compiled as a doctest so that it cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctest;

@@ -30,3 +30,8 @@ pub mod model;
 pub mod rom;
 
 pub use iap::{BlankCheck, Command, Iap, IapEntry, IapError, Status};
+
+/// The README's example, compiled as a doctest so that it cannot go stale.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctest;

@@ -13,7 +13,7 @@
 use crate::cosim::{Facts, Options};
 use crate::image::Image;
 use crate::profile::THREAD;
-use crate::run::image_target;
+use crate::run::{image_target, CosimHandle};
 use coe_core::canopen::{cob, CanFrame, NmtCommand};
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage};
@@ -46,7 +46,7 @@ pub const INPUTS_V: [f64; 8] = [1.0, 2.0, 3.0, 4.0, 5.0, 7.5, 8.0, 9.0];
 /// Cycles run in OP before the judged ones (the first SYNC0 edges meet no outputs yet).
 const WARM_UP_CYCLES: u64 = 20;
 /// Cycles run after the judged ones (the last judged edge needs the next edge).
-const TAIL_CYCLES: u64 = 2;
+pub const TAIL_CYCLES: u64 = 2;
 
 /// The cycle of the profile run: the virtual board's default (`cargo xtask sim`).
 pub const PROFILE_CYCLE_NS: u64 = virtual_board::tools::sim::DEFAULT_CYCLE_US as u64 * 1000;
@@ -63,7 +63,7 @@ const SWEEP_UP_US: [u64; 6] = [125, 150, 200, 300, 500, 1000];
 /// never meet.
 const SWEEP_MIN_WINDOW_NS: u64 = 150_000_000;
 
-/// How much to run: the short form for CI, the full one for the README.
+/// How much to run: the short form for CI, the full one for the book's Performance chapter.
 #[derive(Clone, Copy, Debug)]
 pub struct Plan {
     /// Judged cycles of the profile run.
@@ -134,6 +134,8 @@ pub struct DcRun {
     pub phases: Phases,
     /// The CAN traffic of the run ([`dc_run_with_can`]; zero without).
     pub can: CanSeen,
+    /// The AL control and AL status writes of the run (the ESC's log).
+    pub al_log: Vec<virtual_board::models::esc::AlWrite>,
 }
 
 /// CANopen traffic on CAN1 during a DC run: the image's node is started (TPDO2 on every
@@ -210,6 +212,21 @@ pub fn step_to(board: &Board, t: u64) {
     }
 }
 
+/// Runs the board until the DC unit's first SYNC0 pulse (its start time, 0x0990) is past.
+pub fn sync0_started(board: &Board) {
+    let (start, sys) = {
+        let b = board.borrow();
+        let esc = b.esc().borrow();
+        let mut t = [0u8; 8];
+        esc.peek(regs::DC_START_TIME, &mut t);
+        (u64::from_le_bytes(t), esc.dc_system_time())
+    };
+    if start > sys {
+        let now = board.borrow().now_ns();
+        step_to(board, now + (start - sys) + 1_000);
+    }
+}
+
 /// AL status and AL status code as the ESC holds them.
 pub fn al_status(board: &Board) -> (u16, u16) {
     let b = board.borrow();
@@ -282,6 +299,34 @@ where
     Ok(())
 }
 
+/// A program the DC runs drive on the co-simulated board: the release image, or a peer
+/// stack ([`crate::peer`]) with the same process data (2 AO, 8 AI).
+#[derive(Clone, Copy)]
+pub struct Program<'a> {
+    /// The flash.
+    pub image: &'a Image,
+    /// How it becomes the board's CPU (with its SII image).
+    pub target:
+        fn(Image, Options) -> Result<(virtual_board::tools::sim::Target, CosimHandle), String>,
+    /// The shortest SYNC0 cycle it accepts at PRE-OP -> SAFE-OP (0x1C32:05).
+    pub min_cycle_ns: u64,
+    /// Virtual time the master waits before its first frame (the slave's boot, so the
+    /// ESM rows time the transitions alone).
+    pub boot_ns: u64,
+}
+
+impl<'a> Program<'a> {
+    /// The release image.
+    pub fn release(image: &'a Image) -> Self {
+        Self {
+            image,
+            target: image_target,
+            min_cycle_ns: u64::from(MIN_CYCLE_TIME_NS),
+            boot_ns: 0,
+        }
+    }
+}
+
 /// Runs the image from reset to OP with DC SYNC0 at `cycle_ns` and judges `cycles` cycles
 /// ([`DcCheck`]); with `mailbox`, mailbox traffic in PRE-OP first.
 pub fn dc_run(image: &Image, cycle_ns: u64, cycles: u64, mailbox: bool) -> Result<DcRun, String> {
@@ -296,7 +341,25 @@ pub fn dc_run_with_can(
     mailbox: bool,
     can_load: Option<CanLoad>,
 ) -> Result<DcRun, String> {
-    let (mut target, handle) = image_target(image.clone(), Options::default())?;
+    dc_run_program(
+        &Program::release(image),
+        cycle_ns,
+        cycles,
+        mailbox,
+        can_load,
+    )
+}
+
+/// [`dc_run_with_can`] for any [`Program`] (mailbox traffic and CAN load are the release
+/// image's).
+pub fn dc_run_program(
+    program: &Program,
+    cycle_ns: u64,
+    cycles: u64,
+    mailbox: bool,
+    can_load: Option<CanLoad>,
+) -> Result<DcRun, String> {
+    let (mut target, handle) = (program.target)(program.image.clone(), Options::default())?;
     let board = Rc::new(RefCell::new(VirtualBoard::new({
         let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
         cfg.capture = false;
@@ -333,6 +396,7 @@ pub fn dc_run_with_can(
     let mut before: Option<Facts> = None;
     let mut start = 0u64;
     let mut adc_violations = 0;
+    step_to(&board, program.boot_ns);
     let master = async {
         phases.enter(0, "boot and INIT -> PRE-OP");
         // DC time from the board's clock, not the wall clock: the cycle's phase against the
@@ -358,7 +422,7 @@ pub fn dc_run_with_can(
         // The firmware refuses a SYNC0 cycle below its advertised minimum at PRE-OP ->
         // SAFE-OP (0x0035); it reads the cycle there only. Below it, the check sees the
         // minimum and the DC unit runs the cycle under test from SAFE-OP on.
-        let checked_ns = cycle_ns.max(u64::from(MIN_CYCLE_TIME_NS));
+        let checked_ns = cycle_ns.max(program.min_cycle_ns);
         let group = group
             .configure_dc_sync(
                 &md,
@@ -384,6 +448,9 @@ pub fn dc_run_with_can(
                 .await
                 .map_err(|e| format!("SYNC0 reprogrammed to {cycle_ns} ns: {e}"))?;
         }
+        // SAFE-OP -> OP once SYNC0 runs (the DC start time passed), as masters do: a slave
+        // may count SM2 events against SYNC0 edges from OP on (SOES does).
+        sync0_started(&board);
         let group = group
             .into_op(&md)
             .await
@@ -474,12 +541,14 @@ pub fn dc_run_with_can(
     if let Some(b) = &before {
         judge(&board, &sent, start, adc_violations, b, &after, &mut check);
     }
+    let al_log = board.borrow().esc().borrow().al_log.clone();
     Ok(DcRun {
         check,
         before,
         after,
         phases,
         can: can_seen,
+        al_log,
     })
 }
 
@@ -535,6 +604,7 @@ fn judge(
     check.lost_samples = (after.samples.lost - before.samples.lost)
         + (after.ssp1_overruns - before.ssp1_overruns)
         + (b.adc().borrow().cycle_violations - adc_violations);
+    check.conversions = after.traffic.adc_conversions - before.traffic.adc_conversions;
     let cycles = after.cycles - before.cycles;
     let sleep = after.sleep_cycles - before.sleep_cycles;
     check.cpu_load = 1.0 - sleep as f64 / cycles.max(1) as f64;
@@ -549,6 +619,14 @@ fn latency(ns: &[u64]) -> Latency {
         min_ns: *ns.iter().min().expect("not empty"),
         mean_ns: ns.iter().sum::<u64>() as f64 / ns.len() as f64,
         max_ns: *ns.iter().max().expect("not empty"),
+        histogram: ns
+            .iter()
+            .fold(std::collections::BTreeMap::new(), |mut h, &n| {
+                *h.entry(n).or_insert(0u64) += 1;
+                h
+            })
+            .into_iter()
+            .collect(),
     }
 }
 
@@ -808,10 +886,20 @@ pub fn sweep(
     also_ns: Option<u64>,
     progress: &mut dyn FnMut(&DcCheck),
 ) -> Sweep {
+    sweep_program(&Program::release(image), plan, also_ns, progress)
+}
+
+/// [`sweep`] for any [`Program`].
+pub fn sweep_program(
+    program: &Program,
+    plan: &Plan,
+    also_ns: Option<u64>,
+    progress: &mut dyn FnMut(&DcCheck),
+) -> Sweep {
     let mut points: Vec<DcCheck> = Vec::new();
     let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| -> bool {
         let cycles = plan.sweep_cycles(cycle_ns);
-        let check = match dc_run(image, cycle_ns, cycles, false) {
+        let check = match dc_run_program(program, cycle_ns, cycles, false, None) {
             Ok(r) => r.check,
             Err(e) => DcCheck {
                 cycle_ns,
@@ -882,7 +970,7 @@ pub fn measure(
         elf: elf.to_string(),
         flash_bytes: u64::from(image.flash_bytes),
         static_ram_bytes: u64::from(image.static_ram),
-        stack_bytes: u64::from(image.initial_sp().saturating_sub(crate::cpu::SRAM.0)),
+        stack_bytes: u64::from(image.initial_sp().saturating_sub(image.stack_floor)),
         cpi: (crate::machine::CPI_NUM, crate::machine::CPI_DEN),
         cclk_hz,
         profile,

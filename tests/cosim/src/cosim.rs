@@ -462,4 +462,12 @@ impl PdiCpu for Cosim {
     fn next_timer_ns(&self) -> Option<u64> {
         Some(self.core.machine.borrow().now_ns() + BOARD_STEP_NS)
     }
+
+    fn next_wake_ns(&self, _io: &BoardIo) -> u64 {
+        self.core.next_wake_ns()
+    }
+
+    fn idle_until(&mut self, _io: &mut BoardIo, t_ns: u64) -> u64 {
+        self.core.idle_until(t_ns)
+    }
 }

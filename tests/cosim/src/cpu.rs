@@ -195,9 +195,9 @@ impl Core {
             // The stack is measured from the application's start: the bootloader before it
             // runs on the same RAM.
             let entry = u64::from(image.app_entry());
-            let top = image.initial_sp();
+            let (floor, top) = (image.stack_floor, image.initial_sp());
             uc.add_code_hook(entry, entry, move |uc: &mut Unicorn<'_, Shared>, _, _| {
-                paint(uc, top);
+                paint(uc, floor, top);
             })
             .map_err(err("application entry hook"))?;
         }
@@ -242,7 +242,11 @@ impl Core {
     }
 
     fn paint_stack(&mut self) {
-        paint(&mut self.uc, self.image.initial_sp());
+        paint(
+            &mut self.uc,
+            self.image.stack_floor,
+            self.image.initial_sp(),
+        );
     }
 
     /// The image.
@@ -253,13 +257,13 @@ impl Core {
     /// Deepest stack use since power-on: bytes below the initial SP that are no longer the
     /// paint.
     pub fn stack_high_water(&self) -> u32 {
-        let top = self.image.initial_sp();
-        if top <= SRAM.0 || top > SRAM.0 + SRAM.1 {
+        let (floor, top) = (self.image.stack_floor, self.image.initial_sp());
+        if !stack_in_sram(floor, top) {
             return 0;
         }
-        let n = (top - SRAM.0) as usize;
+        let n = (top - floor) as usize;
         let mut buf = vec![0u8; n];
-        if self.uc.mem_read(u64::from(SRAM.0), &mut buf).is_err() {
+        if self.uc.mem_read(u64::from(floor), &mut buf).is_err() {
             return 0;
         }
         let first_used = buf
@@ -269,9 +273,11 @@ impl Core {
         (n - 4 * first_used) as u32
     }
 
-    /// Stack size: the local SRAM below the initial SP (flip-link layout).
+    /// Stack size: the local SRAM from the stack's floor up to the initial SP.
     pub fn stack_size(&self) -> u32 {
-        self.image.initial_sp().saturating_sub(SRAM.0)
+        self.image
+            .initial_sp()
+            .saturating_sub(self.image.stack_floor)
     }
 
     fn reset_core(&mut self) -> Result<(), String> {
@@ -406,6 +412,39 @@ impl Core {
         set(uc, RegisterARM::LR, exc_return);
         set(uc, RegisterARM::PC, handler);
         Ok(())
+    }
+
+    /// The virtual time the core must run at next: now while it runs or has an interrupt to
+    /// take, else (asleep in WFI, or faulted) the machine's next event.
+    pub fn next_wake_ns(&self) -> u64 {
+        let m = self.machine.borrow();
+        let (_, basepri, faultmask) = masks(&self.uc);
+        let runs = !self.sleeping || m.scs.wakes_from_wfi(basepri, faultmask);
+        if runs && self.fault.is_none() {
+            m.now_ns()
+        } else {
+            m.next_event_ns().max(m.now_ns())
+        }
+    }
+
+    /// Asleep in WFI: sleeps on up to `t_ns`, serving the chip's own events on the way, and
+    /// stops at the first that wakes the core (or resets the chip). The board's inputs are
+    /// not looked at: what changed there is seen from the time reached on. Returns that time.
+    pub fn idle_until(&mut self, t_ns: u64) -> u64 {
+        loop {
+            let now = self.machine.borrow().now_ns();
+            if now >= t_ns || !self.sleeping || self.fault.is_some() {
+                return now;
+            }
+            let (_, basepri, faultmask) = masks(&self.uc);
+            let mut m = self.machine.borrow_mut();
+            if m.stop.is_some() || m.scs.wakes_from_wfi(basepri, faultmask) {
+                return now;
+            }
+            let next = m.next_event_ns().min(t_ns);
+            m.sleep_until(next);
+            m.service_due();
+        }
     }
 
     /// Runs until virtual time `t_ns` (or a fault).
@@ -550,10 +589,15 @@ impl Core {
     }
 }
 
-/// Paints the local SRAM below `top` (a stack top) with [`STACK_PAINT`].
-fn paint(uc: &mut Unicorn<'_, Shared>, top: u32) {
-    if top > SRAM.0 && top <= SRAM.0 + SRAM.1 {
-        let n = (top - SRAM.0) as usize;
+/// Whether `floor..top` is a stack in the local SRAM.
+fn stack_in_sram(floor: u32, top: u32) -> bool {
+    floor >= SRAM.0 && top > floor && top <= SRAM.0 + SRAM.1
+}
+
+/// Paints the local SRAM from `floor` up to `top` (a stack) with [`STACK_PAINT`].
+fn paint(uc: &mut Unicorn<'_, Shared>, floor: u32, top: u32) {
+    if stack_in_sram(floor, top) {
+        let n = (top - floor) as usize;
         let bytes: Vec<u8> = STACK_PAINT
             .to_le_bytes()
             .iter()
@@ -561,7 +605,7 @@ fn paint(uc: &mut Unicorn<'_, Shared>, top: u32) {
             .cycle()
             .take(n)
             .collect();
-        let _ = uc.mem_write(u64::from(SRAM.0), &bytes);
+        let _ = uc.mem_write(u64::from(floor), &bytes);
     }
 }
 

@@ -112,6 +112,9 @@ pub struct Image {
     /// Where the vector table of the program that does the work lies (the application's
     /// after the bootloader, else 0): its stack is the one measured.
     pub app_vectors: u32,
+    /// The lowest address the stack may reach: `__StackLimit` of a C image whose stack sits
+    /// above its static RAM, else the local SRAM's start (flip-link puts the stack below).
+    pub stack_floor: u32,
 }
 
 /// The loadable segments of an ELF into `flash`; the highest end.
@@ -189,6 +192,10 @@ impl Image {
             })
             .map(|h| h.sh_size(e))
             .sum();
+        let stack_floor = elf
+            .symbols()
+            .find(|s| s.name() == Ok("__StackLimit"))
+            .map_or(crate::cpu::SRAM.0, |s| s.address() as u32);
         Ok(Self {
             flash,
             flash_used: used,
@@ -198,6 +205,7 @@ impl Image {
             functions,
             static_ram,
             app_vectors: 0,
+            stack_floor,
         })
     }
 
@@ -361,6 +369,7 @@ mod tests {
             static_ram: 0,
             flash_bytes: 0,
             app_vectors: 0,
+            stack_floor: crate::cpu::SRAM.0,
         };
         for i in 0..7 {
             img.flash[4 * i..4 * i + 4].copy_from_slice(&(0x1000_0000u32 + i as u32).to_le_bytes());

@@ -21,6 +21,7 @@
 //! | [`thumb`]    | Thumb instruction length and how each moves SP                        |
 //! | [`bench`]    | the image's figures for `cargo xtask bench` (profile run, cycle sweep) |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
+//! | [`peer`]     | other stacks on the same board (SOES): image, SII, figures, conformance |
 
 pub mod ahb_sram;
 pub mod bench;
@@ -31,6 +32,7 @@ pub mod iap;
 pub mod image;
 pub mod machine;
 pub mod nvic;
+pub mod peer;
 pub mod periph;
 pub mod profile;
 pub mod rtt;

@@ -653,6 +653,18 @@ impl Machine {
         let bus = self.io.can.bus.clone();
         bus.borrow_mut().advance_to(now);
         let sent = bus.borrow().sent(port);
+        let quiet = sent == self.can_sent_seen
+            && !bus.borrow().has_rx(port)
+            && !(self.can1.operating() && self.can1.has_requests())
+            && self.can1.violations.is_empty();
+        if quiet {
+            // Nothing crossed (asked after every event of the chip): the line and the
+            // schedule only.
+            self.scs.set_line(irq::CAN, self.can1.irq());
+            self.check_preempt |= self.scs.any_pending();
+            self.reschedule();
+            return;
+        }
         while self.can_sent_seen < sent {
             self.can_sent_seen += 1;
             self.can1.transmitted();

@@ -55,6 +55,19 @@ enum Command {
         #[arg(long, value_name = "US")]
         also_cycle_us: Option<u64>,
     },
+    /// This project's image and a peer stack (SOES, `$SOES_IMAGE` or `cargo xtask peer
+    /// soes`'s output) measured the same way, and the conformance checks of both.
+    PeerBench {
+        /// The short form (CI): fewer cycles per run, a coarser sweep.
+        #[arg(long)]
+        quick: bool,
+        /// Write the figures as JSON to FILE (`virtual_board::tools::peer_figures`).
+        #[arg(long, value_name = "FILE")]
+        json: Option<std::path::PathBuf>,
+        /// Only the conformance table (Markdown) on stdout.
+        #[arg(long)]
+        conformance: bool,
+    },
 }
 
 fn bench(
@@ -84,6 +97,39 @@ fn bench(
                 .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         }
         None => print!("{}", lpc1754_cosim::bench::summary(&figures)),
+    }
+    Ok(())
+}
+
+fn peer_bench(
+    quick: bool,
+    json: Option<&std::path::Path>,
+    conformance: bool,
+) -> Result<(), String> {
+    use lpc1754_cosim::peer;
+    let ours = load_image()?;
+    let soes = peer::soes::load()?;
+    if conformance {
+        let rows = peer::conformance_rows(&ours, &soes)?;
+        print!(
+            "{}",
+            virtual_board::tools::peer_figures::conformance_table(&rows, "SOES")
+        );
+        return Ok(());
+    }
+    let figures = peer::measure(
+        &ours,
+        &image_path().display().to_string(),
+        &soes,
+        &peer::soes::image_path().display().to_string(),
+        quick,
+        &mut |line| eprintln!("[peer bench] {line}"),
+    )?;
+    let text = serde_json::to_string_pretty(&figures).map_err(|e| e.to_string())?;
+    match json {
+        Some(path) => std::fs::write(path, text)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?,
+        None => println!("{text}"),
     }
     Ok(())
 }
@@ -141,6 +187,11 @@ fn main() -> ExitCode {
             cycle_us,
             also_cycle_us,
         } => bench(quick, json.as_deref(), cycle_us, also_cycle_us),
+        Command::PeerBench {
+            quick,
+            json,
+            conformance,
+        } => peer_bench(quick, json.as_deref(), conformance),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

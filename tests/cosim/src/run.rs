@@ -110,24 +110,55 @@ impl PdiCpu for BoardCpu {
     fn next_timer_ns(&self) -> Option<u64> {
         self.0 .0.borrow().as_ref().and_then(|c| c.next_timer_ns())
     }
+    fn next_wake_ns(&self, io: &BoardIo) -> u64 {
+        self.0
+             .0
+            .borrow()
+            .as_ref()
+            .map_or(u64::MAX, |c| c.next_wake_ns(io))
+    }
+    fn idle_until(&mut self, io: &mut BoardIo, t_ns: u64) -> u64 {
+        match self.0 .0.borrow_mut().as_mut() {
+            Some(c) => c.idle_until(io, t_ns),
+            None => io.now_ns(),
+        }
+    }
 }
 
 /// The image on the co-simulator as the sim's PDI side, with the SII image generated from
 /// the description of the product it is (the same as the host-compiled target's). Fails as
 /// the boot ROM would (wrong vector checksum) before any board exists.
 pub fn image_target(image: Image, options: Options) -> Result<(Target, CosimHandle), String> {
-    let crp = image.boot_rom_check().map_err(|e| e.to_string())?;
     let product = image.product().unwrap_or(firmware::products::default());
     let device = firmware_device::device_of(product, virtual_board::tools::sim::DEFAULT_NODE_ID)?;
+    cosim_target(
+        image,
+        options,
+        device.sii.clone(),
+        "the release image",
+        &device.description,
+    )
+}
+
+/// `program` on the co-simulator as the sim's PDI side, with the SII image `sii` (of the
+/// device `device` describes). Fails as the boot ROM would before any board exists.
+pub fn cosim_target(
+    image: Image,
+    options: Options,
+    sii: Vec<u8>,
+    program: &str,
+    device: &str,
+) -> Result<(Target, CosimHandle), String> {
+    let crp = image.boot_rom_check().map_err(|e| e.to_string())?;
     let handle = CosimHandle(Rc::new(RefCell::new(None)));
     let h = handle.clone();
     let image = Rc::new(image);
     let target = Target {
         description: format!(
-            "the release image on the LPC1754 co-simulator ({} B flash, CRP {crp:?}), {}",
-            image.flash_used, device.description
+            "{program} on the LPC1754 co-simulator ({} B flash, CRP {crp:?}), {device}",
+            image.flash_used
         ),
-        sii: device.sii.clone(),
+        sii,
         make_cpu: Box::new(move |io| {
             match Cosim::new(image, io, options) {
                 Ok(c) => *h.0.borrow_mut() = Some(c),

@@ -1,7 +1,9 @@
 //! SYSTEM TEST: the release image on the co-simulated LPC1754, served on a network interface
 //! as `cargo xtask sim --image --iface vb1` serves it, driven by an independent master in its
-//! own process: SOEM through pysoem (`scripts/pysoem_master.py`): PRE-OP, SDO uploads of the
-//! identity, the process-data mapping, SAFE-OP, OP with 200 process-data exchanges, INIT.
+//! own process: SOEM through pysoem (`scripts/pysoem_master.py`) with its default timeouts:
+//! PRE-OP, SDO uploads of the identity, DC, the process-data mapping, SAFE-OP, OP with 2 000
+//! process-data exchanges in step with SYNC0, the cycle monitor over SDO, the SM watchdog in
+//! SM-synchronous mode (0x001B), the object dictionary through SDO Information, INIT.
 //!
 //! Needs root (a network namespace, raw sockets), `ip` (iproute2), python3 with pysoem (the
 //! project's setup installs it) and tshark, so it is ignored by default; `cargo xtask test`
@@ -10,15 +12,18 @@
 
 mod common;
 
-use common::run_script_against_image;
+use common::{run_script_against, run_script_against_image};
+use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES};
+use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::peer::soes;
 use serde_json::Value;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
 
-/// Process-data exchanges the script runs in OP.
-const CYCLES: u32 = 200;
+/// Process-data exchanges the script runs in OP (its default 4 ms DC cycle).
+const CYCLES: u32 = 2000;
 
 fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
     lines
@@ -71,9 +76,75 @@ fn pysoem_drives_the_image_over_a_veth_pair() {
         (map["outputs"].as_u64(), map["inputs"].as_u64()),
         (Some(4), Some(16))
     );
+    assert_eq!(step(&o.lines, "dc")["found"], true);
+    assert_eq!(step(&o.lines, "safeop")["sync_mode"], 2, "DC SYNC0 mode");
     assert_eq!(step(&o.lines, "op")["ok"], true);
     let pd = step(&o.lines, "process_data");
     assert_eq!(pd["good_wkc"], CYCLES);
     assert_eq!(pd["state"], 8, "still in OP after the exchanges");
+    assert_eq!(step(&o.lines, "sync_monitor")["sync_error"], 0);
+    let wd = step(&o.lines, "watchdog");
+    assert_eq!(wd["sync_mode"], 1, "SM-synchronous");
+    assert_eq!(
+        (wd["state"].as_u64(), wd["al_status_code"].as_u64()),
+        (Some(0x14), Some(0x1B))
+    );
+    assert_eq!(wd["ok"], true, "{wd}");
+    // SDO Information: every object of the firmware's dictionary, by its name.
+    let objects = &step(&o.lines, "sdo_info")["objects"];
+    for obj in DEVICE.od.iter() {
+        let got = &objects[format!("{:#06x}", obj.index)];
+        assert_eq!(got["name"], obj.name, "{:#06x} in {objects}", obj.index);
+    }
+    assert_eq!(objects.as_object().map(|m| m.len()), Some(DEVICE.od.len()));
+    assert_eq!(step(&o.lines, "init")["state"], 1);
+    tshark::assert_clean(&o.pcap);
+}
+
+/// SOES (tests/soes) served the same way and driven by the same script: SOEM brings it to OP
+/// and exchanges process data with it.
+#[test]
+#[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]
+fn pysoem_drives_soes_over_a_veth_pair() {
+    if let Some(why) = pysoem_missing() {
+        panic!("this test cannot run here: {why}");
+    }
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_master.py");
+    // SOES has no cycle monitor objects (0x1C32:0B..0x20): the script stops after OP.
+    let args = vec![CYCLES.to_string().into(), "--op-only".into()];
+    let o = std::thread::spawn(move || {
+        run_script_against(
+            || soes::target(soes::load()?, Options::default()),
+            script,
+            vec![args],
+            "iface-pysoem-soes.pcap",
+            120.0,
+        )
+    })
+    .join()
+    .expect("namespace thread")
+    .unwrap();
+    assert!(
+        o.script_ok,
+        "pysoem failed: {:?}\n{}\n{}",
+        o.lines, o.stderr, o.facts
+    );
+    assert!(o.clean, "{}", o.facts);
+    assert_eq!(step(&o.lines, "sii")["name"], "SOES analog I/O");
+    let sdo = step(&o.lines, "sdo");
+    assert_eq!(sdo["device_type"], 0x000C_0191);
+    assert_eq!(sdo["name"], "SOES analog I/O");
+    let identity: Vec<u64> = serde_json::from_value(sdo["identity"].clone()).unwrap();
+    assert_eq!(identity[1], 0x534F_4553, "SOES's product code");
+    let map = step(&o.lines, "config_map");
+    assert_eq!(
+        (map["outputs"].as_u64(), map["inputs"].as_u64()),
+        (Some(4), Some(16))
+    );
+    assert_eq!(step(&o.lines, "op")["ok"], true);
+    let pd = step(&o.lines, "process_data");
+    assert_eq!(pd["good_wkc"], CYCLES);
+    assert_eq!(pd["state"], 8, "still in OP after the exchanges");
+    assert_eq!(step(&o.lines, "init")["state"], 1);
     tshark::assert_clean(&o.pcap);
 }

@@ -11,6 +11,13 @@
 //! starts when frame N ends, so it governs the conversion after that, whose data is
 //! read in frame N + 2. The first two conversions after power-up (the one power-up
 //! starts, and the one started at the end of frame 0) are dummies and return 0.
+//!
+//! At the pin level ([`Ad7689::cnv_rising`], [`Ad7689::cnv_falling`], [`Ad7689::read`]) the
+//! model checks the conversion timing it sees against [`AdcTiming`] (read after conversion
+//! without busy indicator: CNV high at least tCONV(max), the read while CNV is low after it,
+//! CNV rising edges at least tCYC apart) and counts every breach by kind
+//! ([`TimingViolations`]), so a figure of "0 violations" measured on a real CNV waveform can
+//! fail.
 
 use crate::rig::clock::Clock;
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
@@ -24,7 +31,49 @@ pub const VREF_EXT: f64 = 2.5;
 /// The board's input divider: 0..10 V at the connector -> 0..2.5 V at the pin.
 pub const DIVIDER: f64 = 4.0;
 /// Minimum conversion cycle time (250 kSPS).
-pub const T_CYC_NS: u64 = 4_000;
+pub const T_CYC_NS: u64 = ad7689::unconfirmed::T_CYC_MIN_NS as u64;
+
+/// The conversion timing the model holds the CNV pin to: the `ad7689` driver's figures
+/// (`ad7689::unconfirmed`, hardware-facts section 6; UNCONFIRMED for the AD7689 itself).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AdcTiming {
+    /// tCYC: CNV rising edge to the next one, at least (ns).
+    pub t_cyc_min_ns: u64,
+    /// tCONV(max): CNV must stay high this long before the result can be read (ns).
+    pub t_conv_max_ns: u64,
+    /// tCNVH: the shortest CNV high pulse (ns).
+    pub t_cnvh_min_ns: u64,
+}
+
+impl Default for AdcTiming {
+    fn default() -> Self {
+        Self {
+            t_cyc_min_ns: T_CYC_NS,
+            t_conv_max_ns: ad7689::unconfirmed::T_CONV_MAX_NS as u64,
+            t_cnvh_min_ns: ad7689::unconfirmed::T_CNVH_MIN_NS as u64,
+        }
+    }
+}
+
+/// Breaches of [`AdcTiming`] seen at the pins, by kind (tCYC ones are
+/// [`Ad7689::cycle_violations`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TimingViolations {
+    /// CNV fell before tCONV(max): without the busy indicator the result is not ready
+    /// (the read that follows shifts out an unfinished conversion).
+    pub conversion_cut: u64,
+    /// CNV high pulses shorter than tCNVH.
+    pub short_pulse: u64,
+    /// Reads clocked while CNV was high (the chip is converting; SDO is not driven).
+    pub read_while_converting: u64,
+}
+
+impl TimingViolations {
+    /// All of them.
+    pub fn total(&self) -> u64 {
+        self.conversion_cut + self.short_pulse + self.read_while_converting
+    }
+}
 
 /// A signal source at an analog input (volts at the board connector).
 #[derive(Clone, Debug, PartialEq)]
@@ -160,6 +209,14 @@ pub struct Ad7689 {
     pub frames: u64,
     /// CNV edges closer than tCYC (4 us) to the previous one.
     pub cycle_violations: u64,
+    /// The timing the pin-level calls are checked against.
+    pub timing: AdcTiming,
+    /// Other timing breaches seen at the pins.
+    pub violations: TimingViolations,
+    /// CNV pin level (pin-level calls; high after power-up, as the first conversion runs).
+    cnv_high: bool,
+    /// The CFG of the read since the last CNV rising edge, latched with the next one.
+    read_cfg: Option<Cfg>,
 }
 
 impl Ad7689 {
@@ -186,7 +243,53 @@ impl Ad7689 {
             conversions: vec![power_up],
             frames: 0,
             cycle_violations: 0,
+            timing: AdcTiming::default(),
+            violations: TimingViolations::default(),
+            cnv_high: true,
+            read_cfg: None,
         }
+    }
+
+    /// All timing breaches, tCYC included.
+    pub fn timing_violations(&self) -> u64 {
+        self.cycle_violations + self.violations.total()
+    }
+
+    /// CNV rises (pin level): the next conversion starts now, with the CFG in force; the
+    /// CFG of the read before it is latched at its end. Checked: tCYC since the last rise.
+    pub fn cnv_rising(&mut self) {
+        if self.cnv_high {
+            return;
+        }
+        self.cnv_high = true;
+        self.start_conversion();
+    }
+
+    /// CNV falls (pin level): the chip selects its SDO for the read. Checked: the pulse is at
+    /// least tCNVH and the conversion (tCONV(max)) is over.
+    pub fn cnv_falling(&mut self) {
+        if !self.cnv_high {
+            return;
+        }
+        self.cnv_high = false;
+        let high_ns = self
+            .last_cnv_ns
+            .map_or(u64::MAX, |t| self.clock.now_ns().saturating_sub(t));
+        if high_ns < self.timing.t_cnvh_min_ns {
+            self.violations.short_pulse += 1;
+        }
+        if high_ns < self.timing.t_conv_max_ns {
+            self.violations.conversion_cut += 1;
+        }
+    }
+
+    /// A read at the pin level: `mosi` clocked in, returns MISO (the result of the last
+    /// conversion). Checked: CNV is low.
+    pub fn read(&mut self, mosi: &[u8]) -> Vec<u8> {
+        if self.cnv_high {
+            self.violations.read_while_converting += 1;
+        }
+        self.shift_out(mosi)
     }
 
     /// The CFG currently governing new conversions.
@@ -237,8 +340,17 @@ impl Ad7689 {
         }
     }
 
-    /// One frame: `mosi` clocked in, returns MISO (same length).
+    /// One frame: `mosi` clocked in, returns MISO (same length); its end is the CNV rising
+    /// edge of the next conversion (a CNV pulse of no width: the harness's form).
     pub fn frame(&mut self, mosi: &[u8]) -> Vec<u8> {
+        let out = self.shift_out(mosi);
+        self.cnv_high = false;
+        self.cnv_rising();
+        out
+    }
+
+    /// Shifts out the previous conversion and takes a new CFG from the first 14 bits.
+    fn shift_out(&mut self, mosi: &[u8]) -> Vec<u8> {
         self.frames += 1;
         // Shift out the previous conversion.
         let (data, cfg_used) = self
@@ -256,11 +368,18 @@ impl Ad7689 {
         let new_cfg = (mosi.len() >= 2)
             .then(|| Cfg(((mosi[0] as u16) << 8 | mosi[1] as u16) >> 2))
             .filter(|c| c.overwrite());
-        // End of frame = CNV rising edge: the next conversion starts now, with the
-        // current CFG; the new CFG is latched at its end.
+        if new_cfg.is_some() {
+            self.read_cfg = new_cfg;
+        }
+        out
+    }
+
+    /// A conversion starts now, with the current CFG; the CFG of the last read is latched at
+    /// its end.
+    fn start_conversion(&mut self) {
         let t = self.clock.now_ns();
         if let Some(last) = self.last_cnv_ns {
-            if t.saturating_sub(last) < T_CYC_NS {
+            if t.saturating_sub(last) < self.timing.t_cyc_min_ns {
                 self.cycle_violations += 1;
             }
         }
@@ -293,11 +412,10 @@ impl Ad7689 {
                 self.seq_pos + 1
             };
         }
-        if let Some(c) = new_cfg {
+        if let Some(c) = self.read_cfg.take() {
             self.cfg = c;
             self.seq_pos = 0;
         }
-        out
     }
 }
 

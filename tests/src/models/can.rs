@@ -8,8 +8,17 @@
 //! configured bit rate, then every other port receives it, time-stamped with the end of
 //! the frame. The losers try again at the next idle bus.
 //!
-//! Every frame is acknowledged: the model has no error frames, no bus-off and no ACK
-//! errors (at least one other node, the CAN adapter of the master, is assumed on the bus).
+//! Every frame is acknowledged (at least one other node, the CAN adapter of the master, is
+//! assumed on the bus). Faults are injected per port ([`CanBus::set_fault`]): a port whose
+//! transmitter is broken ([`PortFault::Corrupt`]) has every frame it starts destroyed by an
+//! error frame (ISO 11898-1 10.4.4: the error flag comes after the bit that went wrong,
+//! here the end of the arbitration field; 6 bits of flag, 8 of delimiter and 3 of
+//! intermission follow). Its transmit error counter rises by 8 per error and every other
+//! port's receive error counter by 1 (fault confinement, ISO 11898-1 12.1.4); above 127 it
+//! is error passive, above 255 bus-off: it sends nothing and its queue is dropped, until
+//! [`CanBus::recover`] (the controller's recovery after 128 x 11 recessive bits, which
+//! software starts on the LPC1754). Like a real controller the port retransmits a
+//! destroyed frame at once.
 
 use coe_core::canopen::CanFrame;
 use std::cell::RefCell;
@@ -23,6 +32,24 @@ pub type SharedCanBus = Rc<RefCell<CanBus>>;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct PortId(usize);
 
+/// A fault of a port's transceiver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortFault {
+    /// Every frame the port sends is destroyed by an error frame.
+    Corrupt,
+}
+
+/// The fault confinement state of a port (ISO 11898-1 12.1.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorState {
+    /// Both error counters below 128.
+    Active,
+    /// An error counter at 128 or above.
+    Passive,
+    /// The transmit error counter went above 255: off the bus.
+    BusOff,
+}
+
 #[derive(Debug)]
 struct Port {
     name: String,
@@ -30,7 +57,16 @@ struct Port {
     tx: VecDeque<CanFrame>,
     rx: VecDeque<(u64, CanFrame)>,
     sent: u64,
+    fault: Option<PortFault>,
+    tec: u32,
+    rec: u32,
+    bus_off: bool,
 }
+
+/// Bits of an error frame after the faulty bit: error flag 6, delimiter 8, intermission 3.
+pub const ERROR_FRAME_BITS: u64 = 17;
+/// Bits from the start of frame to the end of the arbitration field (11-bit identifier).
+const ARBITRATION_BITS: u64 = 13;
 
 /// A frame on the bus: who sent it and when it ends.
 #[derive(Clone, Copy, Debug)]
@@ -38,6 +74,8 @@ struct OnBus {
     frame: CanFrame,
     from: usize,
     end_ns: u64,
+    /// Destroyed by an error frame (ends at `end_ns`, nobody receives it).
+    error: bool,
 }
 
 /// Counters of the bus.
@@ -49,6 +87,10 @@ pub struct BusStats {
     pub bits: u64,
     /// Arbitrations a frame lost to a higher-priority one.
     pub arbitration_lost: u64,
+    /// Error frames (each destroyed a frame).
+    pub error_frames: u64,
+    /// Bits of the destroyed frames and their error frames.
+    pub error_bits: u64,
 }
 
 /// The bus.
@@ -107,6 +149,10 @@ impl CanBus {
             tx: VecDeque::new(),
             rx: VecDeque::new(),
             sent: 0,
+            fault: None,
+            tec: 0,
+            rec: 0,
+            bus_off: false,
         });
         PortId(self.ports.len() - 1)
     }
@@ -121,6 +167,36 @@ impl CanBus {
         }
     }
 
+    /// Breaks (or, with `None`, mends) the transceiver of `port`.
+    pub fn set_fault(&mut self, port: PortId, fault: Option<PortFault>) {
+        if let Some(p) = self.ports.get_mut(port.0) {
+            p.fault = fault;
+        }
+    }
+
+    /// The fault confinement state of `port`.
+    pub fn error_state(&self, port: PortId) -> ErrorState {
+        match self.ports.get(port.0) {
+            Some(p) if p.bus_off => ErrorState::BusOff,
+            Some(p) if p.tec >= 128 || p.rec >= 128 => ErrorState::Passive,
+            _ => ErrorState::Active,
+        }
+    }
+
+    /// The transmit and receive error counters of `port`.
+    pub fn error_counters(&self, port: PortId) -> (u32, u32) {
+        self.ports.get(port.0).map_or((0, 0), |p| (p.tec, p.rec))
+    }
+
+    /// Bus-off recovery of `port`: back on the bus with both counters at 0.
+    pub fn recover(&mut self, port: PortId) {
+        if let Some(p) = self.ports.get_mut(port.0) {
+            p.bus_off = false;
+            p.tec = 0;
+            p.rec = 0;
+        }
+    }
+
     /// The name a port was attached with.
     pub fn port_name(&self, port: PortId) -> &str {
         self.ports.get(port.0).map_or("?", |p| p.name.as_str())
@@ -128,7 +204,11 @@ impl CanBus {
 
     /// Queues a frame at `port` (sent in the order queued).
     pub fn send(&mut self, port: PortId, frame: CanFrame) {
-        if let Some(p) = self.ports.get_mut(port.0).filter(|p| p.attached) {
+        if let Some(p) = self
+            .ports
+            .get_mut(port.0)
+            .filter(|p| p.attached && !p.bus_off)
+        {
             p.tx.push_back(frame);
         }
         if self.on_bus.is_none() {
@@ -181,14 +261,27 @@ impl CanBus {
             return;
         };
         self.stats.arbitration_lost += contenders.len() as u64 - 1;
-        if let Some(p) = self.ports.get_mut(from) {
-            p.tx.pop_front();
-        }
         let start = self.idle_from_ns.max(self.now_ns);
+        let broken = self
+            .ports
+            .get(from)
+            .is_some_and(|p| p.fault == Some(PortFault::Corrupt));
+        // A destroyed frame stays queued: the controller sends it again.
+        if !broken {
+            if let Some(p) = self.ports.get_mut(from) {
+                p.tx.pop_front();
+            }
+        }
+        let len_ns = if broken {
+            (ARBITRATION_BITS + ERROR_FRAME_BITS) * 1_000_000_000 / u64::from(self.bit_rate)
+        } else {
+            self.frame_ns(&frame)
+        };
         self.on_bus = Some(OnBus {
             frame,
             from,
-            end_ns: start + self.frame_ns(&frame),
+            end_ns: start + len_ns,
+            error: broken,
         });
     }
 
@@ -200,14 +293,21 @@ impl CanBus {
             self.now_ns = b.end_ns;
             self.on_bus = None;
             self.idle_from_ns = b.end_ns;
+            if b.error {
+                self.error_frame(b.from);
+                self.arbitrate();
+                continue;
+            }
             self.stats.frames += 1;
             self.stats.bits += u64::from(b.frame.bits_on_wire());
             self.log.push((b.end_ns, PortId(b.from), b.frame));
             for (i, p) in self.ports.iter_mut().enumerate() {
                 if i == b.from {
                     p.sent += 1;
-                } else if p.attached {
+                    p.tec = p.tec.saturating_sub(1);
+                } else if p.attached && !p.bus_off {
                     p.rx.push_back((b.end_ns, b.frame));
+                    p.rec = p.rec.saturating_sub(1);
                 }
             }
             delivered += 1;
@@ -218,6 +318,24 @@ impl CanBus {
             self.idle_from_ns = self.idle_from_ns.max(self.now_ns);
         }
         delivered
+    }
+
+    /// The error frame that destroyed a frame of port `from`: the error counters move, and
+    /// a transmitter above 255 goes bus-off.
+    fn error_frame(&mut self, from: usize) {
+        self.stats.error_frames += 1;
+        self.stats.error_bits += ARBITRATION_BITS + ERROR_FRAME_BITS;
+        for (i, p) in self.ports.iter_mut().enumerate() {
+            if i == from {
+                p.tec += 8;
+                if p.tec > 255 {
+                    p.bus_off = true;
+                    p.tx.clear();
+                }
+            } else if p.attached && !p.bus_off {
+                p.rec = (p.rec + 1).min(255);
+            }
+        }
     }
 
     /// Bus load over `[from_ns, to_ns]` from the log: the share of the time frames
@@ -278,6 +396,38 @@ mod tests {
         // Nobody receives its own frame; everybody else gets all.
         assert_eq!(std::iter::from_fn(|| bus.receive(a)).count(), 4);
         assert_eq!(bus.sent(b), 2);
+    }
+
+    #[test]
+    fn a_broken_transmitter_goes_bus_off_and_recovers() {
+        let mut bus = CanBus::new(1_000_000);
+        let a = bus.attach("a");
+        let b = bus.attach("b");
+        bus.set_fault(a, Some(PortFault::Corrupt));
+        bus.send(a, f(0x100));
+        bus.send(b, f(0x200));
+        bus.advance_to(100_000_000);
+        // 32 error frames (8 each: 256 > 255), each 30 bits; then b's frame goes out.
+        assert_eq!(bus.stats.error_frames, 32);
+        assert_eq!(bus.error_state(a), ErrorState::BusOff);
+        assert_eq!(bus.error_counters(b), (0, 32), "32 error frames seen");
+        assert_eq!(bus.stats.frames, 1);
+        assert_eq!(bus.log[0].0, 32 * 30_000 + bus.frame_ns(&f(0x200)));
+        assert!(!bus.has_rx(b), "b received nothing of a's");
+        // Bus-off: a sends nothing; after recovery with a mended transceiver it does.
+        bus.send(a, f(0x101));
+        assert_eq!(bus.pending(a), 0);
+        bus.set_fault(a, None);
+        bus.recover(a);
+        assert_eq!(bus.error_state(a), ErrorState::Active);
+        bus.send(a, f(0x101));
+        bus.advance_to(200_000_000);
+        assert_eq!(bus.receive(b).map(|(_, f)| f.id()), Some(0x101));
+        // Error passive between 128 and 255.
+        bus.set_fault(a, Some(PortFault::Corrupt));
+        bus.send(a, f(0x102));
+        bus.advance_to(200_000_000 + 16 * 30_000);
+        assert_eq!(bus.error_state(a), ErrorState::Passive);
     }
 
     #[test]

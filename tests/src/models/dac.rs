@@ -5,6 +5,13 @@
 //! falling SCLK edge; a frame shorter than 24 bits is aborted (nothing happens), bits
 //! after the 24th are ignored (and counted). Output: `code / 65536 * 2.5 V * 4`
 //! (2.5 V external reference and the board's x4 amplifier).
+//!
+//! At the pin level ([`Ad5663::sync_falling`], [`Ad5663::clock_bits`],
+//! [`Ad5663::sync_rising`]) a frame may arrive in pieces of any width (an SSP sending two
+//! 12-bit items by DMA, with SCLK idle between them: the interface is static), and the
+//! command executes when the 24th bit is in, at that virtual time. Every LDAC pin edge is
+//! recorded with its time ([`Ad5663::ldac_edges`]), so the update rate and each update's
+//! error against a DC time grid can be measured ([`LdacEdge::grid_error_ns`]).
 
 use crate::rig::clock::Clock;
 use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
@@ -43,6 +50,38 @@ pub struct DacUpdate {
     pub code: u16,
 }
 
+/// An edge of the LDAC pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LdacEdge {
+    /// Virtual time (ns).
+    pub time_ns: u64,
+    /// True for the falling edge (the one that loads the DAC registers).
+    pub falling: bool,
+}
+
+impl LdacEdge {
+    /// The edge's distance from the nearest point of the grid `origin + k * period` (ns,
+    /// negative: early). `period` 0 compares with `origin` alone.
+    pub fn grid_error_ns(&self, origin: u64, period: u64) -> i64 {
+        let d = self.time_ns as i128 - origin as i128;
+        if period == 0 {
+            return d as i64;
+        }
+        let p = period as i128;
+        let r = d.rem_euclid(p);
+        (if r > p / 2 { r - p } else { r }) as i64
+    }
+}
+
+/// A frame being clocked in at the pin level.
+#[derive(Clone, Copy, Debug, Default)]
+struct PinFrame {
+    /// Bits in so far (MSB first).
+    shift: u32,
+    /// How many.
+    bits: u32,
+}
+
 /// The AD5663 state.
 #[derive(Clone, Debug)]
 pub struct Ad5663 {
@@ -69,6 +108,12 @@ pub struct Ad5663 {
     pub reserved_commands: u64,
     /// Commands with a reserved address (010, 011 ...), ignored.
     pub bad_addresses: u64,
+    /// Every LDAC pin edge, in order.
+    pub ldac_edges: Vec<LdacEdge>,
+    /// SCLK bits clocked at the pin level while SYNC was high (ignored by the chip).
+    pub bits_while_deselected: u64,
+    /// The pin-level frame while SYNC is low.
+    pin_frame: Option<PinFrame>,
 }
 
 impl Ad5663 {
@@ -87,7 +132,69 @@ impl Ad5663 {
             long_frames: 0,
             reserved_commands: 0,
             bad_addresses: 0,
+            ldac_edges: Vec::new(),
+            bits_while_deselected: 0,
+            pin_frame: None,
         }
+    }
+
+    /// SYNC falls: a frame begins (at the pin level).
+    pub fn sync_falling(&mut self) {
+        self.pin_frame = Some(PinFrame::default());
+    }
+
+    /// `bits` (at most 32) of `value`, MSB first, clocked in on falling SCLK edges at the
+    /// current time. The command executes when the 24th bit of the frame is in; bits after
+    /// it are ignored until SYNC rises. Bits while SYNC is high are ignored and counted.
+    pub fn clock_bits(&mut self, value: u32, bits: u32) {
+        let Some(mut f) = self.pin_frame else {
+            self.bits_while_deselected += u64::from(bits);
+            return;
+        };
+        for i in (0..bits.min(32)).rev() {
+            f.bits += 1;
+            if f.bits <= 24 {
+                f.shift = f.shift << 1 | (value >> i) & 1;
+            }
+            if f.bits == 24 {
+                self.execute(f.shift & 0xFF_FFFF);
+            } else if f.bits == 25 {
+                self.long_frames += 1;
+            }
+        }
+        self.pin_frame = Some(f);
+    }
+
+    /// SYNC rises: a frame of fewer than 24 bits is aborted.
+    pub fn sync_rising(&mut self) {
+        if let Some(f) = self.pin_frame.take() {
+            if (1..24).contains(&f.bits) {
+                self.aborted_frames += 1;
+            }
+        }
+    }
+
+    /// The LDAC pin goes to `high`: a falling edge loads the channels whose LDAC bit is 0;
+    /// every edge is recorded.
+    pub fn set_ldac(&mut self, high: bool) {
+        if high == self.ldac_pin_high {
+            return;
+        }
+        self.ldac_pin_high = high;
+        self.ldac_edges.push(LdacEdge {
+            time_ns: self.clock.now_ns(),
+            falling: !high,
+        });
+        if !high {
+            self.ldac_pulse();
+        }
+    }
+
+    /// The falling LDAC edges from `from_ns` on.
+    pub fn ldac_falls_since(&self, from_ns: u64) -> impl Iterator<Item = &LdacEdge> {
+        self.ldac_edges
+            .iter()
+            .filter(move |e| e.falling && e.time_ns >= from_ns)
     }
 
     /// Output voltage of a channel (None when powered down).
@@ -277,15 +384,11 @@ impl PinErrorType for LdacPin {
 
 impl OutputPin for LdacPin {
     fn set_low(&mut self) -> Result<(), Infallible> {
-        let mut d = self.dac.borrow_mut();
-        if d.ldac_pin_high {
-            d.ldac_pin_high = false;
-            d.ldac_pulse();
-        }
+        self.dac.borrow_mut().set_ldac(false);
         Ok(())
     }
     fn set_high(&mut self) -> Result<(), Infallible> {
-        self.dac.borrow_mut().ldac_pin_high = true;
+        self.dac.borrow_mut().set_ldac(true);
         Ok(())
     }
 }

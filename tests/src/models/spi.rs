@@ -26,9 +26,7 @@
 
 use crate::models::esc::{regs, Esc};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
-use std::cell::RefCell;
 use std::convert::Infallible;
-use std::rc::Rc;
 
 /// SPI command codes (CMD field).
 pub mod spi_cmd {
@@ -367,8 +365,7 @@ impl Esc {
     }
 }
 
-/// A shared handle on the ESC model.
-pub type SharedEsc = Rc<RefCell<Esc>>;
+pub use crate::models::shared_esc::SharedEsc;
 
 /// The ESC's SPI slave port as an `embedded_hal::spi::SpiDevice<u8>`.
 ///

@@ -7,6 +7,12 @@
 //! the virtual time of each event: SYNC0/SYNC1 edges first, then the (level) IRQ line
 //! while it stays asserted, then `poll`. Frames the CAN bus delivers to the MCU's CAN
 //! controller raise [`PdiCpu::on_can_rx`] at the time the frame ends on the bus.
+//!
+//! On the wall clock ([`VirtualBoard::follow_wall_clock`], a master outside the process)
+//! the ESC keeps its own time, the wall clock's ([`crate::models::shared_esc`]), and frames
+//! reach it from another thread without going through the board; the board's clock is the
+//! CPU's, which the caller steps towards the wall clock and to which it hands the SYNC edges
+//! the ESC produced ([`VirtualBoard::deliver_wall_edge`]).
 
 use crate::models::adc::{Ad7689, AdcSpi, SharedAdc};
 use crate::models::can::{CanBus, PortId, SharedCanBus};
@@ -17,6 +23,7 @@ use crate::rig::clock::Clock;
 use crate::tools::pcap::PcapWriter;
 use std::cell::RefCell;
 use std::rc::Rc;
+use std::time::Instant;
 
 /// The peripherals as the CPU sees them: cloneable handles on the board's chips.
 #[derive(Clone)]
@@ -92,6 +99,21 @@ pub trait PdiCpu {
     /// A continuously running CPU executes up to virtual time `t_ns` (the board's clock is
     /// about to move there).
     fn run_until(&mut self, _io: &mut BoardIo, _t_ns: u64) {}
+    /// The earliest virtual time the CPU must run at again on its own (its next event; now
+    /// while it is busy): a board on the wall clock that has caught up with it waits until
+    /// then unless something from outside comes first. By default none: such a CPU is
+    /// stepped when a frame or a SYNC edge comes, and at least every tick of the wait
+    /// ([`crate::tools::iface::ServeOptions::tick`]), its timers run in order then.
+    fn next_wake_ns(&self, _io: &BoardIo) -> u64 {
+        u64::MAX
+    }
+    /// A continuously running CPU that is asleep (WFI) sleeps on up to `t_ns` unless its own
+    /// events wake it first, without looking at its inputs; returns the time it reached. A
+    /// board on the wall clock calls it after waiting, so that what arrived meanwhile is seen
+    /// at the time it arrived, not at the time the wait began. Others stay where they are.
+    fn idle_until(&mut self, io: &mut BoardIo, _t_ns: u64) -> u64 {
+        io.now_ns()
+    }
     /// The CPU as `Any`, for a test that looks at its own kind of CPU's state.
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         None
@@ -165,7 +187,9 @@ pub struct VirtualBoard {
     io: BoardIo,
     cpu: Box<dyn PdiCpu>,
     pcap: Option<PcapWriter>,
-    /// All SYNC edges so far.
+    /// The ESC's time follows the wall clock.
+    on_wall_clock: bool,
+    /// All SYNC edges so far (not kept on the wall clock, which may serve for days).
     pub sync_edges: Vec<SyncEdge>,
     /// Counters.
     pub stats: BoardStats,
@@ -175,7 +199,7 @@ impl VirtualBoard {
     /// A board with an idle CPU.
     pub fn new(cfg: BoardConfig) -> Self {
         let clock = Clock::new();
-        let esc = Rc::new(RefCell::new(Esc::new(cfg.esc.clone())));
+        let esc = SharedEsc::new(Esc::new(cfg.esc.clone()));
         let dac = Rc::new(RefCell::new(Ad5663::new(clock.clone())));
         let adc = Rc::new(RefCell::new(Ad7689::new(clock.clone())));
         let can = CanBus::shared(cfg.can_bit_rate);
@@ -202,6 +226,7 @@ impl VirtualBoard {
             io,
             cpu: Box::new(IdleCpu),
             pcap,
+            on_wall_clock: false,
             sync_edges: Vec::new(),
             stats: BoardStats::default(),
         }
@@ -257,6 +282,77 @@ impl VirtualBoard {
         self.pcap.as_ref()
     }
 
+    /// Takes the capture out of the board (for the thread that serves frames on the wall
+    /// clock; give it back with [`VirtualBoard::put_pcap`]).
+    pub fn take_pcap(&mut self) -> Option<PcapWriter> {
+        self.pcap.take()
+    }
+
+    /// Puts a capture (back) into the board.
+    pub fn put_pcap(&mut self, pcap: Option<PcapWriter>) {
+        self.pcap = pcap;
+    }
+
+    /// From now on the ESC keeps the wall clock's time (the board's time at `start` plus the
+    /// time elapsed since); its SYNC edges wait for [`VirtualBoard::take_wall_edges`]. The
+    /// board's clock stays the CPU's: the caller steps it towards the wall clock.
+    pub fn follow_wall_clock(&mut self, start: Instant) {
+        self.esc.follow_wall_clock(start, self.now_ns());
+        self.on_wall_clock = true;
+    }
+
+    /// Back to virtual time (after serving on the wall clock; SYNC edges not yet handed to
+    /// the CPU are handed to it now).
+    pub fn follow_virtual_time(&mut self) {
+        for e in self.take_wall_edges() {
+            self.deliver_wall_edge(e);
+        }
+        self.esc.follow_virtual_time();
+        self.on_wall_clock = false;
+    }
+
+    /// On the wall clock: the SYNC edges the ESC produced (at its time, the wall clock's)
+    /// that the CPU has not had yet, in order ([`VirtualBoard::deliver_wall_edge`]).
+    pub fn take_wall_edges(&mut self) -> Vec<SyncEdge> {
+        self.esc.take_edges()
+    }
+
+    /// On the wall clock: SYNC edge `e` reaches the CPU now, at the CPU's time (which its
+    /// timer captures as the pin sees the edge arrive; the edge keeps its DC system time).
+    pub fn deliver_wall_edge(&mut self, e: SyncEdge) {
+        let now = self.now_ns();
+        self.deliver(SyncEdge { time_ns: now, ..e });
+    }
+
+    /// Whether the board serves on the wall clock.
+    pub fn on_wall_clock(&self) -> bool {
+        self.on_wall_clock
+    }
+
+    /// The earliest virtual time the CPU must run at again on its own
+    /// ([`PdiCpu::next_wake_ns`]).
+    pub fn cpu_next_wake_ns(&self) -> u64 {
+        self.cpu.next_wake_ns(&self.io)
+    }
+
+    /// Brings a CPU with nothing to do up to `t_ns`: a continuously running CPU asleep
+    /// sleeps on ([`PdiCpu::idle_until`]; the board's clock goes where it got to), a CPU
+    /// called at events has its timers run up to there.
+    pub fn idle_until(&mut self, t_ns: u64) {
+        let now = self.now_ns();
+        if t_ns <= now {
+            return;
+        }
+        if !self.cpu.runs_continuously() {
+            self.step(t_ns - now);
+            return;
+        }
+        let reached = self.cpu.idle_until(&mut self.io, t_ns).min(t_ns);
+        if reached > now {
+            self.peripherals_to(reached);
+        }
+    }
+
     /// One frame from the master: processed by the ESC, recorded in both directions;
     /// then time advances by the frame's wire time plus the gap, with the CPU running.
     /// Returns the frame as it comes back to the master.
@@ -292,11 +388,14 @@ impl VirtualBoard {
     fn advance(&mut self, ns: u64) {
         let target = self.now_ns() + ns;
         loop {
-            let sync = self
-                .esc
-                .borrow()
-                .next_sync_edge_ns()
-                .filter(|&t| t <= target);
+            let sync = if self.on_wall_clock {
+                None
+            } else {
+                self.esc
+                    .borrow()
+                    .next_sync_edge_ns()
+                    .filter(|&t| t <= target)
+            };
             let timer = self.cpu.next_timer_ns().filter(|&t| t <= target);
             let can = self.can.borrow().next_event_ns().filter(|&t| t <= target);
             let Some(t) = [sync, timer, can].into_iter().flatten().min() else {
@@ -338,8 +437,13 @@ impl VirtualBoard {
     /// The ESC, the clock and the CAN bus at `t`, with the SYNC edges and received CAN
     /// frames on the way handed to the CPU.
     fn peripherals_to(&mut self, t: u64) {
-        let now = self.esc.borrow().now_ns();
-        let edges = self.esc.borrow_mut().advance(t.saturating_sub(now));
+        // On the wall clock the ESC keeps its own time.
+        let edges = if self.on_wall_clock {
+            Vec::new()
+        } else {
+            let now = self.esc.borrow().now_ns();
+            self.esc.borrow_mut().advance(t.saturating_sub(now))
+        };
         self.clock.set_ns(t);
         for e in edges {
             self.deliver(e);
@@ -365,7 +469,9 @@ impl VirtualBoard {
     }
 
     fn deliver(&mut self, e: SyncEdge) {
-        self.sync_edges.push(e);
+        if !self.on_wall_clock {
+            self.sync_edges.push(e);
+        }
         match e.signal {
             SyncSignal::Sync0 => {
                 self.stats.sync0_edges += 1;
@@ -409,6 +515,6 @@ impl VirtualBoard {
 
 /// Wire time of a frame at 100 Mbit/s: 80 ns per byte (padded to 60), plus preamble, FCS and
 /// inter-frame gap (24 bytes).
-fn wire_time_ns(len: usize) -> u64 {
+pub fn wire_time_ns(len: usize) -> u64 {
     (len.max(60) as u64 + 24) * 80
 }

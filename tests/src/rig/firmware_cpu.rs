@@ -21,7 +21,7 @@
 //!
 //! The drivers are the ones the board runs:
 //! - ESC: `et1100::Et1100<SpiPdi<EscSpi>>` over the byte-exact SPI model: the type the
-//!   board has with its legacy SPI in place of `EscSpi` (`firmware/src/hw/esc.rs`), and the
+//!   board has with its legacy SPI in place of `EscSpi` (`firmware/src/platform/hw/esc.rs`), and the
 //!   same driver calls, since the application is generic over the driver's `Pdi`.
 //! - DAC: `ad5663::Ad5663` inside the firmware's `OutputDac`, on the DAC model's SPI port
 //!   with the LDAC pin model.

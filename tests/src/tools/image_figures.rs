@@ -131,6 +131,10 @@ pub struct Latency {
     pub mean_ns: f64,
     /// Longest (ns).
     pub max_ns: u64,
+    /// How often each latency occurred: (ns, edges), shortest first (the latencies are
+    /// whole CPU cycles, so a few distinct values cover a run).
+    #[serde(default)]
+    pub histogram: Vec<(u64, u64)>,
 }
 
 /// A DC cycle run with 2 AO + 8 AI, and the criteria it is judged by.
@@ -140,13 +144,17 @@ pub struct Latency {
 /// (`sync0_shift` = cycle / 2), and the ADC inputs are constants. Judged over the
 /// `cycles` SYNC0 edges after the first ones in OP:
 /// - **missed SYNC0**: an edge the SYNC0 task never served: its capture (CAP1.0 -> T1CR0)
-///   was overwritten by the next edge's before the CPU read it;
+///   was overwritten by the next edge's before the CPU read it or acknowledged its
+///   interrupt;
 /// - **stale output**: an edge after which both DAC channels were not loaded together, before
 ///   the next edge, with the pair the last frame before the edge carried (the pair came too
 ///   late for its edge, or never: the firmware had no fresh pair to latch, or latched another);
 /// - **lost sample**: an AD7689 result the GPDMA wrote into the ring and overwrote before the
 ///   CPU read it, a frame lost to a full SSP1 RX FIFO, or two conversions closer than the
 ///   ADC's tCYC;
+/// - **unsampled inputs**: fewer AD7689 conversions than one per channel per cycle (8 per
+///   cycle), so some cycle's inputs could not be new (a firmware that samples once per
+///   cycle in the background falls behind when the CPU is saturated);
 /// - and the slave stays in OP with the working counters right.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct DcCheck {
@@ -172,7 +180,13 @@ pub struct DcCheck {
     pub cpu_load: f64,
     /// SYNC0 edge -> LDAC edge over the judged cycles.
     pub sync0_to_ldac: Latency,
+    /// AD7689 conversions over the judged cycles (see the type's documentation).
+    #[serde(default)]
+    pub conversions: u64,
 }
+
+/// Conversions per judged cycle a sustained cycle needs: one per AD7689 channel.
+pub const CONVERSIONS_PER_CYCLE: u64 = 8;
 
 impl DcCheck {
     /// No missed SYNC0, no stale output, no lost sample, no failure, over all planned cycles.
@@ -182,6 +196,7 @@ impl DcCheck {
             && self.missed_sync0 == 0
             && self.stale_outputs == 0
             && self.lost_samples == 0
+            && self.conversions >= CONVERSIONS_PER_CYCLE * self.edges
     }
 
     /// What broke, for a report ("sustained" when nothing did).
@@ -201,6 +216,12 @@ impl DcCheck {
             if n > 0 {
                 why.push(format!("{n} {what}"));
             }
+        }
+        if self.conversions < CONVERSIONS_PER_CYCLE * self.edges {
+            why.push(format!(
+                "unsampled inputs: {} conversions in {} cycles",
+                self.conversions, self.edges
+            ));
         }
         if why.is_empty() {
             "sustained".into()
@@ -258,6 +279,7 @@ mod tests {
             planned: 100,
             edges: 100,
             missed_sync0: missed,
+            conversions: 8 * 100,
             ..Default::default()
         }
     }
@@ -285,6 +307,14 @@ mod tests {
         let mut p = point(50, 0);
         p.stale_inputs = 5;
         assert!(p.sustained());
+        // Fewer than 8 conversions per cycle: some cycle's inputs are not new.
+        let mut p = point(50, 0);
+        p.conversions = 8 * 100 - 1;
+        assert!(!p.sustained());
+        assert_eq!(
+            p.verdict(),
+            "unsampled inputs: 799 conversions in 100 cycles"
+        );
     }
 
     #[test]

@@ -374,7 +374,7 @@ pub fn rows(f: &ImageFigures) -> ImageRows {
 
 /// The note under the table: how the image rows were measured.
 pub fn note(f: &ImageFigures) -> String {
-    // Relative to the workspace, so the README's copy names no checkout of one machine.
+    // Relative to the workspace, so the book's copy names no checkout of one machine.
     let elf = std::path::Path::new(&f.elf);
     let elf = elf.strip_prefix(crate::util::root()).unwrap_or(elf);
     format!(

@@ -7,17 +7,24 @@
 //! 3. Minimum DC cycle and SYNC0 -> DAC latency from 1 and 2 ([`model`] for the constants).
 //! 4. Flash and static RAM of the release image, per crate (the `size` code).
 //! 5. ADC: conversions per second on the virtual board and the sampler's CPU share.
-//! 6. The thesis loop-back on the virtual board (amplitude error, THD), with a PNG plot.
+//! 6. The thesis loop-back on the virtual board (amplitude error, THD).
+//!
+//! The figures of 6 and 7 are also drawn as PNG files ([`plot`]): the loop-back, the image's
+//! cycle-time sweep, its SYNC0 -> LDAC latency histogram and its CPU share per task.
 //! 7. The release image on the LPC1754 co-simulator ([`image_rows`]): the shortest DC cycle,
 //!    SYNC0 -> LDAC and the sampler's share (beside the formulas of 3 and 5, which they
 //!    supersede), per task cycles and stack, flash and RAM of the same ELF.
+//! 8. Frames on a network interface ([`frames`]): the image's frame answer latency under
+//!    SOEM (root only).
 
 mod advertised;
 mod by_function;
 mod cm3;
+mod frames;
 mod image_rows;
 mod model;
 mod opt_levels;
+mod peer;
 mod plot;
 mod report;
 
@@ -39,8 +46,9 @@ pub struct Args {
     /// Also write every figure as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Write the loop-back plot (PNG) to FILE (default target/bench/loopback.png).
-    #[arg(long, value_name = "FILE")]
+    /// Write the figures (PNG: loop-back, cycle-time sweep, SYNC0 -> LDAC latency
+    /// histogram, CPU per task) into DIR (default target/bench).
+    #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
     /// Only the advertised-minimum rule: the image's shortest sustained DC cycle on the
     /// co-simulator (group 7) against firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS, with the
@@ -61,6 +69,11 @@ pub struct Args {
     /// application with the analog I/O, which both analog products run.
     #[arg(long, value_name = "NAME")]
     pub product: Option<String>,
+    /// Instead of the table: this project's image beside a peer stack built for the same
+    /// board (`soes`), measured the same way on the co-simulator, with the ratios, and the
+    /// conformance checks of both (--quick: the short sweep; --json: the figures as JSON).
+    #[arg(long, value_parser = ["soes"], conflicts_with_all = ["plot", "opt_levels", "min_cycle", "by_function"])]
+    pub peer: Option<String>,
 }
 
 const AFTER_HELP: &str = "\
@@ -119,6 +132,9 @@ pub fn run(args: &Args) -> Result {
     if args.by_function {
         return by_function::run();
     }
+    if args.peer.is_some() {
+        return peer::run(args.quick, args.json.as_deref());
+    }
     let plan = Plan::new(args.quick);
     let cycle_ns = u64::from(CYCLE_US) * 1000;
 
@@ -141,6 +157,8 @@ pub fn run(args: &Args) -> Result {
     );
     let (on_image, min_cycle) = image_and_rule(args.quick, product)?;
     let image = image_rows::rows(&on_image);
+    eprintln!("[bench] frames on a network interface (sim --image --iface, as root)");
+    let frames = frames::rows(args.quick);
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
@@ -156,16 +174,13 @@ pub fn run(args: &Args) -> Result {
     rows.extend(adc_rows(&adc, &adc_share));
     rows.extend(loopback_rows(&sim)?);
     rows.extend(image.tasks);
+    rows.extend(frames);
 
-    let plot_path = args
+    let plot_dir = args
         .plot
         .clone()
-        .unwrap_or_else(|| build::target_dir().join("bench").join("loopback.png"));
-    if let Some(dir) = plot_path.parent() {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    }
-    plot::write_png(&plot_path, &traces(&sim, plan.loopback_s)?)?;
+        .unwrap_or_else(|| build::target_dir().join("bench"));
+    let figures = figures(&plot_dir, &sim, &on_image)?;
 
     let mut notes = notes(&bus, &cpu, &derived, &adc_share, &footprint);
     notes.push(format!(
@@ -176,7 +191,9 @@ pub fn run(args: &Args) -> Result {
     ));
     notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
-    println!("loop-back plot: {}", plot_path.display());
+    for f in figures {
+        println!("figure: {}", f.display());
+    }
     if let Some(path) = &args.json {
         std::fs::write(path, report::json(&rows, &notes, args.quick))
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
@@ -880,8 +897,76 @@ fn loopback_rows(sim: &SimReport) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+/// The PNG figures into `dir`; their paths.
+fn figures(dir: &std::path::Path, sim: &SimReport, image: &ImageFigures) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let path = |name: &str| dir.join(name);
+    plot::loopback(
+        &path("loopback.png"),
+        &format!(
+            "Loop-back AI1 -> master -> AO1 on the virtual board, {CYCLE_US} us DC cycle, 8 Vpp in"
+        ),
+        &traces(sim)?,
+    )?;
+    let sweep: Vec<plot::SweepPoint> = image
+        .sweep
+        .points
+        .iter()
+        .map(|c| plot::SweepPoint {
+            cycle_us: c.cycle_ns as f64 / 1e3,
+            cpu_load: c.cpu_load,
+            ldac_max_us: c.sync0_to_ldac.max_ns as f64 / 1e3,
+            sustained: c.sustained(),
+        })
+        .collect();
+    plot::cycle_sweep(
+        &path("cycle-sweep.png"),
+        &sweep,
+        image_rows::min_cycle_us(image),
+        f64::from(CYCLE_US),
+    )?;
+    let dc = &image.profile.dc;
+    let latency = &dc.sync0_to_ldac;
+    plot::latency_histogram(
+        &path("ldac-latency.png"),
+        &format!(
+            "SYNC0 edge -> LDAC edge on the image at {:.0} us DC: {:.2} us mean, {:.2} us max",
+            dc.cycle_ns as f64 / 1e3,
+            latency.mean_ns / 1e3,
+            latency.max_ns as f64 / 1e3
+        ),
+        &latency.histogram,
+        1e9 / image.cclk_hz as f64,
+    )?;
+    let tasks: Vec<(String, f64)> = image
+        .profile
+        .vectors
+        .iter()
+        .map(|v| {
+            let name = match &v.task {
+                Some(task) => format!("{task} ({})", v.name),
+                None => v.name.clone(),
+            };
+            (name, v.own_share)
+        })
+        .collect();
+    plot::cpu_per_task(
+        &path("cpu-per-task.png"),
+        &format!(
+            "CPU per task on the image: mailbox traffic, then DC OP at {:.0} us ({:.1} % busy)",
+            dc.cycle_ns as f64 / 1e3,
+            100.0 * dc.cpu_load
+        ),
+        &tasks,
+    )?;
+    Ok(["loopback", "cycle-sweep", "ldac-latency", "cpu-per-task"]
+        .iter()
+        .map(|n| path(&format!("{n}.png")))
+        .collect())
+}
+
 /// Input and DAC output over the last periods of each frequency's window.
-fn traces(sim: &SimReport, _seconds: f64) -> Result<Vec<plot::Trace>> {
+fn traces(sim: &SimReport) -> Result<Vec<plot::Trace>> {
     use virtual_board::models::adc::Signal;
     use virtual_board::tools::loopback::Staircase;
     let cfg = SimConfig::default();
@@ -918,6 +1003,13 @@ fn traces(sim: &SimReport, _seconds: f64) -> Result<Vec<plot::Trace>> {
             freq_hz: *f,
             input,
             output,
+            figures: format!(
+                "amplitude error {:+.2} %, THD {:.3} % ({:.1} dB), latency {:.0} us",
+                100.0 * a.amplitude_error,
+                100.0 * a.thd,
+                a.thd_db(),
+                a.latency_ns / 1e3
+            ),
         });
     }
     Ok(out)
@@ -1016,9 +1108,8 @@ fn notes(
         ),
         "Loop-back: ethercrab in process drives the virtual board (firmware slave application, \
          ET1100/AD5663/AD7689 models) on virtual time; the master copies AI1 to AO1 every cycle; \
-         figures from the DAC model's output over whole periods (loopback::analyze_dac). Plot: one \
-         panel per frequency (50, 500, 1000 Hz from the top), blue input, red DAC output, 0..10 V \
-         with lines every 2.5 V and every period."
+         figures from the DAC model's output over whole periods (loopback::analyze_dac); the \
+         figure loopback.png shows the last periods of each frequency."
             .into(),
     ]
 }

@@ -39,7 +39,7 @@ pub const ADC_RATE_SPS: f64 = 250e3;
 /// Peripheral register accesses of the sampler interrupt that QEMU cannot run (the
 /// lm3s6965 has no LPC17xx timers/SSP): IR and EMR writes, SSP SR and DR reads for the result,
 /// SR read for the drain, SR read and DR write for the next frame = 7 APB accesses of about
-/// 3 cycles each. UNCONFIRMED (estimate from the code in firmware/src/hw/timers.rs).
+/// 3 cycles each. UNCONFIRMED (estimate from the code in firmware/src/platform/hw/timers.rs).
 pub const SAMPLER_ISR_REGISTER_CYCLES: f64 = 7.0 * 3.0;
 
 /// GPDMA path: the RX channel's destination-address register read in each position
@@ -48,7 +48,7 @@ pub const SAMPLER_ISR_REGISTER_CYCLES: f64 = 7.0 * 3.0;
 pub const DMA_POSITION_REGISTER_CYCLES: f64 = 3.0;
 
 /// GPDMA path: the terminal-count interrupt's register accesses (IntTCStat read, IntTCClear
-/// write, IntErrStat read; firmware/src/hw/adc_dma.rs), ~3 cycles each. UNCONFIRMED.
+/// write, IntErrStat read; firmware/src/platform/hw/adc_dma.rs), ~3 cycles each. UNCONFIRMED.
 pub const DMA_IRQ_REGISTER_CYCLES: f64 = 3.0 * 3.0;
 
 /// Channels per AD7689 scan (one whole scan per drain step on the GPDMA path).

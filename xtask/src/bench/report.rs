@@ -10,6 +10,7 @@ pub enum Group {
     Adc,
     Loopback,
     Image,
+    Frames,
 }
 
 impl Group {
@@ -29,6 +30,7 @@ impl Group {
                 7,
                 "The release image on the co-simulated LPC1754, per task and per cycle time",
             ),
+            Self::Frames => (8, "Frames on a network interface (sim --image --iface)"),
         }
     }
 }
@@ -170,6 +172,7 @@ pub fn markdown(rows: &[Row], notes: &[String], quick: bool, qemu: &str) -> Stri
         Group::Adc,
         Group::Loopback,
         Group::Image,
+        Group::Frames,
     ];
     s.push_str(
         &groups

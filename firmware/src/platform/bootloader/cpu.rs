@@ -2,6 +2,8 @@
 //! `memclr` (`aeabi_mem`), the only `unsafe` code of the bootloader besides the shared
 //! hardware layer and the IAP ROM call.
 
+use crate::hw::gpio::InPin;
+use cortex_m::peripheral::NVIC;
 use lpc17xx_pac as pac;
 
 /// Starts the image whose vector table is at `vectors`: VTOR, main stack pointer and reset
@@ -73,5 +75,55 @@ impl Clock {
     /// Milliseconds since [`Clock::start`] (wrapping).
     pub fn now_ms(&self) -> u32 {
         self.timer.tc.read().bits()
+    }
+}
+
+/// TIMER0 MCR: interrupt flag on MR0.
+const MCR_MR0I: u32 = 1;
+/// TIMER0 IR: the MR0 flag (write 1 to clear).
+const IR_MR0: u32 = 1;
+/// P0.22 (SPI_IRQ) in the port-0 GPIO interrupt registers.
+const ESC_IRQ_BIT: u32 = 1 << 22;
+/// NVIC bits of TIMER0 (IRQ 1) and EINT3 (IRQ 21, the GPIO interrupts), in ISER0/ICPR0.
+const WAKE_IRQS: u32 = 1 << 1 | 1 << 21;
+
+/// The bootloader's idle wait (WFI): until the ESC asserts its IRQ line (the falling edge of
+/// P0.22, EINT3) or TIMER0 counts on (MR0: FoE timeouts, the watchdog), the only things the
+/// polled slave waits for. Both interrupts are enabled in the NVIC with PRIMASK set: a
+/// pending one ends WFI without being taken (ARMv7-M B1.5.19), so the bootloader still has
+/// no interrupt handler, and a reset (its only way out) clears them.
+pub struct Idle {
+    int: pac::GPIOINT,
+    irq: InPin,
+}
+
+impl Idle {
+    /// Masks interrupts for good and enables the two wake-ups.
+    pub fn new(int: pac::GPIOINT, irq: InPin, clock: &Clock) -> Self {
+        cortex_m::interrupt::disable();
+        // SAFETY: documented register values (UM10360 9.5.6.3, 21.6.8); PRIMASK is set, so
+        // the NVIC's enable bits run no handler.
+        unsafe {
+            int.enf0.write(|w| w.bits(ESC_IRQ_BIT));
+            clock.timer.mcr.write(|w| w.bits(MCR_MR0I));
+            (*NVIC::PTR).iser[0].write(WAKE_IRQS);
+        }
+        Self { int, irq }
+    }
+
+    /// Sleeps until the ESC asserts its IRQ line or the millisecond after next; returns at
+    /// once while the line is asserted (events are waiting).
+    pub fn wait(&mut self, clock: &Clock) {
+        // SAFETY: write-1-to-clear flags and a match value (UM10360 9.5.6.11, 21.6.1, 21.6.9):
+        // two ticks on, as one may pass before it lands.
+        unsafe {
+            self.int.clr0.write(|w| w.bits(ESC_IRQ_BIT));
+            clock.timer.ir.write(|w| w.bits(IR_MR0));
+            clock.timer.mr[0].write(|w| w.bits(clock.now_ms().wrapping_add(2)));
+            (*NVIC::PTR).icpr[0].write(WAKE_IRQS);
+        }
+        if self.irq.is_high() {
+            cortex_m::asm::wfi();
+        }
     }
 }

@@ -12,8 +12,9 @@
 //! update file received over FoE into the staging area; BOOT -> INIT after a good file resets
 //! into the new application.
 //!
-//! No interrupts: everything is polled. A panic resets the CPU (the libraries do not panic;
-//! should one, the next reset is the safe way back).
+//! No interrupts: everything is polled, and between two rounds the CPU sleeps (WFI) until the
+//! ESC raises its IRQ line or the next millisecond ([`cpu::Idle`]). A panic resets the CPU
+//! (the libraries do not panic; should one, the next reset is the safe way back).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -68,6 +69,7 @@ mod chip {
             in_control: MAILBOX_CONTROL.1,
         };
         let mut slave = BootSlave::new(iap, BOARD, bootstrap, reset.application.is_ok());
+        let mut idle = cpu::Idle::new(dp.GPIOINT, board.esc_irq, &clock);
         let mut started = false;
         loop {
             cpu::feed_watchdog(&dp.WDT);
@@ -85,6 +87,7 @@ mod chip {
             if outcome.is_ok_and(|o| o.reset) {
                 cpu::reset();
             }
+            idle.wait(&clock);
         }
     }
 

@@ -316,6 +316,8 @@ pub struct BootBoard {
     pub esc: Esc,
     /// EEPROM_LOADED (the ESC's PDI is operational).
     pub esc_eeprom_loaded: InPin,
+    /// SPI_IRQ (active low; the bootloader's idle wait ends on its falling edge).
+    pub esc_irq: InPin,
 }
 
 /// Brings up what the bootloader needs after [`clocks::init`]: the ESC's pins of the pin map
@@ -330,6 +332,7 @@ pub fn init_bootloader(pincon: &pac::PINCONNECT, spi: pac::SPI) -> BootBoard {
     BootBoard {
         esc: esc::new(CsDevice::new(LegacySpi::new(spi), esc_cs)),
         esc_eeprom_loaded: InPin::new(ESC_EEPROM_LOADED),
+        esc_irq: InPin::new(ESC_IRQ),
     }
 }
 

@@ -39,8 +39,8 @@ pub const INPUT_CALC_COPY_NS: u32 = 15_000;
 ///
 /// The rule, as for [`MIN_CYCLE_TIME_NS`]: at least the minimum DC cycle with the second
 /// read plus [`MIN_CYCLE_MARGIN_PERCENT`]. The bench does not check it: measured by hand
-/// with this constant set to 0 (`cargo xtask bench`, formula F1: 53.2 us, + 15 % = 61.2 us;
-/// README, Fault campaign); re-measure after a change of the cycle's code.
+/// with this constant set to 0 (`cargo xtask bench`, formula F1: 53.2 us, + 15 % = 61.2 us);
+/// re-measure after a change of the cycle's code.
 pub const CONFIRM_OUTPUTS_MIN_CYCLE_NS: u32 = 62_000;
 /// Default Sync Error Counter Limit (0x10F1:02).
 pub const DEFAULT_SYNC_ERROR_LIMIT: u16 = 4;

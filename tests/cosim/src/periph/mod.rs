@@ -6,6 +6,7 @@ pub mod can;
 pub mod gpdma;
 pub mod gpio;
 pub mod pincon;
+pub mod pwm;
 pub mod spi;
 pub mod ssp;
 pub mod syscon;

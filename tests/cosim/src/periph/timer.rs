@@ -33,13 +33,14 @@ pub struct Timer {
     held_tc: u32,
     pclk_hz: u64,
     dma_request: [bool; 2],
-    /// CRn holds a capture no read has taken yet.
+    /// CRn holds a capture no read has taken and whose interrupt is not acknowledged.
     cr_unread: [bool; 2],
     /// Matches fired, per MR.
     pub matches: [u64; 4],
     /// Captures into CRn, per n.
     pub captures: [u64; 2],
-    /// Captures overwritten by the next one before any read of CRn took them.
+    /// Captures overwritten by the next one before a read of CRn took them or the CPU
+    /// acknowledged their interrupt (IR): edges no handler served.
     pub captures_unread: [u64; 2],
     /// [`Timer::next_match`] as of the last change (asked for after every access).
     next: Option<(u64, u32)>,
@@ -124,6 +125,14 @@ impl Timer {
     }
 
     fn catch_up(&mut self, t: Tick) {
+        // Nothing due and nothing to re-anchor: the cached next match stands (the common
+        // case: every event of the chip asks every timer).
+        if self.running()
+            && self.pclk_hz == t.pclk_hz
+            && self.next.is_none_or(|(at, _)| at > t.now_ns)
+        {
+            return;
+        }
         while let Some((at, tc)) = self.compute_next_match() {
             if at > t.now_ns {
                 break;
@@ -237,6 +246,11 @@ impl Peripheral for Timer {
         match offset {
             0x00 => {
                 self.ir &= !value;
+                for n in 0..2 {
+                    if value & (1 << (4 + n)) != 0 {
+                        self.cr_unread[n] = false;
+                    }
+                }
                 if !unconfirmed::REQUEST_HELD || value & 3 != 0 {
                     for n in 0..2 {
                         if value & (1 << n) != 0 {
@@ -344,6 +358,57 @@ mod tests {
         // MR2 = 0 matches when the MR3 reset brings TC to 0 (not when the timer starts).
         assert_eq!(tm.matches, [2, 1, 1, 1]);
         assert!(!tm.irq(), "no MCR interrupt bits");
+    }
+
+    /// Timer0 as the oversampling design's DAC frame timer (docs/book/oversampling.md):
+    /// period Q = P / 4 (MR3 resets), MR0 = 0 toggles MAT0.0 (the AD5663's SYNC) at each
+    /// quarter start and requests DMA (the frame's first 12-bit item), MR1 = Q / 2 requests
+    /// DMA (the second item). SYNC is low in quarters 0 and 2 of every update, high in 1 and 3.
+    #[test]
+    fn quarter_timer_toggles_sync_and_requests_two_items_per_quarter() {
+        let q = 500u32; // 5 us: P = 20 us, 50 kHz
+        let mut tm = Timer::new();
+        tm.write(t(0), 0x04, 2);
+        tm.write(t(0), 0x18, 0);
+        tm.write(t(0), 0x1C, q / 2);
+        tm.write(t(0), 0x24, q - 1);
+        tm.write(t(0), 0x14, 1 << 10); // MR3 resets
+        tm.write(t(0), 0x3C, 1 | 0b11 << 4); // EM0 = 1 (SYNC idle high), toggle on MR0
+        tm.write(t(0), 0x04, 1);
+        let mut sync = Vec::new();
+        let mut requests = Vec::new();
+        while let Some(e) = tm.next_event() {
+            if e > 40_000 {
+                break;
+            }
+            tm.on_event(t(e));
+            for n in 0..2 {
+                if tm.dma_request(n) {
+                    requests.push((e, n));
+                    tm.clear_dma_request(n);
+                }
+            }
+            if sync.last().map(|&(_, l)| l) != Some(tm.match_output(0)) {
+                sync.push((e, tm.match_output(0)));
+            }
+        }
+        // MR0 = 0 matches each time MR3 brings TC to 0: at 5, 10, 15 ... us.
+        let first: Vec<(u64, bool)> = sync.iter().copied().take(5).collect();
+        assert_eq!(
+            first,
+            [
+                (2_500, true),
+                (5_000, false),
+                (10_000, true),
+                (15_000, false),
+                (20_000, true)
+            ]
+        );
+        let per_quarter: Vec<(u64, usize)> = requests.iter().copied().skip(1).take(4).collect();
+        assert_eq!(
+            per_quarter,
+            [(5_000, 0), (7_500, 1), (10_000, 0), (12_500, 1)]
+        );
     }
 
     #[test]

@@ -1,12 +1,11 @@
 //! What the co-simulator's system tests share.
 #![allow(dead_code)]
 
-use firmware::platform::boot::header::{HeaderRepr, Target};
+use firmware::platform::boot::header::{HeaderRepr, Target as UpdateTarget};
 use firmware::platform::boot::layout::HEADER_BLOCK;
 use firmware::products::Product;
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::image::Image;
-use lpc1754_cosim::run::{image_path_of, image_target, load_image, load_image_of};
+use lpc1754_cosim::run::{image_path_of, image_target, load_image, load_image_of, CosimHandle};
 use serde_json::Value;
 use std::ffi::OsString;
 use std::path::PathBuf;
@@ -14,8 +13,8 @@ use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use virtual_board::tools::iface::veth_pair_in_new_namespace;
-use virtual_board::tools::sim::{self, Line, SimConfig};
+use virtual_board::tools::iface::{veth_pair_in_new_namespace, ServeStats};
+use virtual_board::tools::sim::{self, Line, SimConfig, Target};
 
 /// What a master script did against the image served on a veth pair.
 pub struct ScriptRun {
@@ -35,42 +34,46 @@ pub struct ScriptRun {
     pub pcap: PathBuf,
 }
 
-/// Serves the release image on vb1 of a veth pair in a new network namespace (of the calling
-/// thread), as `cargo xtask sim --image --iface vb1` does, and runs `python3 SCRIPT vb0 ARGS`
-/// as the master once the board answers; the capture goes to `pcap_name` in the test's
-/// temporary directory. Bounded in wall time (the board by `seconds`, the master's start
-/// by a minute).
-pub fn run_script_against_image(
-    script: PathBuf,
-    args: Vec<OsString>,
-    pcap_name: &str,
-    seconds: f64,
-) -> Result<ScriptRun, String> {
-    run_script_against(load_image()?, script, vec![args], pcap_name, seconds)
+/// A master script: `python3 PATH vb0 ARGS`.
+pub struct Script {
+    /// The script.
+    pub path: PathBuf,
+    /// Its arguments after the interface.
+    pub args: Vec<OsString>,
 }
 
-/// [`run_script_against_image`] on `product`'s release image, the script run once per
-/// entry of `runs` (its arguments after the interface), one after the other against the
-/// same board; the lines of all runs, in order, and `script_ok` when every run exited 0.
-pub fn run_script_against_image_of(
-    product: &str,
-    script: PathBuf,
-    runs: Vec<Vec<OsString>>,
-    pcap_name: &str,
-    seconds: f64,
-) -> Result<ScriptRun, String> {
-    run_script_against(load_image_of(product)?, script, runs, pcap_name, seconds)
+/// What one script did.
+pub struct ScriptOutcome {
+    /// Its exit status was 0.
+    pub ok: bool,
+    /// Its JSON lines.
+    pub lines: Vec<Value>,
+    /// Its stderr.
+    pub stderr: String,
 }
 
-fn run_script_against(
-    image: Image,
-    script: PathBuf,
-    runs: Vec<Vec<OsString>>,
+/// Scripts run one after the other against one board on a veth pair.
+pub struct BoardRun {
+    /// Each script's outcome, in order.
+    pub scripts: Vec<ScriptOutcome>,
+    /// The board's side: frames, answer latency, lag behind the wall clock.
+    pub served: ServeStats,
+    /// The capture of the run.
+    pub pcap: PathBuf,
+}
+
+/// Serves `target` on vb1 of a veth pair in a new network namespace (of the calling thread),
+/// as `cargo xtask sim --iface vb1` does, and runs each of `scripts` as `python3 SCRIPT vb0
+/// ARGS`, one after the other (up to the first that fails), once the board answers; the capture goes to `pcap_name` in
+/// the test's temporary directory. Bounded in wall time (the board by `seconds`, the
+/// masters' start by a minute).
+pub fn run_scripts_on_veth(
+    target: Target,
+    scripts: Vec<Script>,
     pcap_name: &str,
     seconds: f64,
-) -> Result<ScriptRun, String> {
+) -> Result<BoardRun, String> {
     veth_pair_in_new_namespace("vb0", "vb1")?;
-    let (target, handle) = image_target(image, Options::default())?;
     let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(pcap_name);
     let cfg = SimConfig {
         iface: Some("vb1".into()),
@@ -81,18 +84,20 @@ fn run_script_against(
     let ready = Arc::new(AtomicBool::new(false));
     let stop = Arc::new(AtomicBool::new(false));
     let (ready2, stop2) = (ready.clone(), stop.clone());
-    // The master in its own process, started once the board answers on vb1.
-    let master = std::thread::spawn(move || {
+    // The masters in their own processes, started once the board answers on vb1.
+    let masters = std::thread::spawn(move || {
         let deadline = Instant::now() + Duration::from_secs(60);
         while !ready2.load(Ordering::Acquire) && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(20));
         }
+        // Each script starts from where the one before left the board: after a failed one
+        // the others are not run.
         let mut outs = Vec::new();
-        for args in runs {
+        for s in &scripts {
             let out = Command::new("python3")
-                .arg(&script)
+                .arg(&s.path)
                 .arg("vb0")
-                .args(&args)
+                .args(&s.args)
                 .output();
             let failed = !matches!(&out, Ok(o) if o.status.success());
             outs.push(out);
@@ -111,45 +116,107 @@ fn run_script_against(
         }
     })
     .map_err(|e| e.to_string())?;
-    let outs = master
+    let outs = masters
         .join()
-        .map_err(|_| "the master thread panicked".to_string())?
+        .map_err(|_| "the masters' thread panicked".to_string())?;
+    let scripts = outs
         .into_iter()
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| format!("python3: {e}"))?;
-    let facts = handle
-        .with(|c| c.facts())
-        .ok_or("the co-simulator did not start")?;
-    Ok(ScriptRun {
-        served: served.ecat.frames,
-        script_ok: outs.iter().all(|o| o.status.success()),
-        lines: outs
-            .iter()
-            .flat_map(|o| {
-                String::from_utf8_lossy(&o.stdout)
+        .map(|o| {
+            let o = o.map_err(|e| format!("python3: {e}"))?;
+            Ok(ScriptOutcome {
+                ok: o.status.success(),
+                lines: String::from_utf8_lossy(&o.stdout)
                     .lines()
                     .filter_map(|l| serde_json::from_str(l).ok())
-                    .collect::<Vec<_>>()
+                    .collect(),
+                stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
             })
-            .collect(),
-        stderr: outs
-            .iter()
-            .map(|o| String::from_utf8_lossy(&o.stderr).into_owned())
-            .collect(),
-        clean: facts.fault.is_none() && facts.reports.is_empty(),
-        facts: facts.summary(),
+        })
+        .collect::<Result<_, String>>()?;
+    Ok(BoardRun {
+        scripts,
+        served: served.ecat,
         pcap,
     })
 }
 
-/// The release update file with the software version string replaced by `version`
-/// wherever its image holds it, and a header made for the new image and `target`.
-pub fn new_update_file(version: &str, target: &Target) -> Vec<u8> {
+/// [`run_scripts_on_veth`] with the default product's release image and one script, with
+/// the co-simulator's facts.
+pub fn run_script_against_image(
+    script: PathBuf,
+    args: Vec<OsString>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    run_script_against(
+        || image_target(load_image()?, Options::default()),
+        script,
+        vec![args],
+        pcap_name,
+        seconds,
+    )
+}
+
+/// [`run_script_against_image`] on `product`'s release image, the script run once per
+/// entry of `runs` (its arguments after the interface), one after the other against the
+/// same board; the lines of all runs, in order, and `script_ok` when every run exited 0.
+pub fn run_script_against_image_of(
+    product: &str,
+    script: PathBuf,
+    runs: Vec<Vec<OsString>>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    run_script_against(
+        || image_target(load_image_of(product)?, Options::default()),
+        script,
+        runs,
+        pcap_name,
+        seconds,
+    )
+}
+
+/// The script run once per entry of `runs` against any program on the co-simulator
+/// (`target` makes it the board's CPU: a product's release image, or a peer such as SOES).
+pub fn run_script_against(
+    target: impl FnOnce() -> Result<(Target, CosimHandle), String>,
+    script: PathBuf,
+    runs: Vec<Vec<OsString>>,
+    pcap_name: &str,
+    seconds: f64,
+) -> Result<ScriptRun, String> {
+    let (target, handle) = target()?;
+    let expected = runs.len();
+    let scripts = runs
+        .into_iter()
+        .map(|args| Script {
+            path: script.clone(),
+            args,
+        })
+        .collect();
+    let run = run_scripts_on_veth(target, scripts, pcap_name, seconds)?;
+    let facts = handle
+        .with(|c| c.facts())
+        .ok_or("the co-simulator did not start")?;
+    Ok(ScriptRun {
+        served: run.served.frames,
+        script_ok: run.scripts.len() == expected && run.scripts.iter().all(|s| s.ok),
+        lines: run.scripts.iter().flat_map(|s| s.lines.clone()).collect(),
+        stderr: run.scripts.iter().map(|s| s.stderr.as_str()).collect(),
+        clean: facts.fault.is_none() && facts.reports.is_empty(),
+        facts: facts.summary(),
+        pcap: run.pcap,
+    })
+}
+
+/// The default product's release update file with the software version string replaced by
+/// `version` wherever its image holds it, and a header made for the new image and `target`.
+pub fn new_update_file(version: &str, target: &UpdateTarget) -> Vec<u8> {
     new_update_file_of(firmware::products::default(), version, target)
 }
 
 /// [`new_update_file`] from `product`'s release update file.
-pub fn new_update_file_of(product: &Product, version: &str, target: &Target) -> Vec<u8> {
+pub fn new_update_file_of(product: &Product, version: &str, target: &UpdateTarget) -> Vec<u8> {
     let path = image_path_of(product.name).with_extension("efw");
     let efw = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let old = product.device.names.software_version.as_bytes();

@@ -79,6 +79,20 @@ pub(super) struct DcState {
     sync0_pulses: u64,
 }
 
+/// The SYNC1 period for SYNC0 cycle `cycle0` and SYNC1 "cycle time" `cycle1` (0x09A0,
+/// 0x09A4; `None` in single-shot mode, SYNC0 cycle 0).
+///
+/// 0x09A4 is the delay D of a SYNC1 pulse after a SYNC0 pulse; the counter that measures it
+/// restarts at the first SYNC0 pulse after the SYNC1 pulse, so SYNC1 repeats every
+/// `(floor(D / T0) + 1) * T0` (ESC datasheet section I, "SYNC1 cycle"; SOEM's `ecx_dcsync01`
+/// computes its start time from the same `TrueCyclTime`, Beckhoff's SSC counts SYNC0 events
+/// per SyncManager cycle the same way; research notes "oversampling" section 6). A SYNC1
+/// pulse every n SYNC0 pulses therefore needs D = (n - 1) * T0 (plus a shift below T0), the
+/// value SOEM, IgH and ethercrab write for factor n; D = n * T0 gives n + 1.
+pub fn sync1_period(cycle0: u64, cycle1: u64) -> Option<u64> {
+    (cycle0 != 0).then(|| (cycle1 / cycle0 + 1) * cycle0)
+}
+
 impl Esc {
     /// The local clock of the ESC (ns), including drift-control correction.
     pub fn dc_local_time(&self) -> u64 {
@@ -160,8 +174,10 @@ impl Esc {
                     status |= 0x01;
                 }
                 if act & 0x04 != 0 {
-                    let d = self.peek_u32(regs::DC_SYNC1_CYCLE) as u64;
-                    self.dc.next_sync1 = Some(start + d);
+                    // The first SYNC1 pulse follows the first SYNC0 pulse by 0x09A4.
+                    let first = start + u64::from(self.peek_u32(regs::DC_SYNC1_CYCLE));
+                    self.dc.next_sync1 = Some(first);
+                    self.set_u64(regs::DC_NEXT_SYNC1, first);
                     status |= 0x02;
                 }
             }
@@ -225,14 +241,7 @@ impl Esc {
                 self.set_al_event(al_event::SYNC1);
             }
             self.mem[regs::DC_ACTIVATION_STATUS as usize] &= !0x02;
-            // SYNC1 follows each SYNC0 by the SYNC1 cycle time (when shorter than SYNC0's).
-            self.dc.next_sync1 = if cycle0 == 0 {
-                None
-            } else if cycle1 < cycle0 {
-                Some(t + cycle0)
-            } else {
-                Some(t + cycle1)
-            };
+            self.dc.next_sync1 = sync1_period(cycle0, cycle1).map(|p| t + p);
             if let Some(n) = self.dc.next_sync1 {
                 self.set_u64(regs::DC_NEXT_SYNC1, n);
             }

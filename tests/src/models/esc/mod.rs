@@ -16,7 +16,7 @@ mod frame;
 mod sii;
 mod sm;
 
-pub use dc::{Sync0Fault, SyncEdge, SyncSignal};
+pub use dc::{sync1_period, Sync0Fault, SyncEdge, SyncSignal};
 pub use frame::{cmd, parse_frame, FrameBuilder, ParsedDatagram, ETHERTYPE_ECAT};
 pub use sii::{check_config_area, sii_crc8, SiiConfigError};
 
@@ -144,6 +144,20 @@ pub struct Esc {
     pub spi_faults: crate::models::spi::SpiFaults,
     /// A fault of the SYNC0 line to the MCU (none unless a test sets one).
     pub sync0_fault: Option<Sync0Fault>,
+    /// The master's AL control writes and the slave's AL status writes, in order, with
+    /// their times: how long the slave takes for each state change (the peer bench).
+    pub al_log: Vec<AlWrite>,
+}
+
+/// An AL control write by the master or an AL status write by the slave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AlWrite {
+    /// Virtual time (ns).
+    pub time_ns: u64,
+    /// [`Side::Ecat`]: AL control (0x0120); [`Side::Pdi`]: AL status (0x0130).
+    pub side: Side,
+    /// The register's value after the write.
+    pub value: u16,
 }
 
 #[derive(Default)]
@@ -170,6 +184,7 @@ impl Esc {
             spi_log: Vec::new(),
             spi_faults: Default::default(),
             sync0_fault: None,
+            al_log: Vec::new(),
         };
         esc.power_on();
         esc
@@ -438,6 +453,19 @@ impl Esc {
             }
         }
         self.run_pending(side);
+        if op.writes() {
+            let reg = match side {
+                Side::Ecat => regs::AL_CONTROL,
+                Side::Pdi => regs::AL_STATUS,
+            };
+            if addr <= u32::from(reg) && end > u32::from(reg) {
+                self.al_log.push(AlWrite {
+                    time_ns: self.now_ns,
+                    side,
+                    value: self.peek_u16(reg),
+                });
+            }
+        }
         result
     }
 

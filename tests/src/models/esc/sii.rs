@@ -4,7 +4,7 @@
 use super::{regs, Esc, Side};
 
 /// The CRC of SII word 7: polynomial 0x07, init 0xFF, MSB first, no reflection, no final
-/// XOR. The model computes it with the `crc` crate, not with `coe_core::sii::crc8`: the
+/// XOR. The model computes it from its own parameters, not with `coe_core::sii::crc8`: the
 /// SII generator's checksum is one of the things the model checks.
 pub const SII_CRC: crc::Algorithm<u8> = crc::Algorithm {
     width: 8,

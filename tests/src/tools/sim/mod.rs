@@ -39,7 +39,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 /// Shortest cycle time accepted (us). Below it a cycle's LRW + FRMW frame no longer fits
-/// between two SYNC0 edges with the PDI work of the slave (see the README).
+/// between two SYNC0 edges with the PDI work of the slave.
 pub const MIN_CYCLE_US: u32 = 25;
 /// Longest cycle time accepted (us): 0x1C32:02 and 0x09A0 are 32-bit nanoseconds.
 pub const MAX_CYCLE_US: u32 = 4_000_000;
@@ -1011,10 +1011,12 @@ pub fn run_wall_clock(
         &opts,
         &mut |s| {
             out(Line::Progress(format!(
-                "{:6.1} s: {} EtherCAT frames answered, AL status {:#06x}",
+                "{:6.1} s: {} EtherCAT frames answered, AL status {:#06x}, virtual time {:.2} ms \
+                 behind",
                 s.elapsed.as_secs_f64(),
                 s.frames,
-                s.al_status
+                s.al_status,
+                s.lag.end_ns as f64 * 1e-6
             )))
         },
     )
@@ -1034,6 +1036,7 @@ pub fn run_wall_clock(
         board.dac().borrow().output_volts(0).unwrap_or(0.0),
         board.dac().borrow().output_volts(1).unwrap_or(0.0),
     )));
+    out(Line::Result(serving_summary(&stats, sock.is_some())));
     if let Some((s, frames)) = &report.can {
         out(Line::Result(format!(
             "CAN: {frames} frames on the bus; socketcand: {} connections, {} frames in, {} out",
@@ -1050,6 +1053,29 @@ pub fn run_wall_clock(
         )));
     }
     Ok(report)
+}
+
+/// The timing of a wall-clock run: the frames' answer latency and how far the CPU's
+/// virtual time was behind the wall clock.
+pub fn serving_summary(stats: &ServeStats, frames: bool) -> String {
+    let mut s = String::new();
+    if frames {
+        s.push_str(&format!(
+            "frame answer latency (arrival on the interface to the reply's send): {}; answered \
+             at {}\n",
+            stats.latency.summary("frames"),
+            if stats.realtime {
+                format!("real-time priority (SCHED_FIFO {})", iface::ANSWER_PRIORITY)
+            } else {
+                "normal priority (real-time needs root)".to_string()
+            }
+        ));
+    }
+    s.push_str(&format!(
+        "virtual time behind the wall clock: {}",
+        stats.lag.summary(stats.elapsed)
+    ));
+    s
 }
 
 #[cfg(test)]
