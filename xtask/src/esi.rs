@@ -124,6 +124,7 @@ fn validate(xml: &Path) -> Result {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firmware::products::Product;
 
     #[test]
     fn file_stem_keeps_safe_characters_only() {
@@ -188,7 +189,7 @@ mod tests {
     fn the_minimum_cycle_is_one_figure() {
         use firmware::products::analog_io::sync::{AnalogFigures, MIN_CYCLE_TIME_NS};
         for product in firmware::products::PRODUCTS {
-            the_minimum_cycle_is_one_figure_in(product.device, MIN_CYCLE_TIME_NS);
+            the_minimum_cycle_is_one_figure_in(product, MIN_CYCLE_TIME_NS);
         }
         let monitor = firmware::stacks::ethercat::sync::SyncMonitor::<AnalogFigures>::new();
         for inputs in [false, true] {
@@ -198,10 +199,11 @@ mod tests {
         }
     }
 
-    fn the_minimum_cycle_is_one_figure_in(desc: &DeviceDescription, min_cycle_ns: u32) {
+    fn the_minimum_cycle_is_one_figure_in(product: &Product, min_cycle_ns: u32) {
+        let desc = product.device;
         assert_eq!(desc.dc.min_cycle_ns, min_cycle_ns);
         let mut xml = String::new();
-        coe_core::esi::write_esi(desc, &mut xml).unwrap();
+        coe_core::esi::write_esi_with(desc, product.oversampling, &mut xml).unwrap();
         for index in ["#x1C32", "#x1C33"] {
             let object = xml
                 .split(&format!("<Index>{index}</Index>"))

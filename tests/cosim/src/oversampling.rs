@@ -399,6 +399,39 @@ fn solve3(mut m: [[f64; 3]; 3], mut v: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|i| if m[i][i] != 0.0 { v[i] / m[i][i] } else { 0.0 })
 }
 
+/// The configurations `cargo xtask bench` measures: the fewest sample PDOs that hold a
+/// cycle's scans at 1 ms, 250 us and 100 us.
+pub const BENCH_CONFIGS: [(u64, u8); 3] = [(1_000_000, 8), (250_000, 2), (100_000, 1)];
+
+/// One line of figures of a run: samples per second (total and per channel), lost and
+/// duplicated, flagged blocks, PDI input bytes per cycle against the valid payload, CPU
+/// load over the counted cycles.
+pub fn figures(run: &OsRun) -> String {
+    let c = check_stream(run);
+    let cycles = run.blocks.len().max(1) as f64;
+    let payload = c.samples as f64 * 2.0 / cycles;
+    let busy = |f: &Facts| f.cycles.saturating_sub(f.sleep_cycles);
+    let all = run.after.cycles.saturating_sub(run.before.cycles).max(1);
+    let load = busy(&run.after).saturating_sub(busy(&run.before)) as f64 / all as f64;
+    format!(
+        "cycle {:>5} us, {} sample PDOs: {:>7.0} samples/s ({:.0} per channel), lost {}, \
+         duplicated {}, blocks flagged {}, scans/block {}..{}, input image {} B/cycle \
+         ({:.0} B of samples), CPU load {:.1} %",
+        run.config.cycle_ns / 1_000,
+        run.config.sample_pdos,
+        c.samples_per_s,
+        c.samples_per_s / CHANNELS as f64,
+        c.lost,
+        c.duplicated,
+        c.flagged_blocks,
+        c.scans_range.0,
+        c.scans_range.1,
+        run.input_bytes,
+        payload,
+        100.0 * load
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,12 +26,53 @@ static BLOCK: [EntryDesc; 5] = [
     EntryDesc::new(4, "Block time", DataType::Unsigned64, RO.tx_mappable()),
 ];
 
+/// Names of subindices 1..32 (the ESI wants the entries of an array named apart).
+const SUB_NAMES: [&str; SLOTS_PER_PDO] = [
+    "SubIndex 001",
+    "SubIndex 002",
+    "SubIndex 003",
+    "SubIndex 004",
+    "SubIndex 005",
+    "SubIndex 006",
+    "SubIndex 007",
+    "SubIndex 008",
+    "SubIndex 009",
+    "SubIndex 010",
+    "SubIndex 011",
+    "SubIndex 012",
+    "SubIndex 013",
+    "SubIndex 014",
+    "SubIndex 015",
+    "SubIndex 016",
+    "SubIndex 017",
+    "SubIndex 018",
+    "SubIndex 019",
+    "SubIndex 020",
+    "SubIndex 021",
+    "SubIndex 022",
+    "SubIndex 023",
+    "SubIndex 024",
+    "SubIndex 025",
+    "SubIndex 026",
+    "SubIndex 027",
+    "SubIndex 028",
+    "SubIndex 029",
+    "SubIndex 030",
+    "SubIndex 031",
+    "SubIndex 032",
+];
+
 /// 0x6020 + b: 32 raw AD7689 codes in conversion order (one table for the eight arrays).
 static SAMPLES: [EntryDesc; SLOTS_PER_PDO + 1] = {
     let mut out = [EntryDesc::count(SLOTS_PER_PDO as u8); SLOTS_PER_PDO + 1];
     let mut i = 1;
     while i <= SLOTS_PER_PDO {
-        out[i] = EntryDesc::new(i as u8, "Sample", DataType::Unsigned16, RO.tx_mappable());
+        out[i] = EntryDesc::new(
+            i as u8,
+            SUB_NAMES[i - 1],
+            DataType::Unsigned16,
+            RO.tx_mappable(),
+        );
         i += 1;
     }
     out
@@ -43,7 +84,7 @@ static MAPPING: [EntryDesc; SLOTS_PER_PDO + 1] = {
     let mut out = [EntryDesc::count(0); SLOTS_PER_PDO + 1];
     let mut i = 1;
     while i <= SLOTS_PER_PDO {
-        out[i] = EntryDesc::new(i as u8, "Mapped object", U32, RO);
+        out[i] = EntryDesc::new(i as u8, SUB_NAMES[i - 1], U32, RO);
         i += 1;
     }
     out
