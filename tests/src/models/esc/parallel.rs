@@ -359,7 +359,13 @@ impl et1100::MemoryBus for EscFsmcBus {
 
     fn write_u8(&mut self, offset: u16, value: u8) -> Result<(), Self::Error> {
         let odd = offset & 1 == 1;
-        let data = u16::from_le_bytes([value, value]);
+        // What the FSMC drives on the other lane does not matter to the ESC; its complement
+        // makes a lane mix-up visible.
+        let data = if odd {
+            u16::from_le_bytes([!value, value])
+        } else {
+            u16::from_le_bytes([value, !value])
+        };
         self.access(offset, (odd, !odd), Some(data));
         Ok(())
     }
