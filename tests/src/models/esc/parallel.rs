@@ -25,12 +25,14 @@
 //! BUSY: a read holds BUSY until the ESC has the data ([`BusTiming::read_ns`]); a write is
 //! taken when WR rises and stored afterwards ([`BusTiming::write_ns`], 0x0152 b1 = 0 on the
 //! ET1100), so the write itself is not held but the next access waits with BUSY until it is
-//! stored. The durations are UNCONFIRMED and live in [`BusTiming`] alone.
+//! stored. The durations are UNCONFIRMED: [`BusTiming`] takes them from the et1100 driver's
+//! `unconfirmed` module, the one place for them.
 //!
 //! Not modelled: the 8-bit µC PDI (0x09), the IRQ and BUSY driver variants other than
 //! push-pull active low, RD polarity, and what the data lines show between accesses.
 
 use super::{regs, Esc};
+use et1100::unconfirmed::ucontroller;
 
 /// 0x0140: the 16-bit asynchronous µC PDI (ESC datasheet Section II, PDI control).
 pub const PDI_ASYNC_16BIT: u8 = 0x08;
@@ -72,10 +74,10 @@ impl Lanes {
     }
 }
 
-/// How long the ESC holds BUSY. **UNCONFIRMED**: the ET1100's AC tables (Section III,
-/// asynchronous µC interface) were not found; these are the research note's working range
-/// (`research/stm32-fsmc.md` §2: 80 ns per 16-bit access without a frame competing, 260 ns
-/// when one does). Both ends are given so the benches can run at each.
+/// How long the ESC holds BUSY. **UNCONFIRMED**: the values are the et1100 driver's
+/// [`et1100::unconfirmed::ucontroller`], the one place for them (80 ns per access without a
+/// frame competing, 260 ns when one does). Both ends are given so the benches can run at
+/// each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BusTiming {
     /// From RD low to valid data (BUSY released), when no write is still being stored.
@@ -88,13 +90,13 @@ pub struct BusTiming {
 impl BusTiming {
     /// No frame competes for the ESC's memory (UNCONFIRMED, see the type).
     pub const NO_CLASH: BusTiming = BusTiming {
-        read_ns: 80,
-        write_ns: 80,
+        read_ns: ucontroller::READ_BUSY_NS as u64,
+        write_ns: ucontroller::WRITE_STORE_NS as u64,
     };
     /// Every access clashes with frame processing (UNCONFIRMED, see the type).
     pub const FRAME_CLASH: BusTiming = BusTiming {
-        read_ns: 260,
-        write_ns: 260,
+        read_ns: ucontroller::READ_BUSY_CLASH_NS as u64,
+        write_ns: ucontroller::WRITE_STORE_CLASH_NS as u64,
     };
 }
 
