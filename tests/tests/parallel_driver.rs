@@ -6,6 +6,9 @@
 
 use et1100::{BusWidth, Et1100, MemoryPdi, Pdi, SpiPdi};
 use firmware::io::analog::outputs::OutputStage;
+use firmware::platform::board;
+use firmware::platform::stm32f1::clocks::CLOCKS;
+use firmware::platform::stm32f1::{esc_pdi, fsmc};
 use firmware::products::analog_io::{application, Application, CONFIG};
 use firmware::stacks::ethercat::SlaveApp;
 use virtual_board::models::esc::parallel::{BusTiming, EscFsmcBus, FsmcCycle};
@@ -14,13 +17,16 @@ use virtual_board::models::shared_esc::SharedEsc;
 use virtual_board::models::spi::EscSpi;
 use virtual_board::rig::sii_builder::SiiBuilder;
 
-/// The FSMC's phases at 72 MHz HCLK (13.9 ns): ADDSET 1 + ADDHLD 1, DATAST 6, BUSTURN 1,
-/// as the board's BTR1 (rounded to whole ns; the board description computes the register).
-const FSMC: FsmcCycle = FsmcCycle {
-    address_ns: 28,
-    strobe_ns: 83,
-    turnaround_ns: 14,
-};
+/// The FSMC's phases from the STM32 board's BTR1 at its HCLK (address 27 ns, data 83 ns,
+/// turnaround 13 ns at 72 MHz).
+fn fsmc_cycle() -> FsmcCycle {
+    let (address, strobe, turnaround) = fsmc::TIMING.phases_ns(CLOCKS.hclk_hz());
+    FsmcCycle {
+        address_ns: address.into(),
+        strobe_ns: strobe.into(),
+        turnaround_ns: turnaround.into(),
+    }
+}
 
 /// The process image of the analog I/O's default PDOs: 2 AO (SM2), 8 AI (SM3).
 const OUTPUTS: u16 = 4;
@@ -130,10 +136,16 @@ fn assert_same(spi: &SharedEsc, par: &SharedEsc, step: &str) {
 
 #[test]
 fn the_slave_application_sees_the_same_esc_through_both_front_ends() {
-    let spi_esc = SharedEsc::new(Esc::new(EscConfig::new(sii(0x0E05, 0x0603))));
-    let par_esc = SharedEsc::new(Esc::new(EscConfig::new(sii(0x0E08, 0x0600))));
+    let spi_esc = SharedEsc::new(Esc::new(EscConfig::new(sii(
+        board::PDI.word0(),
+        board::PDI.word1(),
+    ))));
+    let par_esc = SharedEsc::new(Esc::new(EscConfig::new(sii(
+        esc_pdi::PDI.word0(),
+        esc_pdi::PDI.word1(),
+    ))));
     assert_eq!(par_esc.borrow().peek_u8(regs::PDI_CONTROL), 0x08);
-    let fsmc = EscFsmcBus::new(par_esc.clone(), BusTiming::NO_CLASH, FSMC);
+    let fsmc = EscFsmcBus::new(par_esc.clone(), BusTiming::NO_CLASH, fsmc_cycle());
     let mut spi = Side::new(spi_esc.clone(), SpiPdi::new(EscSpi::new(spi_esc.clone())));
     let mut par = Side::new(par_esc.clone(), MemoryPdi::new(fsmc, BusWidth::Bits16));
     assert_same(&spi_esc, &par_esc, "start");
@@ -188,11 +200,18 @@ fn the_slave_application_sees_the_same_esc_through_both_front_ends() {
     });
     serve(&mut spi, &mut par);
     assert_eq!(par_esc.borrow().peek_u16(regs::AL_STATUS), 0x0008);
+    let mut per_cycle = (0, 0);
     for cycle in 0..20u8 {
         both(&spi_esc, &par_esc, |e| {
             e.ecat_write(CONFIG.sm[2].start, &[cycle, 0x20, !cycle, 0x10]);
         });
+        let before = {
+            let bus = par.driver.pdi_mut().bus_mut();
+            (bus.accesses, bus.bus_ns)
+        };
         serve(&mut spi, &mut par);
+        let bus = par.driver.pdi_mut().bus_mut();
+        per_cycle = (bus.accesses - before.0, bus.bus_ns - before.1);
         let mut inputs = [vec![0u8; INPUTS.into()], vec![0u8; INPUTS.into()]];
         spi_esc
             .borrow_mut()
@@ -231,6 +250,10 @@ fn the_slave_application_sees_the_same_esc_through_both_front_ends() {
     assert!(s.word_reads > 0 && s.byte_writes > 0);
     assert_eq!(spi_esc.borrow().peek_u8(regs::PDI_ERROR_COUNTER), 0);
     eprintln!(
+        "FSMC per process-data cycle (SM2 event, outputs, inputs): {} accesses, {} ns",
+        per_cycle.0, per_cycle.1
+    );
+    eprintln!(
         "FSMC: {} accesses ({} word reads, {} byte reads, {} word writes, {} byte writes), \
          {} ns on the bus, {} ns of it BUSY",
         bus.accesses,
@@ -245,8 +268,11 @@ fn the_slave_application_sees_the_same_esc_through_both_front_ends() {
 
 #[test]
 fn fsmc_byte_accesses_through_the_driver() {
-    let esc = SharedEsc::new(Esc::new(EscConfig::new(sii(0x0E08, 0x0600))));
-    let fsmc = EscFsmcBus::new(esc.clone(), BusTiming::NO_CLASH, FSMC);
+    let esc = SharedEsc::new(Esc::new(EscConfig::new(sii(
+        esc_pdi::PDI.word0(),
+        esc_pdi::PDI.word1(),
+    ))));
+    let fsmc = EscFsmcBus::new(esc.clone(), BusTiming::NO_CLASH, fsmc_cycle());
     let mut pdi = MemoryPdi::new(fsmc, BusWidth::Bits16);
     // Odd start, odd length: a high-lane byte, a word, a low-lane byte.
     pdi.write(0x1201, &[0x11, 0x22, 0x33, 0x44]).unwrap();
