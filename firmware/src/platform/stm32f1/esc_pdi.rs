@@ -7,6 +7,7 @@
 //! `coe_core::device::PdiConfig` describes the SPI PDI only; the product on this board (a
 //! later part) needs it to describe this one too.
 
+use crate::platform::board::PDI as LPC_BOARD;
 use coe_core::device::{PinDriver, SyncPin};
 
 /// PDI type code of the 16-bit asynchronous µC interface (register 0x0140).
@@ -55,26 +56,19 @@ impl UcPdi {
 }
 
 /// The board's PDI: BUSY push-pull active low (the FSMC's NWAIT, WAITPOL 0), IRQ push-pull
-/// active low (an EXTI falling edge), SYNC0 push-pull active high (TIM8_CH1 rising-edge
-/// capture), SYNC1 pin a LATCH input, as on the LPC1754 board.
+/// active low (an EXTI falling edge); link detection, the DC units and the SYNC/LATCH pins
+/// as on the LPC1754 board (SYNC0 push-pull active high into a rising-edge capture, here
+/// TIM8_CH1; SYNC1 a LATCH input).
 pub const PDI: UcPdi = UcPdi {
-    enhanced_link_detect: true,
-    dc_sync_unit: true,
-    dc_latch_unit: true,
+    enhanced_link_detect: LPC_BOARD.enhanced_link_detect,
+    dc_sync_unit: LPC_BOARD.dc_sync_unit,
+    dc_latch_unit: LPC_BOARD.dc_latch_unit,
     busy: PinDriver::PushPullActiveLow,
     irq: PinDriver::PushPullActiveLow,
     bhe_active_high: false,
     rd_active_high: false,
-    sync0: SyncPin {
-        driver: PinDriver::PushPullActiveHigh,
-        output: true,
-        to_al_event: false,
-    },
-    sync1: SyncPin {
-        driver: PinDriver::PushPullActiveLow,
-        output: false,
-        to_al_event: false,
-    },
+    sync0: LPC_BOARD.sync0,
+    sync1: LPC_BOARD.sync1,
 };
 
 #[cfg(test)]
@@ -90,7 +84,7 @@ mod tests {
     #[test]
     fn the_sync_byte_is_the_spi_boards() {
         // Only the PDI bytes differ from the LPC1754 board (0x0E05 / 0x0603).
-        let spi = crate::platform::board::PDI;
+        let spi = LPC_BOARD;
         assert_eq!(PDI.word0() >> 8, spi.word0() >> 8);
         assert_eq!(PDI.word1() >> 8, spi.word1() >> 8);
     }

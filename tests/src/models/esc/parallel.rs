@@ -167,27 +167,7 @@ impl ParallelPort {
         adr: u16,
         bhe_asserted: bool,
     ) -> BusAccess {
-        let Some((lanes, first, len)) = self.admit(esc, adr, bhe_asserted) else {
-            return undriven(at_ns, strobe_ns);
-        };
-        let busy = self.busy_until_ns.saturating_sub(at_ns) + self.timing.read_ns;
-        let mut bytes = [0xFF; 2];
-        esc.pdi_read(first, &mut bytes[..len]);
-        let data = match lanes {
-            Lanes::Word => u16::from_le_bytes(bytes),
-            Lanes::Low => u16::from_le_bytes([bytes[0], 0xFF]),
-            Lanes::High => u16::from_le_bytes([0xFF, bytes[0]]),
-        };
-        match lanes {
-            Lanes::Word => self.stats.word_reads += 1,
-            Lanes::Low | Lanes::High => self.stats.byte_reads += 1,
-        }
-        self.stats.busy_ns += busy;
-        BusAccess {
-            data,
-            busy_ns: busy,
-            end_ns: at_ns + strobe_ns.max(busy),
-        }
+        self.access(esc, (at_ns, strobe_ns), adr, bhe_asserted, None)
     }
 
     /// A write of DATA\[15:0\] = `data` that starts at `at_ns` with WR held low for at least
@@ -201,23 +181,60 @@ impl ParallelPort {
         bhe_asserted: bool,
         data: u16,
     ) -> BusAccess {
-        let Some((lanes, first, _)) = self.admit(esc, adr, bhe_asserted) else {
-            return undriven(at_ns, strobe_ns);
+        self.access(esc, (at_ns, strobe_ns), adr, bhe_asserted, Some(data))
+    }
+
+    /// One access at `(start, strobe)`: a read, or a write of `write`.
+    fn access(
+        &mut self,
+        esc: &mut Esc,
+        (at_ns, strobe_ns): (u64, u64),
+        adr: u16,
+        bhe_asserted: bool,
+        write: Option<u16>,
+    ) -> BusAccess {
+        let Some((lanes, first, len)) = self.admit(esc, adr, bhe_asserted) else {
+            return BusAccess {
+                data: UNDRIVEN_DATA,
+                busy_ns: 0,
+                end_ns: at_ns + strobe_ns,
+            };
         };
-        let busy = self.busy_until_ns.saturating_sub(at_ns);
-        let [lo, hi] = data.to_le_bytes();
-        match lanes {
-            Lanes::Word => esc.pdi_write(first, &[lo, hi]),
-            Lanes::Low => esc.pdi_write(first, &[lo]),
-            Lanes::High => esc.pdi_write(first, &[hi]),
+        // Held until the last write is stored; a read also until its data is there.
+        let mut busy = self.busy_until_ns.saturating_sub(at_ns);
+        let data = match write {
+            None => {
+                busy += self.timing.read_ns;
+                let mut bytes = [0xFF; 2];
+                esc.pdi_read(first, &mut bytes[..len]);
+                match lanes {
+                    Lanes::Word => u16::from_le_bytes(bytes),
+                    Lanes::Low => u16::from_le_bytes([bytes[0], 0xFF]),
+                    Lanes::High => u16::from_le_bytes([0xFF, bytes[0]]),
+                }
+            }
+            Some(data) => {
+                let [lo, hi] = data.to_le_bytes();
+                match lanes {
+                    Lanes::Word => esc.pdi_write(first, &[lo, hi]),
+                    Lanes::Low => esc.pdi_write(first, &[lo]),
+                    Lanes::High => esc.pdi_write(first, &[hi]),
+                };
+                data
+            }
         };
-        match lanes {
-            Lanes::Word => self.stats.word_writes += 1,
-            Lanes::Low | Lanes::High => self.stats.byte_writes += 1,
-        }
+        let counter = match (write.is_some(), lanes) {
+            (false, Lanes::Word) => &mut self.stats.word_reads,
+            (false, _) => &mut self.stats.byte_reads,
+            (true, Lanes::Word) => &mut self.stats.word_writes,
+            (true, _) => &mut self.stats.byte_writes,
+        };
+        *counter += 1;
         self.stats.busy_ns += busy;
         let end_ns = at_ns + strobe_ns.max(busy);
-        self.busy_until_ns = end_ns + self.timing.write_ns;
+        if write.is_some() {
+            self.busy_until_ns = end_ns + self.timing.write_ns;
+        }
         BusAccess {
             data,
             busy_ns: busy,
@@ -238,15 +255,6 @@ impl ParallelPort {
         };
         let (first, len) = lanes.span(adr);
         Some((lanes, first, len))
-    }
-}
-
-/// An access the ESC does not serve: no BUSY, nothing driven.
-fn undriven(at_ns: u64, strobe_ns: u64) -> BusAccess {
-    BusAccess {
-        data: UNDRIVEN_DATA,
-        busy_ns: 0,
-        end_ns: at_ns + strobe_ns,
     }
 }
 
