@@ -4,7 +4,7 @@
 //! - SPI read command: the ET1100's minimum pause between address and data for command 2
 //!   (read without wait state) is unconfirmed (240 ns is a TMC8462 value). This driver therefore
 //!   always uses command 3 (read with one 0xFF wait-state byte), which needs no timing at all;
-//!   see [`READ_COMMAND`].
+//!   see `READ_COMMAND` in this module (crate-internal).
 //! - Maximum SPI clock and minimum SPI_SEL high time between accesses: unconfirmed for the
 //!   ET1100 (20 MHz is often quoted; the EL9800 sample waits ~250 ns between accesses). The
 //!   driver does not control them: configure the SPI peripheral (mode 3, see hardware-facts 1.1)

@@ -29,7 +29,8 @@
 //! `unconfirmed` module, the one place for them.
 //!
 //! Not modelled: the 8-bit µC PDI (0x09), the IRQ and BUSY driver variants other than
-//! push-pull active low, RD polarity, and what the data lines show between accesses.
+//! push-pull active low, BHE and RD polarity (the callers give BHE as asserted or not), and
+//! what the data lines show between accesses.
 
 use super::{regs, Esc};
 use et1100::unconfirmed::ucontroller;
