@@ -112,12 +112,11 @@ fn sdo_upload_request() -> Vec<u8> {
 }
 
 /// The ESC memory the application reaches, without the PDI configuration bytes (0x0140..
-/// 0x0153 differ by design: SPI 0x0E05/0x0603, µC 0x0E08/0x0600) and the SII CRC's
-/// EEPROM window.
+/// 0x0153 differ by design: SPI 0x0E05/0x0603, µC 0x0E08/0x0600).
 fn state(esc: &SharedEsc) -> Vec<(u16, u8)> {
     let e = esc.borrow();
     (0u16..0x3000)
-        .filter(|a| !(0x0140..0x0154).contains(a) && !(0x0502..0x0510).contains(a))
+        .filter(|a| !(0x0140..0x0154).contains(a))
         .map(|a| (a, e.peek_u8(a)))
         .collect()
 }
