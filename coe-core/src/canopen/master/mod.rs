@@ -181,6 +181,8 @@ struct NodeRuntime<const BUF: usize> {
     last_error: Option<BootError>,
     guard: GuardMaster,
     emcy: EmcyLog,
+    /// What the node showed of its identity in its last boot (0 where not read).
+    detected: Identity,
     inputs: [Input; PDOS_PER_NODE],
     outputs: [Output; PDOS_PER_NODE],
     /// Outputs to send (bit p: output place p).
@@ -206,6 +208,7 @@ impl<const BUF: usize> NodeRuntime<BUF> {
             last_error: None,
             guard: GuardMaster::new(),
             emcy: EmcyLog::default(),
+            detected: Identity::default(),
             inputs: [Input::default(); PDOS_PER_NODE],
             outputs: [Output::default(); PDOS_PER_NODE],
             pending: 0,
@@ -291,6 +294,42 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     /// The configuration of place `slot`.
     pub fn node_config(&self, slot: usize) -> Option<&NodeConfig> {
         self.nodes.get(slot)
+    }
+
+    /// True between [`Self::start`] and [`Self::stop`].
+    pub const fn is_started(&self) -> bool {
+        self.started
+    }
+
+    /// Puts `cfg` into place `slot` (checked as [`Self::new`] checks it); only while the
+    /// master is stopped, so no boot runs on the old configuration. The place's state
+    /// (diagnosis included) starts afresh.
+    pub fn set_node_config(&mut self, slot: usize, cfg: NodeConfig) -> Result<(), ConfigError> {
+        if self.started {
+            return Err(ConfigError::Running);
+        }
+        cfg.check(self.cfg.sync_cob_id)?;
+        let (Some(place), Some(rt), Some(hb)) = (
+            self.nodes.get_mut(slot),
+            self.rt.get_mut(slot),
+            self.hb_entries.get_mut(slot),
+        ) else {
+            return Err(ConfigError::NoPlace);
+        };
+        *place = cfg;
+        *rt = NodeRuntime::new(&cfg, self.cfg.sdo_timeout_ms);
+        *hb = ConsumerEntry {
+            node: if cfg.uses_heartbeat() { cfg.node_id } else { 0 },
+            time_ms: cfg.heartbeat_consumer_ms,
+        };
+        Ok(())
+    }
+
+    /// What the node of place `slot` showed of its identity (0x1000, 0x1018:01..04) in its
+    /// last boot; 0 where the boot did not read it (an identity value not configured, or a
+    /// boot that stopped before).
+    pub fn detected(&self, slot: usize) -> Option<&Identity> {
+        self.rt.get(slot).map(|r| &r.detected)
     }
 
     /// Where the node of place `slot` is.
@@ -546,6 +585,7 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
             *r = NodeRuntime {
                 emcy: r.emcy,
                 last_error: r.last_error,
+                detected: r.detected,
                 ..NodeRuntime::new(n, self.cfg.sdo_timeout_ms)
             };
         }
@@ -879,6 +919,22 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
         let failure = match (op, result) {
             (BootOp::Read { check, .. }, Ok(_)) => {
                 let actual = self.rt.get(slot).map_or(0, |r| r.sdo.value_u32());
+                if let Some(r) = self.rt.get_mut(slot) {
+                    let d = &mut r.detected;
+                    match (index, sub) {
+                        (0x1000, 0) => {
+                            *d = Identity {
+                                device_type: actual,
+                                ..Identity::default()
+                            }
+                        }
+                        (0x1018, 1) => d.vendor_id = actual,
+                        (0x1018, 2) => d.product_code = actual,
+                        (0x1018, 3) => d.revision = actual,
+                        (0x1018, 4) => d.serial = actual,
+                        _ => {}
+                    }
+                }
                 check.verdict(actual).map(|e| {
                     (
                         e,

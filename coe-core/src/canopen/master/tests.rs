@@ -806,6 +806,49 @@ fn bad_configurations_are_refused() {
     );
 }
 
+#[test]
+fn places_change_only_while_stopped_and_the_identity_seen_is_kept() {
+    let mut net = Net::new(
+        MasterConfig::default(),
+        places(&[]),
+        std::vec![FakeNode::new(3)],
+    );
+    let mut bad = axis(3);
+    bad.tpdo[1] = bad.tpdo[0];
+    assert_eq!(
+        net.m.set_node_config(0, bad),
+        Err(ConfigError::DuplicateCobId)
+    );
+    assert_eq!(net.m.set_node_config(4, axis(3)), Err(ConfigError::NoPlace));
+    assert_eq!(net.m.phase(0), Some(NodePhase::Unused));
+    let mut node = axis(3);
+    node.identity.product_code = 0x0640;
+    node.identity.serial = 0x42;
+    assert_eq!(net.m.set_node_config(0, node), Ok(()));
+    assert_eq!(net.m.phase(0), Some(NodePhase::Idle));
+    net.m.start(0);
+    assert!(net.m.is_started());
+    assert_eq!(net.m.set_node_config(1, axis(4)), Err(ConfigError::Running));
+    net.run_to(100_000);
+    assert_eq!(net.take_events(), [booted(0, 3)]);
+    // Read: device type, vendor (configured), product and serial (configured); the
+    // revision was not asked for.
+    assert_eq!(
+        net.m.detected(0),
+        Some(&Identity {
+            device_type: 0x0002_0192,
+            vendor_id: 0x1234,
+            product_code: 0x0640,
+            revision: 0,
+            serial: 0x42,
+        })
+    );
+    net.m.stop();
+    assert_eq!(net.m.detected(0).map(|d| d.vendor_id), Some(0x1234));
+    assert_eq!(net.m.set_node_config(0, NodeConfig::EMPTY), Ok(()));
+    assert_eq!(net.m.phase(0), Some(NodePhase::Unused));
+}
+
 /// What one instance of the master takes in RAM (the gateway chooses N and BUF).
 #[test]
 fn footprint() {
