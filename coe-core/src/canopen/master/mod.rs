@@ -301,27 +301,22 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
         self.started
     }
 
-    /// Puts `cfg` into place `slot` (checked as [`Self::new`] checks it); only while the
-    /// master is stopped, so no boot runs on the old configuration. The place's state
-    /// (diagnosis included) starts afresh.
-    pub fn set_node_config(&mut self, slot: usize, cfg: NodeConfig) -> Result<(), ConfigError> {
+    /// Place `slot`'s configuration to change; only while the master is stopped, so no
+    /// boot runs on a configuration half written. [`Self::start`] checks every place (as
+    /// [`Self::new`] does) and leaves a place that fails its check unused: check them first
+    /// with [`Self::check`].
+    pub fn place_mut(&mut self, slot: usize) -> Result<&mut NodeConfig, ConfigError> {
         if self.started {
             return Err(ConfigError::Running);
         }
-        cfg.check(self.cfg.sync_cob_id)?;
-        let (Some(place), Some(rt), Some(hb)) = (
-            self.nodes.get_mut(slot),
-            self.rt.get_mut(slot),
-            self.hb_entries.get_mut(slot),
-        ) else {
-            return Err(ConfigError::NoPlace);
-        };
-        *place = cfg;
-        *rt = NodeRuntime::new(&cfg, self.cfg.sdo_timeout_ms);
-        *hb = ConsumerEntry {
-            node: if cfg.uses_heartbeat() { cfg.node_id } else { 0 },
-            time_ms: cfg.heartbeat_consumer_ms,
-        };
+        self.nodes.get_mut(slot).ok_or(ConfigError::NoPlace)
+    }
+
+    /// The first place whose configuration is wrong, and what is wrong with it.
+    pub fn check(&self) -> Result<(), (usize, ConfigError)> {
+        for (i, n) in self.nodes.iter().enumerate() {
+            n.check(self.cfg.sync_cob_id).map_err(|e| (i, e))?;
+        }
         Ok(())
     }
 
@@ -545,6 +540,30 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     /// Starts the master at `now_us`: SYNC, its heartbeat, and the boot of every node
     /// (after an NMT reset of communication of all nodes if so configured).
     pub fn start(&mut self, now_us: u64) {
+        // The places may have changed while stopped (`place_mut`).
+        for ((n, r), hb) in self
+            .nodes
+            .iter_mut()
+            .zip(self.rt.iter_mut())
+            .zip(self.hb_entries.iter_mut())
+        {
+            if n.check(self.cfg.sync_cob_id).is_err() {
+                *n = NodeConfig::EMPTY;
+            }
+            // What was heard of the node before the start stays (an operational node's
+            // boot begins with an L).
+            *r = NodeRuntime {
+                emcy: r.emcy,
+                last_error: r.last_error,
+                detected: r.detected,
+                state: r.state,
+                ..NodeRuntime::new(n, self.cfg.sdo_timeout_ms)
+            };
+            *hb = ConsumerEntry {
+                node: if n.uses_heartbeat() { n.node_id } else { 0 },
+                time_ms: n.heartbeat_consumer_ms,
+            };
+        }
         self.started = true;
         self.network_started = false;
         self.sync.start(now_us);

@@ -811,24 +811,24 @@ fn places_change_only_while_stopped_and_the_identity_seen_is_kept() {
     let mut net = Net::new(
         MasterConfig::default(),
         places(&[]),
-        std::vec![FakeNode::new(3)],
+        std::vec![FakeNode::new(3), FakeNode::new(4)],
     );
-    let mut bad = axis(3);
-    bad.tpdo[1] = bad.tpdo[0];
-    assert_eq!(
-        net.m.set_node_config(0, bad),
-        Err(ConfigError::DuplicateCobId)
-    );
-    assert_eq!(net.m.set_node_config(4, axis(3)), Err(ConfigError::NoPlace));
+    assert_eq!(net.m.place_mut(4).err(), Some(ConfigError::NoPlace));
     assert_eq!(net.m.phase(0), Some(NodePhase::Unused));
+    let mut bad = axis(4);
+    bad.tpdo[1] = bad.tpdo[0];
+    *net.m.place_mut(1).unwrap() = bad;
+    assert_eq!(net.m.check(), Err((1, ConfigError::DuplicateCobId)));
     let mut node = axis(3);
     node.identity.product_code = 0x0640;
     node.identity.serial = 0x42;
-    assert_eq!(net.m.set_node_config(0, node), Ok(()));
-    assert_eq!(net.m.phase(0), Some(NodePhase::Idle));
+    *net.m.place_mut(0).unwrap() = node;
     net.m.start(0);
     assert!(net.m.is_started());
-    assert_eq!(net.m.set_node_config(1, axis(4)), Err(ConfigError::Running));
+    assert_eq!(net.m.place_mut(0).err(), Some(ConfigError::Running));
+    // The wrong place is left unused; the other boots.
+    assert_eq!(net.m.phase(1), Some(NodePhase::Unused));
+    assert_eq!(net.m.node_config(1), Some(&NodeConfig::EMPTY));
     net.run_to(100_000);
     assert_eq!(net.take_events(), [booted(0, 3)]);
     // Read: device type, vendor (configured), product and serial (configured); the
@@ -845,8 +845,12 @@ fn places_change_only_while_stopped_and_the_identity_seen_is_kept() {
     );
     net.m.stop();
     assert_eq!(net.m.detected(0).map(|d| d.vendor_id), Some(0x1234));
-    assert_eq!(net.m.set_node_config(0, NodeConfig::EMPTY), Ok(()));
-    assert_eq!(net.m.phase(0), Some(NodePhase::Unused));
+    // Another node in the place: it boots after the next start.
+    *net.m.place_mut(0).unwrap() = axis(4);
+    net.m.start(net.now);
+    net.run_to(net.now + 100_000);
+    assert_eq!(net.take_events(), [booted(0, 4)]);
+    assert_eq!(net.m.phase(0), Some(NodePhase::Operational));
 }
 
 /// What one instance of the master takes in RAM (the gateway chooses N and BUF).
