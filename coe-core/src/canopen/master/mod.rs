@@ -243,11 +243,20 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     /// A master with `cfg` and the node places `nodes` (checked: the first wrong place and
     /// its problem).
     pub fn new(cfg: MasterConfig, nodes: [NodeConfig; N]) -> Result<Self, (usize, ConfigError)> {
-        // Places are reported as u8 and outputs pending as 8 bits.
-        const { assert!(N <= 255 && PDOS_PER_NODE <= 8) };
         for (i, n) in nodes.iter().enumerate() {
             n.check(cfg.sync_cob_id).map_err(|e| (i, e))?;
         }
+        Ok(Self::with_places(cfg, nodes))
+    }
+
+    /// A master with `cfg` and every place empty (to be filled with [`Self::place_mut`]).
+    pub fn unconfigured(cfg: MasterConfig) -> Self {
+        Self::with_places(cfg, [NodeConfig::EMPTY; N])
+    }
+
+    fn with_places(cfg: MasterConfig, nodes: [NodeConfig; N]) -> Self {
+        // Places are reported as u8 and outputs pending as 8 bits.
+        const { assert!(N <= 255 && PDOS_PER_NODE <= 8) };
         let hb_entries = core::array::from_fn(|i| {
             let n = nodes.get(i).copied().unwrap_or(NodeConfig::EMPTY);
             ConsumerEntry {
@@ -261,7 +270,7 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
                 cfg.sdo_timeout_ms,
             )
         });
-        Ok(Self {
+        Self {
             sync: SyncProducer::new(
                 cfg.sync_cob_id,
                 cfg.sync_period_us,
@@ -281,7 +290,7 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
             sync_pending: false,
             cursor: 0,
             stats: MasterStats::default(),
-        })
+        }
     }
 
     // ------------------------------------------------------------------ queries
@@ -310,6 +319,22 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
             return Err(ConfigError::Running);
         }
         self.nodes.get_mut(slot).ok_or(ConfigError::NoPlace)
+    }
+
+    /// Changes the master's own parameters; only while it is stopped. (A node's SDO timeout
+    /// follows at the next [`Self::start`].)
+    pub fn set_config(&mut self, cfg: MasterConfig) -> Result<(), ConfigError> {
+        if self.started {
+            return Err(ConfigError::Running);
+        }
+        self.cfg = cfg;
+        self.sync = SyncProducer::new(
+            cfg.sync_cob_id,
+            cfg.sync_period_us,
+            cfg.sync_multiplier,
+            cfg.sync_overflow,
+        );
+        Ok(())
     }
 
     /// The first place whose configuration is wrong, and what is wrong with it.

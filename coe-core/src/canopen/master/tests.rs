@@ -843,8 +843,18 @@ fn places_change_only_while_stopped_and_the_identity_seen_is_kept() {
             serial: 0x42,
         })
     );
+    assert_eq!(
+        net.m.set_config(MasterConfig::default()),
+        Err(ConfigError::Running)
+    );
     net.m.stop();
     assert_eq!(net.m.detected(0).map(|d| d.vendor_id), Some(0x1234));
+    let cfg = MasterConfig {
+        sync_period_us: 5_000,
+        ..MasterConfig::default()
+    };
+    assert_eq!(net.m.set_config(cfg), Ok(()));
+    assert_eq!(net.m.config().sync_period_us, 5_000);
     // Another node in the place: it boots after the next start.
     *net.m.place_mut(0).unwrap() = axis(4);
     net.m.start(net.now);
