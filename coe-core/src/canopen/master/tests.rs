@@ -858,8 +858,24 @@ fn places_change_only_while_stopped_and_the_identity_seen_is_kept() {
     // Another node in the place: it boots after the next start.
     *net.m.place_mut(0).unwrap() = axis(4);
     net.m.start(net.now);
+    let from = net.now;
     net.run_to(net.now + 100_000);
-    assert_eq!(net.take_events(), [booted(0, 4)]);
+    // Booted; the new parameters run: SYNCs every 5 ms, and node 4 (which sends no TPDO
+    // here) misses its synchronous TPDO.
+    let ev = net.take_events();
+    assert_eq!(ev[0], booted(0, 4));
+    assert!(
+        matches!(ev[1], MasterEvent::PdoMissing { node: 4, .. }),
+        "{ev:?}"
+    );
+    let syncs: Vec<u64> = net
+        .log
+        .iter()
+        .filter(|(t, f)| *t >= from && f.id() == 0x80)
+        .map(|(t, _)| *t)
+        .collect();
+    assert!(syncs.windows(2).all(|w| w[1] - w[0] == 5_000), "{syncs:?}");
+    assert!(syncs.len() >= 10);
     assert_eq!(net.m.phase(0), Some(NodePhase::Operational));
 }
 
