@@ -442,3 +442,37 @@ fn op_needs_every_mandatory_node() {
     );
     let _ = Value::Uint(0);
 }
+
+/// Any bytes to any entry in any state, and reads of every entry: an answer or an abort,
+/// never a panic; the master's places stay what its check accepts or the start leaves
+/// them unused.
+#[test]
+fn any_write_to_any_entry_is_answered() {
+    use crate::stacks::ethercat::Application;
+    let patterns: [&[u8]; 7] = [
+        &[],
+        &[0],
+        &[0xFF],
+        &[1, 0],
+        &[0xFF, 0xFF],
+        &[0x05, 0x01, 0x00, 0x60],
+        &[0xFF; 9],
+    ];
+    for state in [AlState::PreOp, AlState::SafeOp, AlState::Op] {
+        let mut g = Gateway::new();
+        let mut buf = [0u8; 128];
+        for object in OD.iter() {
+            for sub in 0..=object.max_subindex().saturating_add(1) {
+                for p in patterns {
+                    let _ = g.write(object.index, sub, p, state);
+                }
+                let _ = g.read(object.index, sub, &mut buf);
+                let _ = g.read(object.index, sub, &mut buf[..1]);
+            }
+        }
+        g.master.start(0);
+        g.can_call(None, 1_000_000);
+        let _ = g.check_op();
+        let _ = g.input_image();
+    }
+}
