@@ -27,6 +27,19 @@
 //! | [`device`]         | the device description (SII, ESI)                            |
 //!
 //! [`PRODUCT`]: crate::products::can_gateway::PRODUCT
+//! [`od::MAX_NODES`]: crate::products::can_gateway::od::MAX_NODES
+//! [`application::Gateway`]: crate::products::can_gateway::application::Gateway
+//! [`identity`]: crate::products::can_gateway::identity
+//! [`sync`]: crate::products::can_gateway::sync
+//! [`modules`]: crate::products::can_gateway::modules
+//! [`layout`]: crate::products::can_gateway::layout
+//! [`od`]: crate::products::can_gateway::od
+//! [`network`]: crate::products::can_gateway::network
+//! [`process_image`]: crate::products::can_gateway::process_image
+//! [`diagnosis`]: crate::products::can_gateway::diagnosis
+//! [`stage`]: crate::products::can_gateway::stage
+//! [`application`]: mod@crate::products::can_gateway::application
+//! [`device`]: crate::products::can_gateway::device
 
 pub mod application;
 pub mod device;
