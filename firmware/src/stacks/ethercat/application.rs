@@ -133,6 +133,21 @@ pub trait Application {
         Ok(())
     }
 
+    /// SAFEOP -> OP: whether the device can run its outputs now, else the AL status code of
+    /// the refusal (a gateway whose mandatory nodes do not all run yet: 0x0018, its inputs
+    /// are not valid). The default: always.
+    #[inline(always)]
+    fn check_op(&mut self) -> Result<(), AlStatusCode> {
+        Ok(())
+    }
+
+    /// In OP, at each background poll: a fault of the device that takes it to SAFEOP with
+    /// the error flag and this code (a gateway's mandatory node lost). The default: none.
+    #[inline(always)]
+    fn op_fault(&mut self) -> Option<AlStatusCode> {
+        None
+    }
+
     /// The output image of the configuration in effect (SAFEOP, OP), to read SM2 into.
     fn output_image(&mut self) -> &mut [u8];
 

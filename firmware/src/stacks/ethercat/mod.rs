@@ -257,6 +257,11 @@ impl<A: Application> SlaveApp<A> {
         if sync0 == SyncVerdict::FatalSyncError {
             self.sync_error(esc, stage, AlStatusCode::FatalSyncError, &mut out)?;
         }
+        if self.esm.state() == AlState::Op {
+            if let Some(code) = self.app.op_fault() {
+                self.local_error(esc, stage, code, &mut out)?;
+            }
+        }
         let mut events = None;
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
             let mode = self.app.sync().mode();
@@ -470,6 +475,9 @@ impl<A: Application> SlaveApp<A> {
                 }
             }
             (AlState::SafeOp, AlState::Op) => {
+                if let Err(code) = self.app.check_op() {
+                    return Ok(Err((AlState::SafeOp, code)));
+                }
                 // Accepted before the first outputs arrive; the outputs stay safe until
                 // fresh process data come in OP.
                 self.app.sync_mut().enter_op();
