@@ -27,13 +27,12 @@ use crate::io::analog::{
 use crate::platform::board::FULL_SCALE_UV;
 use crate::products::{identity_objects, merge_objects};
 use crate::stacks::diagnostics::ERROR_HISTORY;
-use crate::stacks::ethercat::sync::{SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS};
+use crate::stacks::ethercat::sync_objects;
 use coe_core::od::{
     Access, DataType, EntryDefault, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange,
 };
 use coe_core::pdo::PdoEntry;
 
-const BOOL: DataType = DataType::Boolean;
 const I16: DataType = DataType::Integer16;
 const I32: DataType = DataType::Integer32;
 const U8: DataType = DataType::Unsigned8;
@@ -216,51 +215,11 @@ static SM_TYPES: [EntryDesc; 5] = {
     out
 };
 
-/// 0x1C32 (outputs) / 0x1C33 (inputs), ETG.1020 "SM synchronisation": the subindices the
-/// application's sync monitor serves (`crate::stacks::ethercat::sync::SyncMonitor`, which a test holds
-/// to this description), with the figures of [`super::sync`] as defaults; the sync mode,
-/// calc and copy time and delay time are each object's own ([`SYNC_OUTPUT_DEFAULTS`],
-/// [`SYNC_INPUT_DEFAULTS`]).
-/// 0x0E..=0x12 (RxPDO toggle failed, cycle and SM sync distances) are optional in ETG.1020 and
-/// not measured here, so they are absent (a gap before 0x20; sub 0 stays 0x20).
-static SYNC_PARAMETERS: [EntryDesc; 15] = [
-    EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
-    EntryDesc::new(1, "Sync mode", U16, RWP),
-    EntryDesc::new(2, "Cycle time", U32, RWP).with_default(Value::Uint(0)),
-    EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
-    EntryDesc::new(4, "Sync modes supported", U16, RO)
-        .with_default(Value::Uint(SUPPORTED_MODES as u64)),
-    EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(FIGURES.min_cycle_ns)),
-    EntryDesc::new(6, "Calc and copy time", U32, RO),
-    EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
-    EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
-        min: Value::Uint(0),
-        max: Value::Uint(2),
-    }),
-    EntryDesc::new(9, "Delay time", U32, RO),
-    EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
-    EntryDesc::new(0x0B, "SM event missed", U16, RO),
-    EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
-    EntryDesc::new(0x0D, "Shift time too short", U16, RO),
-    EntryDesc::new(0x20, "Sync error", BOOL, RO),
-];
-
-/// 0x1C32's own defaults: SM-synchronous, the output path's calc and copy and delay times.
-static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = [
-    EntryDefault::new(1, SYNC_MODE_SM as u32),
-    EntryDefault::new(6, FIGURES.output_calc_copy_ns),
-    EntryDefault::new(9, FIGURES.output_delay_ns),
-];
-/// 0x1C33's own defaults: synchronous with SM2, the input path's calc and copy time.
-static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = [
-    EntryDefault::new(1, SYNC_MODE_SM2_INPUTS as u32),
-    EntryDefault::new(6, FIGURES.input_calc_copy_ns),
-    EntryDefault::new(9, 0),
-];
-
-const fn ns(value: u32) -> Value {
-    Value::Uint(value as u64)
-}
+/// 0x1C32 (outputs) / 0x1C33 (inputs), served by the slave application's sync monitor, with
+/// the figures of [`super::sync`] as defaults.
+static SYNC_PARAMETERS: [EntryDesc; 15] = sync_objects::sync_parameters(&FIGURES);
+static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = sync_objects::output_defaults(&FIGURES);
+static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = sync_objects::input_defaults(&FIGURES);
 
 const AI_NAMES: [&str; AI_CHANNELS] = [
     "AI 1", "AI 2", "AI 3", "AI 4", "AI 5", "AI 6", "AI 7", "AI 8",

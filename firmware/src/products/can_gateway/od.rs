@@ -29,7 +29,7 @@ use super::layout::SYNC_MANAGERS;
 use super::sync::FIGURES;
 use crate::products::{identity_objects, merge_objects};
 use crate::stacks::diagnostics::ERROR_HISTORY;
-use crate::stacks::ethercat::sync::{SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS};
+use crate::stacks::ethercat::sync_objects;
 use coe_core::od::{
     Access, DataType, EntryDefault, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange,
 };
@@ -476,44 +476,11 @@ static SM_TYPES: [EntryDesc; 5] = [
         .with_default(Value::Uint(SYNC_MANAGERS[3].role.sii_type() as u64)),
 ];
 
-const fn ns(value: u32) -> Value {
-    Value::Uint(value as u64)
-}
-
-/// 0x1C32 / 0x1C33 (ETG.1020 SM synchronisation), served by the slave application's sync
-/// monitor, with the gateway's figures ([`super::sync`]).
-static SYNC_PARAMETERS: [EntryDesc; 15] = [
-    EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
-    EntryDesc::new(1, "Sync mode", U16, RWP),
-    EntryDesc::new(2, "Cycle time", U32, RWP).with_default(Value::Uint(0)),
-    EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
-    EntryDesc::new(4, "Sync modes supported", U16, RO)
-        .with_default(Value::Uint(SUPPORTED_MODES as u64)),
-    EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(FIGURES.min_cycle_ns)),
-    EntryDesc::new(6, "Calc and copy time", U32, RO),
-    EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
-    EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
-        min: Value::Uint(0),
-        max: Value::Uint(2),
-    }),
-    EntryDesc::new(9, "Delay time", U32, RO),
-    EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
-    EntryDesc::new(0x0B, "SM event missed", U16, RO),
-    EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
-    EntryDesc::new(0x0D, "Shift time too short", U16, RO),
-    EntryDesc::new(0x20, "Sync error", BOOL, RO),
-];
-
-static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = [
-    EntryDefault::new(1, SYNC_MODE_SM as u32),
-    EntryDefault::new(6, FIGURES.output_calc_copy_ns),
-    EntryDefault::new(9, FIGURES.output_delay_ns),
-];
-static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = [
-    EntryDefault::new(1, SYNC_MODE_SM2_INPUTS as u32),
-    EntryDefault::new(6, FIGURES.input_calc_copy_ns),
-    EntryDefault::new(9, 0),
-];
+/// 0x1C32 (outputs) / 0x1C33 (inputs), served by the slave application's sync monitor, with
+/// the figures of [`super::sync`] as defaults.
+static SYNC_PARAMETERS: [EntryDesc; 15] = sync_objects::sync_parameters(&FIGURES);
+static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = sync_objects::output_defaults(&FIGURES);
+static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = sync_objects::input_defaults(&FIGURES);
 
 /// 0x10F3 (ETG.1020 diagnosis history).
 static DIAG_HISTORY: [EntryDesc; 5 + DIAG_MESSAGES + 1] = {

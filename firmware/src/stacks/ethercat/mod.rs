@@ -38,6 +38,7 @@ pub mod confirm;
 pub mod mailbox;
 pub mod pdi_task;
 pub mod sync;
+pub mod sync_objects;
 
 pub use application::{Application, CycleStage, DcStart, Effects};
 
