@@ -15,7 +15,6 @@ use std::f64::consts::PI;
 use std::rc::Rc;
 use std::time::Duration;
 use virtual_board::models::adc::Signal;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::tx_rx_task;
 
 /// Channels of a scan.
@@ -121,14 +120,8 @@ pub struct SineFit {
 
 /// Runs the image with the block PDOs at `config`.
 pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
-    let (mut target, handle) = image_target(image.clone(), Options::default())?;
-    let board: Board = Rc::new(RefCell::new(VirtualBoard::new({
-        let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
-        cfg.capture = false;
-        cfg
-    })));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let (target, handle) = image_target(image.clone(), Options::default())?;
+    let board: Board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
     {
         let adc = board.borrow().adc().clone();
         let mut adc = adc.borrow_mut();

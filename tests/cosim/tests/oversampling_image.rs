@@ -13,7 +13,6 @@ use lpc1754_cosim::oversampling::{ai1_samples, check_stream, fit_sine, run, Conf
 use lpc1754_cosim::run::load_image;
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::tx_rx_task;
 
 /// 10 s at 1 ms with all eight sample PDOs: every conversion, the sine rebuilt.
@@ -60,13 +59,9 @@ fn aborted(r: Result<(), Error>) -> Option<CoeAbortCode> {
 #[test]
 fn bad_block_assignments_are_refused_over_sdo() {
     let image = load_image().expect("the release image");
-    let (mut target, _handle) =
+    let (target, _handle) =
         lpc1754_cosim::run::image_target(image, Default::default()).expect("boot ROM checks");
-    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        std::mem::take(&mut target.sii),
-    ))));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let board = Rc::new(RefCell::new(target.into_board(|_| {})));
     let storage: Box<Storage> = Box::new(PduStorage::new());
     let (md, tx, rx) = master(&storage).unwrap();
     block_on(or(
