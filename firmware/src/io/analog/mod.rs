@@ -11,12 +11,14 @@
 //! | [`sampler`]      | the samples between the ADC path and the process data              |
 //! | [`adc_dma`]      | the PDI task's side of the GPDMA ring of scans                     |
 //! | [`oversampling`] | input oversampling: the sample blocks cut from the ring at DC times |
+//! | [`output_blocks`] | output oversampling: update blocks, their admission, the hand-over to the update interrupt, the LDAC grid's lock |
 //! | [`scaling`]      | codes <-> process values <-> volts                                 |
 //! | [`settings`]     | the manufacturer settings object (AI filter)                        |
 
 pub mod adc_dma;
 pub mod dac;
 pub mod objects;
+pub mod output_blocks;
 pub mod outputs;
 pub mod oversampling;
 pub mod process_data;
