@@ -24,6 +24,13 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use super::outputs::DacPair;
 
+/// Whether output oversampling is in this build: in the images of the products that offer
+/// it (`analog-io`) and on the host, as [`super::oversampling::BUILT`].
+pub const BUILT: bool = super::oversampling::BUILT;
+
+/// Updates the ring holds: none in a build without output oversampling.
+const RING_UPDATES: usize = if BUILT { MAX_UPDATES } else { 0 };
+
 /// Updates carried by one update PDO (0x7020 + u : 01..0A, AO1/AO2 interleaved).
 pub const UPDATES_PER_PDO: usize = 5;
 /// Update PDOs offered (0x1620..0x1629).
@@ -132,6 +139,36 @@ impl OutputBlocks {
     }
 }
 
+/// An LDAC grid: the update interval in PWM1 ticks and the updates per cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Grid {
+    /// P = T/n in ticks.
+    pub period: u32,
+    /// n.
+    pub updates: u32,
+}
+
+impl Grid {
+    /// No grid: one pair per cycle.
+    pub const OFF: Self = Self {
+        period: 0,
+        updates: 0,
+    };
+
+    /// In one word (period in bits 0..23, n in 24..31) for the stage.
+    pub const fn pack(self) -> u32 {
+        self.period & 0x00FF_FFFF | self.updates << 24
+    }
+
+    /// The inverse of [`Grid::pack`].
+    pub const fn unpack(word: u32) -> Self {
+        Self {
+            period: word & 0x00FF_FFFF,
+            updates: word >> 24,
+        }
+    }
+}
+
 /// PREOP -> SAFEOP: the LDAC grid for `blocks` at SYNC0 cycle `dc_cycle_ns` (`None` or 0:
 /// no DC), the update interval in PWM1 ticks, or why it cannot be served: update PDOs need
 /// DC SYNC0 (0x0030); the interval T/n must be a whole number of ticks and at least
@@ -143,7 +180,7 @@ pub fn admit(
     input_bytes: usize,
     output_bytes: usize,
     dc_cycle_ns: Option<u32>,
-) -> Result<Option<u32>, AlStatusCode> {
+) -> Result<Option<Grid>, AlStatusCode> {
     if !blocks.any() {
         return Ok(None);
     }
@@ -160,7 +197,10 @@ pub fn admit(
     if cpu > u64::from(cycle) * 8 / 10 {
         return Err(AlStatusCode::DcInvalidSyncCycleTime);
     }
-    Ok(Some(interval_ns / TICK_NS))
+    Ok(Some(Grid {
+        period: interval_ns / TICK_NS,
+        updates: n,
+    }))
 }
 
 /// Decodes the update part of an output image (`image`: n x (AO1, AO2) little-endian raw
@@ -186,7 +226,7 @@ const COUNT_MASK: u32 = 0xFF;
 /// more, the input registers are the fault path's).
 #[derive(Debug)]
 pub struct UpdateRing {
-    halves: [[AtomicU32; MAX_UPDATES]; 2],
+    halves: [[AtomicU32; RING_UPDATES]; 2],
     /// Sequence << 8 | count of the published half (`half` = sequence & 1).
     control: AtomicU32,
     /// The SYNC0 edge count the published block is for (it plays from that edge).
@@ -206,7 +246,7 @@ impl UpdateRing {
     pub const fn new() -> Self {
         const Z: AtomicU32 = AtomicU32::new(0);
         Self {
-            halves: [[Z; MAX_UPDATES], [Z; MAX_UPDATES]],
+            halves: [[Z; RING_UPDATES], [Z; RING_UPDATES]],
             control: AtomicU32::new(0),
             for_edge: AtomicU32::new(0),
             underruns: AtomicU32::new(0),
@@ -215,11 +255,16 @@ impl UpdateRing {
 
     /// PDI side: publishes `pairs` as the block that plays from SYNC0 edge `edge` (the
     /// count of edges the SYNC0 task has recorded, plus one: the next edge).
+    /// A second block for the same edge is dropped: the half it would fill may be the one
+    /// playing (a block alternates halves with each publication).
     pub fn publish(&self, pairs: &[DacPair], edge: u32) {
+        if self.has_block_for(edge) {
+            return;
+        }
         let control = self.control.load(Ordering::Acquire);
         let seq = (control >> 8).wrapping_add(1);
         let half = (seq & 1) as usize;
-        let n = pairs.len().min(MAX_UPDATES);
+        let n = pairs.len().min(RING_UPDATES);
         if let Some(dst) = self.halves.get(half) {
             for (slot, pair) in dst.iter().zip(pairs.iter().take(n)) {
                 slot.store(pair.pack(), Ordering::Relaxed);
@@ -227,6 +272,12 @@ impl UpdateRing {
         }
         self.for_edge.store(edge, Ordering::Relaxed);
         self.control.store(seq << 8 | n as u32, Ordering::Release);
+    }
+
+    /// Whether a block is published for SYNC0 edge `edge` (and not stopped).
+    pub fn has_block_for(&self, edge: u32) -> bool {
+        self.control.load(Ordering::Acquire) & COUNT_MASK != 0
+            && self.for_edge.load(Ordering::Relaxed) == edge
     }
 
     /// PDI side: stops the playing (fault reaction, leaving OP).

@@ -35,7 +35,10 @@
 //! present output), and stages it for immediate application. [`AnalogOutputs`] then refuses
 //! to stage anything until fresh process data arrive in OP.
 
-use super::scaling::{ao_in_range, ao_to_dac_code, fault_value_to_dac_code};
+use super::output_blocks::Grid;
+#[cfg(any(feature = "analog-io", not(target_os = "none")))]
+use super::output_blocks::UpdateRing;
+use super::scaling::{ao_in_range, ao_to_dac_code, dac_code_to_ao, fault_value_to_dac_code};
 use crate::platform::board::AO_CHANNELS as CHANNELS;
 use crate::stacks::ethercat::application::CycleStage;
 use crate::stacks::ethercat::sync::Sync0Counts;
@@ -178,6 +181,13 @@ pub struct OutputStage {
     sync0_edges: AtomicU32,
     sync0_time_lo: AtomicU32,
     dc_mode: AtomicBool,
+    /// Output oversampling: the LDAC grid ([`Grid::pack`]; [`Grid::OFF`]: one pair per
+    /// cycle). Only in a build with it, so the others keep their layout.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    block_grid: AtomicU32,
+    /// Output oversampling: the blocks for the update interrupt.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub blocks: UpdateRing,
 }
 
 impl OutputStage {
@@ -191,7 +201,37 @@ impl OutputStage {
             sync0_edges: AtomicU32::new(0),
             sync0_time_lo: AtomicU32::new(0),
             dc_mode: AtomicBool::new(false),
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            block_grid: AtomicU32::new(0),
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            blocks: UpdateRing::new(),
         }
+    }
+
+    /// PDI side: output oversampling on `grid` ([`Grid::OFF`]: one pair per cycle as
+    /// before). The SYNC0 task starts or stops the grid at its next edge.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub fn set_block_grid(&self, grid: Grid) {
+        self.blocks.stop();
+        self.block_grid.store(grid.pack(), Ordering::Release);
+    }
+
+    /// The LDAC grid asked for.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub fn block_grid(&self) -> Grid {
+        Grid::unpack(self.block_grid.load(Ordering::Acquire))
+    }
+
+    /// The LDAC grid asked for: none in a build without output oversampling.
+    #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+    pub fn block_grid(&self) -> Grid {
+        Grid::OFF
+    }
+
+    /// Update interrupt: `pair` was written for the next LDAC edge (the pair a fault with
+    /// "keep" holds).
+    pub fn record_applied(&self, pair: DacPair) {
+        self.applied.store(pair.pack(), Ordering::Release);
     }
 
     fn publish(&self, kind: StageKind) {
@@ -215,6 +255,9 @@ impl OutputStage {
     /// computed from the applied pair and `config`, and returns it. The DAC task must be
     /// asked to apply it at once ([`DacLatch::apply_now`]).
     pub fn enter_fault(&self, config: &FaultConfig) -> DacPair {
+        // No block update may follow the fault pair.
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        self.blocks.stop();
         self.cancel();
         let pair = config.fault_pair(self.applied());
         self.pair.store(pair.pack(), Ordering::Release);
@@ -234,6 +277,11 @@ impl OutputStage {
 
     /// PDI side: SYNC0 edges latch the outputs only in DC mode (set at PREOP -> SAFEOP).
     pub fn set_dc_mode(&self, dc: bool) {
+        // Leaving SAFEOP for PREOP/INIT: the LDAC grid stops with the blocks.
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        if !dc {
+            self.set_block_grid(Grid::OFF);
+        }
         self.dc_mode.store(dc, Ordering::Release);
     }
 
@@ -353,6 +401,18 @@ impl DacLatch {
     /// that find none are counted), else nothing. Needs no time, so it comes first.
     pub fn latch_at_sync0(&mut self, stage: &OutputStage) -> DacAction {
         if !stage.dc_mode() {
+            return DacAction::Keep;
+        }
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        if stage.block_grid() != Grid::OFF {
+            // The update interrupt plays the blocks; a fault pair is applied at once.
+            let next = stage.sync0_edges.load(Ordering::Relaxed).wrapping_add(1);
+            if !stage.blocks.has_block_for(next) {
+                let n = stage.without_outputs.load(Ordering::Relaxed);
+                stage
+                    .without_outputs
+                    .store(n.wrapping_add(1), Ordering::Relaxed);
+            }
             return DacAction::Keep;
         }
         match self.fresh(stage) {
@@ -491,6 +551,13 @@ impl AnalogOutputs {
             newly_out_of_range,
             out_of_range: bad,
         }
+    }
+
+    /// Output oversampling: the last update of a block published in OP (0x6411 reads it;
+    /// the update interrupt applies the block).
+    pub fn set_block_values(&mut self, pair: DacPair) {
+        self.values = [dac_code_to_ao(pair.a), dac_code_to_ao(pair.b)];
+        self.enabled = true;
     }
 
     /// The fault reaction (watchdog, leaving OP): disables the outputs until fresh data

@@ -80,7 +80,7 @@ static SAMPLES: [EntryDesc; SLOTS_PER_PDO + 1] = {
 
 /// The entries of the fixed mapping objects: sub 0 and up to 32 read-only entries (each
 /// object's own defaults say how many and which).
-static MAPPING: [EntryDesc; SLOTS_PER_PDO + 1] = {
+pub(super) static MAPPING: [EntryDesc; SLOTS_PER_PDO + 1] = {
     let mut out = [EntryDesc::count(0); SLOTS_PER_PDO + 1];
     let mut i = 1;
     while i <= SLOTS_PER_PDO {
@@ -179,15 +179,18 @@ static SETTINGS: [EntryDesc; 5] = [
     EntryDesc::new(6, "Input block lead (ns)", U32, RO).with_default(Value::Uint(LEAD_NS as u64)),
 ];
 
-/// The sample PDOs as one replicated PDO (ETG.2000 `OSFac`..): the ESI and the SII list
-/// 0x1A20 once, with factors 1..8; the dictionary holds all eight.
+/// The sample and update PDOs as replicated PDOs (ETG.2000 `OSFac`..): the ESI and the SII
+/// list 0x1A20 (factors 1..8) and 0x1620 (1..10) once; the dictionary holds them all.
 pub static OVERSAMPLING: Oversampling = Oversampling {
-    replicas: &[PdoReplicas {
-        base: SAMPLE_PDO,
-        default_factor: SAMPLE_PDOS as u8,
-        min_factor: 1,
-        max_factor: SAMPLE_PDOS as u8,
-        index_increment: 1,
-    }],
+    replicas: &[
+        super::output_oversampling::REPLICAS,
+        PdoReplicas {
+            base: SAMPLE_PDO,
+            default_factor: SAMPLE_PDOS as u8,
+            min_factor: 1,
+            max_factor: SAMPLE_PDOS as u8,
+            index_increment: 1,
+        },
+    ],
     op_modes: &[],
 };

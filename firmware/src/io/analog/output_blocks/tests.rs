@@ -64,11 +64,34 @@ fn blocks(update_pdos: u8) -> OutputBlocks {
 #[test]
 fn admission_refuses_what_cannot_be_served() {
     // 1 ms, 50 updates: 20 us, 2 000 ticks.
-    assert_eq!(admit(&blocks(10), 0, 200, Some(1_000_000)), Ok(Some(2_000)));
+    assert_eq!(
+        admit(&blocks(10), 0, 200, Some(1_000_000)),
+        Ok(Some(Grid {
+            period: 2_000,
+            updates: 50
+        }))
+    );
     // 1 ms, 20 updates (50 us), with the full input stream (526 B).
-    assert_eq!(admit(&blocks(4), 526, 80, Some(1_000_000)), Ok(Some(5_000)));
+    assert_eq!(
+        admit(&blocks(4), 526, 80, Some(1_000_000)),
+        Ok(Some(Grid {
+            period: 5_000,
+            updates: 20
+        }))
+    );
     // 250 us, 5 updates: 50 us.
-    assert_eq!(admit(&blocks(1), 142, 20, Some(250_000)), Ok(Some(5_000)));
+    assert_eq!(
+        admit(&blocks(1), 142, 20, Some(250_000)),
+        Ok(Some(Grid {
+            period: 5_000,
+            updates: 5
+        }))
+    );
+    let g = Grid {
+        period: 100_000,
+        updates: 50,
+    };
+    assert_eq!(Grid::unpack(g.pack()), g);
     // Nothing assigned: nothing to check.
     assert_eq!(admit(&OutputBlocks::NONE, 0, 4, None), Ok(None));
     // No DC.
@@ -237,4 +260,24 @@ fn the_grid_locks_to_the_edge_in_one_correction() {
             assert!(m > lock.mr4(), "offset {offset}");
         }
     }
+}
+
+#[test]
+fn a_second_block_for_the_same_edge_is_dropped() {
+    let ring = UpdateRing::new();
+    let mut p = UpdatePlayer::new(2);
+    ring.publish(&pairs(0, 2), 1);
+    p.on_sync0();
+    assert_eq!(p.after_edge(&ring, 0), None);
+    assert_eq!(p.after_edge(&ring, 0), Some(DacPair::new(0, 100)));
+    // Edge 1: block 1 plays; block 2 comes, then another for edge 2 (dropped: it would
+    // overwrite the half playing).
+    p.on_sync0();
+    ring.publish(&pairs(20, 2), 2);
+    ring.publish(&pairs(50, 2), 2);
+    assert!(ring.has_block_for(2));
+    assert_eq!(p.after_edge(&ring, 1), Some(DacPair::new(1, 101)));
+    assert_eq!(p.after_edge(&ring, 1), Some(DacPair::new(20, 120)));
+    p.on_sync0();
+    assert_eq!(p.after_edge(&ring, 2), Some(DacPair::new(21, 121)));
 }
