@@ -244,9 +244,8 @@ impl Default for UpdateRing {
 impl UpdateRing {
     /// Empty, nothing published.
     pub const fn new() -> Self {
-        const Z: AtomicU32 = AtomicU32::new(0);
         Self {
-            halves: [[Z; RING_UPDATES], [Z; RING_UPDATES]],
+            halves: [const { [const { AtomicU32::new(0) }; RING_UPDATES] }; 2],
             control: AtomicU32::new(0),
             for_edge: AtomicU32::new(0),
             underruns: AtomicU32::new(0),
