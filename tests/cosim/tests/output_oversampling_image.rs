@@ -48,13 +48,17 @@ fn at_250_us_5_updates_per_cycle() {
     assert!(c.edge_error_max_ns <= 1_000, "{c:?}");
 }
 
-/// A factor whose interval is not whole (1 ms / 15) and one the bus cannot carry beside
-/// the inputs (50 updates at 1 ms) are refused at PRE-OP -> SAFE-OP with their codes.
+/// A factor whose interval is not whole (1 ms / 15) and those the bus and the CPU cannot
+/// carry beside the inputs (30 and 50 updates at 1 ms) are refused at PRE-OP -> SAFE-OP
+/// with their codes.
 #[test]
 fn factors_the_cycle_cannot_serve_are_refused() {
     let image = load_image().expect("the release image");
     let e = run(&image, config(1_000_000, 8, 3, 10)).unwrap_err();
     assert!(e.contains("AL status code 0x001d"), "{e}");
     let e = run(&image, config(1_000_000, 8, 10, 10)).unwrap_err();
+    assert!(e.contains("AL status code 0x0035"), "{e}");
+    // 30 updates would need more than 80 % of the cycle beside the input stream.
+    let e = run(&image, config(1_000_000, 8, 6, 10)).unwrap_err();
     assert!(e.contains("AL status code 0x0035"), "{e}");
 }

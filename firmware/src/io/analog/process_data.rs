@@ -335,11 +335,15 @@ impl ProcessData {
 
     /// The same, with the output oversampling PDOs (`super::output_blocks`) offered in
     /// 0x1C12 (a build without them ignores it).
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
     pub fn with_output_blocks(mut self) -> Self {
-        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
-        {
-            self.output_blocks_offered = true;
-        }
+        self.output_blocks_offered = true;
+        self
+    }
+
+    /// The same: nothing to offer in a build without output oversampling.
+    #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+    pub fn with_output_blocks(self) -> Self {
         self
     }
 
