@@ -49,7 +49,7 @@ fn at_250_us_5_updates_per_cycle() {
 }
 
 /// A factor whose interval is not whole (1 ms / 15) and those the bus and the CPU cannot
-/// carry beside the inputs (30 and 50 updates at 1 ms) are refused at PRE-OP -> SAFE-OP
+/// carry beside the inputs (40 and 50 updates at 1 ms) are refused at PRE-OP -> SAFE-OP
 /// with their codes.
 #[test]
 fn factors_the_cycle_cannot_serve_are_refused() {
@@ -58,7 +58,9 @@ fn factors_the_cycle_cannot_serve_are_refused() {
     assert!(e.contains("AL status code 0x001d"), "{e}");
     let e = run(&image, config(1_000_000, 8, 10, 10)).unwrap_err();
     assert!(e.contains("AL status code 0x0035"), "{e}");
-    // 30 updates would need more than 80 % of the cycle beside the input stream.
-    let e = run(&image, config(1_000_000, 8, 6, 10)).unwrap_err();
+    // 40 updates (25 us each) would need more than 80 % of the cycle beside the input
+    // stream: refused, where an estimate of 3 us per update had admitted it and starved the
+    // watchdog.
+    let e = run(&image, config(1_000_000, 8, 8, 10)).unwrap_err();
     assert!(e.contains("AL status code 0x0035"), "{e}");
 }
