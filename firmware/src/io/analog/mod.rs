@@ -8,6 +8,7 @@
 //! | [`process_data`] | PDO mapping and assignment, the images, the fast copy per cycle    |
 //! | [`outputs`]      | outputs staged for the SYNC0 (DAC) task, latched there; the fault reaction |
 //! | [`dac`]          | the AD5663 as the DAC task drives it                               |
+//! | [`dac_pair`]     | the codes of both outputs in one word                              |
 //! | [`sampler`]      | the samples between the ADC path and the process data              |
 //! | [`adc_dma`]      | the PDI task's side of the GPDMA ring of scans                     |
 //! | [`oversampling`] | input oversampling: the sample blocks cut from the ring at DC times |
@@ -17,6 +18,7 @@
 
 pub mod adc_dma;
 pub mod dac;
+pub mod dac_pair;
 pub mod objects;
 pub mod output_blocks;
 pub mod outputs;

@@ -22,7 +22,7 @@
 use coe_core::{AlStatusCode, SdoAbortCode};
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use super::outputs::DacPair;
+use super::dac_pair::DacPair;
 
 /// Whether output oversampling is in this build: in the images of the products that offer
 /// it (`analog-io`) and on the host, as [`super::oversampling::BUILT`].

@@ -42,6 +42,7 @@ mod tests;
 use super::{Budget, ImageBuild, Product};
 use crate::io::analog::process_data::{mappings, Mapping, ProcessData, RX_PDOS, TX_PDOS};
 use crate::io::analog::AnalogIo;
+use coe_core::device::oversampling::Oversampling;
 use crate::platform::boot::layout::BOOTSTRAP_MAILBOX;
 use crate::stacks::ethercat::AppConfig;
 
@@ -54,7 +55,7 @@ pub static PRODUCT: Product = Product {
     board: &BOARD,
     update: identity::UPDATE_TARGET,
     device: &device::DEVICE,
-    oversampling: &oversampling::OVERSAMPLING,
+    oversampling: &OVERSAMPLING,
     can: None,
     // 48 KB, the most the rules allow an application: input oversampling (its 20 objects
     // with two 33-entry tables and the block cutter, about 7 KB) and output oversampling
@@ -70,6 +71,13 @@ pub static PRODUCT: Product = Product {
         opt_level: "s",
         machine_outliner: false,
     },
+};
+
+/// The sample and update PDOs as replicated PDOs (ETG.2000 `OSFac`..): the ESI and the SII
+/// list 0x1A20 (factors 1..8) and 0x1620 (1..10) once; the dictionary holds them all.
+pub static OVERSAMPLING: Oversampling = Oversampling {
+    replicas: &[output_oversampling::REPLICAS, oversampling::REPLICAS],
+    op_modes: &[],
 };
 
 /// What the slave application takes from the device description: its SyncManager layout,

@@ -10,7 +10,7 @@ use crate::io::analog::oversampling::{
     STATUS_PDO, TIME_PDO,
 };
 use crate::io::analog::AI_CHANNELS;
-use coe_core::device::oversampling::{Oversampling, PdoReplicas};
+use coe_core::device::oversampling::PdoReplicas;
 use coe_core::od::{Access, DataType, EntryDefault, EntryDesc, ObjectDesc, Value};
 use coe_core::pdo::PdoEntry;
 
@@ -179,18 +179,12 @@ static SETTINGS: [EntryDesc; 5] = [
     EntryDesc::new(6, "Input block lead (ns)", U32, RO).with_default(Value::Uint(LEAD_NS as u64)),
 ];
 
-/// The sample and update PDOs as replicated PDOs (ETG.2000 `OSFac`..): the ESI and the SII
-/// list 0x1A20 (factors 1..8) and 0x1620 (1..10) once; the dictionary holds them all.
-pub static OVERSAMPLING: Oversampling = Oversampling {
-    replicas: &[
-        super::output_oversampling::REPLICAS,
-        PdoReplicas {
-            base: SAMPLE_PDO,
-            default_factor: SAMPLE_PDOS as u8,
-            min_factor: 1,
-            max_factor: SAMPLE_PDOS as u8,
-            index_increment: 1,
-        },
-    ],
-    op_modes: &[],
+/// The sample PDOs as one replicated PDO (ETG.2000 `OSFac`..): listed once in the ESI and
+/// the SII with factors 1..8; the dictionary holds all eight.
+pub const REPLICAS: PdoReplicas = PdoReplicas {
+    base: SAMPLE_PDO,
+    default_factor: SAMPLE_PDOS as u8,
+    min_factor: 1,
+    max_factor: SAMPLE_PDOS as u8,
+    index_increment: 1,
 };
