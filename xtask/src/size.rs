@@ -148,7 +148,8 @@ pub fn run(args: &Args) -> Result {
     })?;
     println!("product: {} ({})", out.product.name, out.product.summary);
     let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
-    let sections = image::sections(&data).map_err(|e| e.to_string())?;
+    let map = crate::mcu::of(out.product.board.mcu).map;
+    let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
     println!("sections:");
     for s in sections.iter().filter(|s| s.place != Place::None) {
         let lma = s
@@ -159,9 +160,11 @@ pub fn run(args: &Args) -> Result {
         println!("  {:<16} {:#010x} {:>7} B{lma}", s.name, s.addr, s.size);
     }
     println!("application:");
-    print_usage(&out.usage, &out.budget());
-    println!("bootloader:");
-    print_usage(&out.boot.usage, &image::BOOT_BUDGET);
+    print_usage(&out.usage, &out.budget(), out.product);
+    if let Some(boot) = &out.boot {
+        println!("bootloader:");
+        print_usage(&boot.program.usage, &image::BOOT_BUDGET, out.product);
+    }
 
     let syms = symbols(&data, &sections)?;
     let named_flash: u64 = syms

@@ -110,17 +110,24 @@ pub fn run(args: &Args) -> Result {
     }
     // The images' own code, which only this target compiles, per product (its tasks), the
     // bootloader's hardware code, and the fallback ADC path (one interrupt per sample
-    // instead of the GPDMA) with the last product, so none can rot.
+    // instead of the GPDMA) with the last LPC1754 product, so none can rot.
+    let last_lpc = firmware::products::PRODUCTS
+        .iter()
+        .rposition(|p| p.board.mcu.has_bootloader());
     for (i, product) in firmware::products::PRODUCTS.iter().enumerate() {
-        let last = i + 1 == firmware::products::PRODUCTS.len();
-        let features = match last {
+        let features = match Some(i) == last_lpc {
             true => format!("{},adc-irq", product.name),
             false => product.name.to_string(),
         };
+        let mut clippy = cargo();
+        clippy
+            .args(["clippy", "--release", "-p", "firmware"])
+            .args(["--bin", crate::mcu::of(product.board.mcu).bin]);
+        if product.board.mcu.has_bootloader() {
+            clippy.args(["--bin", build::BOOT_BIN]);
+        }
         exec(
-            cargo()
-                .args(["clippy", "--release", "-p", "firmware", "--bin", build::BIN])
-                .args(["--bin", build::BOOT_BIN])
+            clippy
                 .args(["--target", build::TARGET, "--no-default-features"])
                 .args(["--features", &features])
                 .args(["--", "-D", "warnings"]),

@@ -69,7 +69,7 @@ pub static PRODUCT: Product = Product {
     name: "can-gateway",
     summary: "EtherCAT slave and CANopen master on CAN1: CAN nodes as modules (EL6751-like)",
     board: &BOARD,
-    update: identity::UPDATE_TARGET,
+    update: Some(identity::UPDATE_TARGET),
     device: &device::DEVICE,
     // No CANopen device of its own on CAN (no EDS): it is the bus's master.
     can: None,
