@@ -92,7 +92,10 @@ impl Module {
             .ecat_write(regs::AL_CONTROL, &[state, 0]);
         self.serve();
         let e = self.esc.borrow();
-        (e.peek_u16(regs::AL_STATUS), e.peek_u16(regs::AL_STATUS_CODE))
+        (
+            e.peek_u16(regs::AL_STATUS),
+            e.peek_u16(regs::AL_STATUS_CODE),
+        )
     }
 }
 
@@ -108,9 +111,7 @@ fn the_product_reaches_op_on_the_fsmc_and_answers_with_its_identity() {
     request[..6].copy_from_slice(&[10, 0, 0, 0, 0, 0x13]);
     request[6..8].copy_from_slice(&0x2000u16.to_le_bytes());
     request[8..12].copy_from_slice(&[0x40, 0x18, 0x10, 0x02]);
-    m.esc
-        .borrow_mut()
-        .ecat_write(CONFIG.sm[0].start, &request);
+    m.esc.borrow_mut().ecat_write(CONFIG.sm[0].start, &request);
     for _ in 0..3 {
         m.serve();
     }
