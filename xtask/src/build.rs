@@ -228,7 +228,7 @@ pub fn print_report(out: &Output) {
         println!(
             "BIN:        {} (the whole image, from {:#x}; no bootloader, no update file)",
             out.bin.display(),
-            mcu::of(out.product.board.mcu).map.flash.start
+            mcu::of(out.product.board.mcu()).map.flash.start
         );
         println!(
             "flash:      {} (what `cargo xtask flash --product {}` writes)",
@@ -363,7 +363,7 @@ impl Profile {
 pub fn link(product: &Product, profile: &Profile) -> Result<PathBuf> {
     setup::targets()?;
     setup::flip_link()?;
-    let bin = mcu::of(product.board.mcu).bin;
+    let bin = mcu::of(product.board.mcu()).bin;
     exec(features(
         profile
             .cargo()
@@ -424,7 +424,7 @@ fn build_bootloader(product: &Product) -> Result<PathBuf> {
 pub fn build_unchecked(args: &Args) -> Result<Output> {
     let product = args.product()?;
     let app = link(product, &Profile::of(product))?;
-    if product.board.mcu.has_bootloader() {
+    if product.board.mcu().has_bootloader() {
         build_bootloader(product)?;
     }
     finish_unchecked(product, &app, args.allow_crp)
@@ -433,7 +433,7 @@ pub fn build_unchecked(args: &Args) -> Result<Output> {
 /// The post-link steps with `app_elf` as `product`'s application (the cargo runner passes
 /// one): the bootloader is built, everything else as [`build`].
 pub fn finish(product: &'static Product, app_elf: &Path, allow_crp: bool) -> Result<Output> {
-    if product.board.mcu.has_bootloader() {
+    if product.board.mcu().has_bootloader() {
         build_bootloader(product)?;
     }
     let out = finish_unchecked(product, app_elf, allow_crp)?;
@@ -478,7 +478,7 @@ fn program(elf: &Path, base: u64, checksum: bool) -> Result<(Program, Vec<u8>)> 
 /// The image of a board without a bootloader: the application from the flash's start,
 /// vectors first; the flash image is its BIN.
 fn finish_alone(product: &'static Product, app_elf: &Path) -> Result<Output> {
-    let map = mcu::of(product.board.mcu).map;
+    let map = mcu::of(product.board.mcu()).map;
     let data = read(app_elf)?;
     let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
     let bin = image::elf_to_bin_in(&data, &sections, map.flash.start, &map.flash)
@@ -569,7 +569,7 @@ pub fn print_usage(u: &Usage, budget: &Budget, product: &Product) {
         budget.ram,
         pct(u.ram, budget.ram)
     );
-    if product.board.mcu.has_bootloader() {
+    if product.board.mcu().has_bootloader() {
         println!(
             "  stack:      up to {} B (the rest of the local SRAM below the statics, flip-link; top 40 B reserved for IAP and the boot request)",
             image::RAM.len - 40 - u.ram
@@ -577,7 +577,7 @@ pub fn print_usage(u: &Usage, budget: &Budget, product: &Product) {
     } else {
         println!(
             "  stack:      up to {} B (the rest of the SRAM below the statics, flip-link)",
-            mcu::of(product.board.mcu).map.ram.len - u.ram
+            mcu::of(product.board.mcu()).map.ram.len - u.ram
         );
     }
     if u.ahbsram > 0 {

@@ -170,7 +170,7 @@ struct Prepared {
 impl Prepared {
     /// The chip's tool facts.
     fn mcu(&self) -> mcu::McuTools {
-        mcu::of(self.image.product.board.mcu)
+        mcu::of(self.image.product.board.mcu())
     }
 }
 
@@ -252,7 +252,7 @@ fn prepare(product: Option<&str>, elf: Option<&Path>, allow_crp_lock: bool) -> R
     };
     // The algorithm that may write a lock value only for an image that carries one (and was
     // allowed to by xtask build); every other image gets the refusing one.
-    let description = if mcu::of(image.product.board.mcu).probe_rs_builtin {
+    let description = if mcu::of(image.product.board.mcu()).probe_rs_builtin {
         None
     } else {
         Some(write_description(image.crp_protects())?)

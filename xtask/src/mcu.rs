@@ -48,7 +48,7 @@ mod tests {
     #[test]
     fn each_product_has_its_binary_and_map() {
         for p in firmware::products::PRODUCTS {
-            let t = of(p.board.mcu);
+            let t = of(p.board.mcu());
             assert!(t.map.flash.len >= u64::from(p.budget.flash), "{}", p.name);
             // The firmware's Cargo.toml has the binary.
             let manifest = include_str!("../../firmware/Cargo.toml");

@@ -148,7 +148,7 @@ pub fn run(args: &Args) -> Result {
     })?;
     println!("product: {} ({})", out.product.name, out.product.summary);
     let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
-    let map = crate::mcu::of(out.product.board.mcu).map;
+    let map = crate::mcu::of(out.product.board.mcu()).map;
     let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
     println!("sections:");
     for s in sections.iter().filter(|s| s.place != Place::None) {

@@ -113,7 +113,7 @@ pub fn run(args: &Args) -> Result {
     // instead of the GPDMA) with the last LPC1754 product, so none can rot.
     let last_lpc = firmware::products::PRODUCTS
         .iter()
-        .rposition(|p| p.board.mcu.has_bootloader());
+        .rposition(|p| p.board.mcu().has_bootloader());
     for (i, product) in firmware::products::PRODUCTS.iter().enumerate() {
         let features = match Some(i) == last_lpc {
             true => format!("{},adc-irq", product.name),
@@ -122,8 +122,8 @@ pub fn run(args: &Args) -> Result {
         let mut clippy = cargo();
         clippy
             .args(["clippy", "--release", "-p", "firmware"])
-            .args(["--bin", crate::mcu::of(product.board.mcu).bin]);
-        if product.board.mcu.has_bootloader() {
+            .args(["--bin", crate::mcu::of(product.board.mcu()).bin]);
+        if product.board.mcu().has_bootloader() {
             clippy.args(["--bin", build::BOOT_BIN]);
         }
         exec(

@@ -24,14 +24,22 @@ pub struct Board {
     pub revision: u32,
     /// The parts fitted that a product may need ([`Options`]).
     pub options: Options,
-    /// The microcontroller: which image binary, memory map and probe target.
-    pub mcu: Mcu,
 }
 
 impl Board {
+    /// The microcontroller: which image binary, memory map and probe target. It follows
+    /// from the design (a design is one MCU, memory map and wiring); a design of a new MCU
+    /// adds its line here, every other is the LPC1754's.
+    pub const fn mcu(&self) -> Mcu {
+        match self.design {
+            STM32F103_ANALOG => Mcu::Stm32f103vc,
+            _ => Mcu::Lpc1754,
+        }
+    }
+
     /// The ESC's PDI as the board wires it (the SII's words 0..3 of its products).
     pub const fn pdi(&self) -> PdiConfig {
-        match self.mcu {
+        match self.mcu() {
             Mcu::Lpc1754 => PDI,
             Mcu::Stm32f103vc => crate::platform::stm32f1::esc_pdi::PDI,
         }
@@ -100,7 +108,6 @@ pub const THESIS: Board = Board {
     design: LPC1754_ANALOG,
     revision: 1,
     options: Options::NONE,
-    mcu: Mcu::Lpc1754,
 };
 
 /// The thesis board with the CAN transceiver fitted on CAN1.
@@ -121,7 +128,6 @@ pub const STM32_FSMC: Board = Board {
     design: STM32F103_ANALOG,
     revision: 1,
     options: Options::NONE,
-    mcu: Mcu::Stm32f103vc,
 };
 
 /// Analog inputs (AD7689 channels).
@@ -170,6 +176,15 @@ pub const EEPROM_BYTES: u32 = 2048;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_design_has_its_mcu_and_pdi() {
+        assert_eq!(THESIS.mcu(), Mcu::Lpc1754);
+        assert_eq!(THESIS_CAN.mcu(), Mcu::Lpc1754);
+        assert_eq!(STM32_FSMC.mcu(), Mcu::Stm32f103vc);
+        assert_eq!(THESIS.pdi().word0(), 0x0E05);
+        assert_eq!(STM32_FSMC.pdi().word0(), 0x0E08);
+    }
 
     #[test]
     fn the_can_assembly_covers_what_the_plain_one_has() {

@@ -244,7 +244,7 @@ mod tests {
         for p in PRODUCTS {
             assert_eq!(
                 p.update.is_some(),
-                p.board.mcu.has_bootloader(),
+                p.board.mcu().has_bootloader(),
                 "{}",
                 p.name
             );
@@ -259,12 +259,12 @@ mod tests {
             // FoE in the mailbox exactly where there is a bootloader to take the files.
             assert_eq!(
                 p.device.mailbox.protocols.0 & coe_core::device::MailboxProtocols::FOE != 0,
-                p.board.mcu.has_bootloader(),
+                p.board.mcu().has_bootloader(),
                 "{}: FoE and the bootloader go together",
                 p.name
             );
             assert_eq!(p.device.pdi, p.board.pdi(), "{}: the board's PDI", p.name);
-            assert!(p.budget.flash <= p.board.mcu.app_flash_max());
+            assert!(p.budget.flash <= p.board.mcu().app_flash_max());
             assert_eq!(
                 p.can.is_some(),
                 p.device.od.find(0x1017).is_some(),

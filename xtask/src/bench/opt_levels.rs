@@ -97,9 +97,9 @@ fn measure(setting: &Setting, bus: &bus_cost::BusReport) -> Result<Measured> {
         };
         let data =
             std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
-        let map = crate::mcu::of(product.board.mcu).map;
+        let map = crate::mcu::of(product.board.mcu()).map;
         let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
-        let base = match product.board.mcu.has_bootloader() {
+        let base = match product.board.mcu().has_bootloader() {
             true => u64::from(APP_VECTORS),
             false => map.flash.start,
         };

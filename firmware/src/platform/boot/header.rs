@@ -449,7 +449,6 @@ mod tests {
         design: 0x1754,
         revision: 1,
         options: Options::NONE,
-        mcu: crate::platform::board::Mcu::Lpc1754,
     };
     const TARGET: Target = Target::new(0, 0x1754, &BOARD, Options::NONE);
 

@@ -146,6 +146,15 @@ pub const fn rx_destination(ring: u32, cndtr: u32) -> u32 {
 }
 
 const _: () = assert!(PERIOD_TICKS - 1 <= 0xFFFF, "TIM3 is a 16-bit timer");
+const _: () = assert!(
+    FRAME_START + FRAME_TICKS < PERIOD_TICKS,
+    "the frame ends before the next CNV"
+);
+const _: () = assert!(
+    PERIOD_TICKS - ticks(T_CONV_MAX_NS) >= ticks(ad7689::unconfirmed::T_ACQ_MIN_NS),
+    "the input acquires long enough between the end of a conversion and the next CNV"
+);
+const _: () = assert!(SAMPLE_PERIOD_NS >= ad7689::unconfirmed::T_CYC_MIN_NS);
 
 #[cfg(test)]
 mod tests {
@@ -156,11 +165,7 @@ mod tests {
         assert_eq!(TIM3_HZ, 72_000_000);
         assert_eq!(PERIOD_TICKS, 360);
         assert_eq!(CNV_FALL, 166);
-        // The frame ends before the next CNV, and the input acquires long enough: from the
-        // end of the conversion to the next CNV (AD7689 t_ACQ).
-        assert!(FRAME_START + FRAME_TICKS < PERIOD_TICKS);
-        assert!(PERIOD_TICKS - ticks(T_CONV_MAX_NS) >= ticks(ad7689::unconfirmed::T_ACQ_MIN_NS));
-        assert!(SAMPLE_PERIOD_NS >= ad7689::unconfirmed::T_CYC_MIN_NS);
+        assert_eq!((FRAME_START, FRAME_TICKS), (168, 136));
     }
 
     #[test]
