@@ -337,7 +337,10 @@ fn probe_rs_flash_commands(
     probe: Option<&ProbeSelector>,
     chip_erase: bool,
 ) -> [Command; 3] {
-    let base = format!("{:#x}", p.mcu().map.flash.start);
+    let base = match p.mcu().map.flash.start {
+        0 => "0".to_string(),
+        start => format!("{start:#x}"),
+    };
     let bin_args = |cmd: &mut Command| {
         cmd.args(["--binary-format", "bin", "--base-address", &base])
             .arg(&p.image.image);
@@ -670,6 +673,43 @@ mod tests {
             quoted(&d),
             "probe-rs download --chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin"
         );
+    }
+
+    /// A board probe-rs knows (the STM32F103): no description of ours, the image at the
+    /// start of its flash.
+    #[test]
+    fn probe_rs_commands_for_a_built_in_chip() {
+        let product = firmware::products::find("analog-io-stm32").unwrap();
+        let image =
+            PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io-stm32-flash-image.bin");
+        let p = Prepared {
+            image: build::Output {
+                product,
+                elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io-stm32"),
+                bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io-stm32.bin"),
+                usage: Usage::default(),
+                boot: None,
+                image: image.clone(),
+            },
+            description: None,
+        };
+        let [d, v, r] = probe_rs_flash_commands(&p, None, false);
+        let bin = format!(
+            "--binary-format bin --base-address 0x8000000 {}",
+            image.display()
+        );
+        assert_eq!(
+            quoted(&d),
+            format!("probe-rs download --chip STM32F103VC --verify {bin}")
+        );
+        assert_eq!(
+            quoted(&v),
+            format!("probe-rs verify --chip STM32F103VC {bin}")
+        );
+        assert_eq!(quoted(&r), "probe-rs reset --chip STM32F103VC");
+        let c = openocd_command(&p, None, "interface/stlink.cfg");
+        assert!(quoted(&c).contains("-f target/stm32f1x.cfg"));
+        assert!(quoted(&c).contains(" 0x08000000 verify reset exit"));
     }
 
     #[test]

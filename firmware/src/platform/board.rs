@@ -36,14 +36,6 @@ impl Board {
             _ => Mcu::Lpc1754,
         }
     }
-
-    /// The ESC's PDI as the board wires it (the SII's words 0..3 of its products).
-    pub const fn pdi(&self) -> PdiConfig {
-        match self.mcu() {
-            Mcu::Lpc1754 => PDI,
-            Mcu::Stm32f103vc => crate::platform::stm32f1::esc_pdi::PDI,
-        }
-    }
 }
 
 /// The microcontroller of a board, as the build and flash tools need it.
@@ -178,12 +170,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn each_design_has_its_mcu_and_pdi() {
+    fn each_design_has_its_mcu() {
         assert_eq!(THESIS.mcu(), Mcu::Lpc1754);
         assert_eq!(THESIS_CAN.mcu(), Mcu::Lpc1754);
         assert_eq!(STM32_FSMC.mcu(), Mcu::Stm32f103vc);
-        assert_eq!(THESIS.pdi().word0(), 0x0E05);
-        assert_eq!(STM32_FSMC.pdi().word0(), 0x0E08);
     }
 
     #[test]

@@ -219,6 +219,7 @@ pub(crate) use identity_objects;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::platform::board::Mcu;
     use std::collections::BTreeSet;
 
     #[test]
@@ -263,7 +264,11 @@ mod tests {
                 "{}: FoE and the bootloader go together",
                 p.name
             );
-            assert_eq!(p.device.pdi, p.board.pdi(), "{}: the board's PDI", p.name);
+            let board_pdi = match p.board.mcu() {
+                Mcu::Lpc1754 => crate::platform::board::PDI,
+                Mcu::Stm32f103vc => crate::platform::stm32f1::esc_pdi::PDI,
+            };
+            assert_eq!(p.device.pdi, board_pdi, "{}: the board's PDI", p.name);
             assert!(p.budget.flash <= p.board.mcu().app_flash_max());
             assert_eq!(
                 p.can.is_some(),

@@ -4,6 +4,7 @@
 
 use super::identity::{IDENTITY, NAMES};
 use super::od::OD;
+use crate::platform::stm32f1::esc_pdi;
 use crate::products::analog_io;
 use coe_core::device::{DeviceDescription, MailboxDesc, MailboxProtocols};
 
@@ -11,7 +12,7 @@ const ANALOG_IO: DeviceDescription = analog_io::device::description(IDENTITY, NA
 
 /// The module.
 pub static DEVICE: DeviceDescription = DeviceDescription {
-    pdi: super::BOARD.pdi(),
+    pdi: esc_pdi::PDI,
     mailbox: MailboxDesc {
         // No FoE: the board has no bootloader to take update files.
         protocols: MailboxProtocols(MailboxProtocols::COE),
