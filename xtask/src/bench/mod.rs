@@ -18,7 +18,7 @@
 //!    SOEM (root only).
 
 mod advertised;
-mod by_function;
+pub(crate) mod by_function;
 mod cm3;
 mod frames;
 mod image_rows;

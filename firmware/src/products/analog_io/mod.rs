@@ -53,7 +53,7 @@ pub static PRODUCT: Product = Product {
     name: "analog-io",
     summary: "8 AI + 2 AO on EtherCAT (CoE, FoE), the thesis board",
     board: &BOARD,
-    update: identity::UPDATE_TARGET,
+    update: Some(identity::UPDATE_TARGET),
     device: &device::DEVICE,
     oversampling: &OVERSAMPLING,
     can: None,
