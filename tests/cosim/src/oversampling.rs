@@ -4,6 +4,8 @@
 //! repeated, status clean) and rebuilds a sine fed to AI1 from the samples and their DC
 //! times. Shared by the system test and `cargo xtask bench`.
 
+pub mod loopback;
+
 use crate::bench::{al_status, master, step_to, sync0_started, Board, Storage};
 use crate::cosim::{Facts, Options};
 use crate::image::Image;
@@ -149,8 +151,46 @@ pub struct SineFit {
     pub residual_rms_v: f64,
 }
 
-/// Runs the image with the block PDOs at `config`.
+/// What the master writes into the update PDOs (0x1620..) each cycle in OP, and what it
+/// learns from the input blocks.
+pub trait OutputMaster {
+    /// An input block as received, in order from the first cycle in OP on (a block read
+    /// twice comes twice).
+    fn received(&mut self, block: &Block);
+    /// Fills the update part of the output image for the frame of cycle `i` (n pairs of
+    /// AO1, AO2 codes, little endian). `plays_from_dc`: the DC time of the SYNC0 edge the
+    /// block plays from (the first edge after the frame), once the master knows the DC
+    /// time (from the second frame in OP on).
+    fn fill(&mut self, i: u64, plays_from_dc: Option<u64>, out: &mut [u8]);
+}
+
+/// The test pattern: [`update_pair`] for every update, whatever came in.
+struct ClimbingCodes;
+
+impl OutputMaster for ClimbingCodes {
+    fn received(&mut self, _: &Block) {}
+    fn fill(&mut self, i: u64, _: Option<u64>, out: &mut [u8]) {
+        let n = out.len() / 4;
+        for (k, b) in out.chunks_exact_mut(4).enumerate() {
+            let (a, bb) = update_pair(i, n, k);
+            b[..2].copy_from_slice(&a.to_le_bytes());
+            b[2..].copy_from_slice(&bb.to_le_bytes());
+        }
+    }
+}
+
+/// Runs the image with the block PDOs at `config`; the outputs (if any) climb by
+/// [`UPDATE_STEP`] per update.
 pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
+    run_with(image, config, &mut ClimbingCodes)
+}
+
+/// [`run`] with the outputs `outputs` writes.
+pub fn run_with(
+    image: &Image,
+    config: Config,
+    outputs: &mut dyn OutputMaster,
+) -> Result<OsRun, String> {
     let (target, handle) = image_target(image.clone(), Options::default())?;
     let board: Board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
     {
@@ -178,6 +218,7 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
     let mut before = None;
     let mut start = 0;
     let mut sync0_origin = 0;
+    let mut sync0_origin_dc = 0;
     step_to(&board, 2_000_000);
     let cycle_ns = config.cycle_ns;
     let master = async {
@@ -248,11 +289,12 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
             .await
             .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
         sync0_started(&board);
-        sync0_origin = next_sync0_virtual(&board);
+        (sync0_origin, sync0_origin_dc) = next_sync0(&board);
         let group = group
             .into_op(&md)
             .await
             .map_err(|e| refused("SAFE-OP -> OP", e))?;
+        let mut last_dc: Option<u64> = None;
         for i in 0..WARM_UP_CYCLES + config.cycles {
             if i == WARM_UP_CYCLES {
                 before = Some(facts()?);
@@ -263,11 +305,17 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
                 let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
                 let mut out = sd.outputs_raw_mut();
                 let n = config.updates();
-                for (k, b) in out.chunks_exact_mut(4).take(n).enumerate() {
-                    let (a, bb) = update_pair(i, n, k);
-                    b[..2].copy_from_slice(&a.to_le_bytes());
-                    b[2..].copy_from_slice(&bb.to_le_bytes());
-                }
+                // This frame passes the ESC about a cycle after the last one; its block
+                // plays from the first SYNC0 edge after that.
+                let plays_from_dc = last_dc.map(|dc| {
+                    let frame = dc + cycle_ns;
+                    let past_edge = (frame + cycle_ns - sync0_origin_dc % cycle_ns) % cycle_ns;
+                    frame - past_edge + cycle_ns
+                });
+                let part = out
+                    .get_mut(..4 * n)
+                    .ok_or_else(|| format!("output image of {} bytes", 4 * n))?;
+                outputs.fill(i, plays_from_dc, part);
             }
             let resp = group
                 .tx_rx_dc(&md)
@@ -279,11 +327,16 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
                     "the slave left OP at cycle {i} (AL status {status:#06x}, code {code:#06x})"
                 ));
             }
-            if i >= WARM_UP_CYCLES {
+            last_dc = Some(resp.extra.dc_system_time);
+            let block = {
                 let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
                 let img = sd.inputs_raw();
                 input_bytes = img.len();
-                blocks.push(parse_block(&img)?);
+                parse_block(&img)?
+            };
+            outputs.received(&block);
+            if i >= WARM_UP_CYCLES {
+                blocks.push(block);
             }
             // The frames: at the SYNC0 edges (shift T/2) for the input blocks alone; half a
             // cycle after them with output blocks, whose block must be in before the last
@@ -348,14 +401,15 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
     })
 }
 
-/// The virtual time of the DC unit's next SYNC0 pulse (0x0990).
-fn next_sync0_virtual(board: &Board) -> u64 {
+/// The DC unit's next SYNC0 pulse (0x0990, which the master wrote): its virtual time and
+/// its DC time.
+fn next_sync0(board: &Board) -> (u64, u64) {
     let b = board.borrow();
     let esc = b.esc().borrow();
     let mut t = [0u8; 8];
     esc.peek(virtual_board::models::esc::regs::DC_START_TIME, &mut t);
     let next = u64::from_le_bytes(t);
-    b.now_ns() + next.saturating_sub(esc.dc_system_time())
+    (b.now_ns() + next.saturating_sub(esc.dc_system_time()), next)
 }
 
 /// The output blocks' verdict.
