@@ -34,6 +34,13 @@ pub fn run(args: &Args) -> Result {
     if args.image {
         return run_image(product);
     }
+    if args.sim.oversampling.is_some() {
+        return Err(
+            "--oversampling needs --image: the host-compiled application has no ADC sample \
+             ring or LDAC timer, which the block PDOs are made of (docs/book/oversampling-loopback.md)"
+                .into(),
+        );
+    }
     cli::run(
         &args.sim,
         |echo| {

@@ -55,12 +55,17 @@ enum Command {
         #[arg(long, value_name = "US")]
         also_cycle_us: Option<u64>,
     },
-    /// Input oversampling on the image (docs/book/oversampling.md): the block PDOs at
-    /// 1 ms, 250 us and 100 us, one line of figures each.
+    /// Oversampling on the image (docs/book/oversampling.md): the block PDOs at 1 ms,
+    /// 250 us and 100 us, then the 1 kHz loop-back with oversampling at 1 ms and 250 us
+    /// (docs/book/oversampling-loopback.md), one line of figures each.
     Oversampling {
         /// Cycles per configuration.
         #[arg(long, default_value_t = 1_000)]
         cycles: u64,
+        /// Write the loop-back's input and output traces (the last periods of each run)
+        /// as JSON to FILE, for `cargo xtask bench`'s plot.
+        #[arg(long, value_name = "FILE")]
+        loopback_json: Option<std::path::PathBuf>,
     },
     /// This project's image and a peer stack (SOES, `$SOES_IMAGE` or `cargo xtask peer
     /// soes`'s output) measured the same way, and the conformance checks of both.
@@ -77,8 +82,8 @@ enum Command {
     },
 }
 
-fn oversampling(cycles: u64) -> Result<(), String> {
-    use lpc1754_cosim::oversampling::{figures, run, Config, BENCH_CONFIGS};
+fn oversampling(cycles: u64, loopback_json: Option<&std::path::Path>) -> Result<(), String> {
+    use lpc1754_cosim::oversampling::{figures, loopback, run, Config, BENCH_CONFIGS};
     let image = load_image()?;
     for (cycle_ns, sample_pdos, update_pdos) in BENCH_CONFIGS {
         let config = Config {
@@ -97,8 +102,34 @@ fn oversampling(cycles: u64) -> Result<(), String> {
             ),
         }
     }
+    let mut traces = Vec::new();
+    for (cycle_ns, sample_pdos, update_pdos) in loopback::CONFIGS {
+        let l = loopback::run(&image, cycle_ns, sample_pdos, update_pdos, cycles)?;
+        println!("{}", l.line());
+        let (input, output) = l.traces(LOOPBACK_PLOT_PERIODS);
+        traces.push(serde_json::json!({
+            "freq_hz": l.analysis.freq_hz,
+            "figures": format!(
+                "{} us cycle, {} updates/cycle: amplitude error {:+.2} %, THD {:.1} dB, latency {:.0} us",
+                cycle_ns / 1_000,
+                l.updates(),
+                100.0 * l.analysis.amplitude_error,
+                l.analysis.thd_db(),
+                l.analysis.latency_ns / 1e3
+            ),
+            "input": input,
+            "output": output,
+        }));
+    }
+    if let Some(path) = loopback_json {
+        let text = serde_json::to_string(&traces).map_err(|e| e.to_string())?;
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
     Ok(())
 }
+
+/// Periods of the sine in each panel of the loop-back plot.
+const LOOPBACK_PLOT_PERIODS: f64 = 3.0;
 
 fn bench(
     quick: bool,
@@ -164,7 +195,50 @@ fn peer_bench(
     Ok(())
 }
 
+/// `sim --oversampling N`: the 1 kHz loop-back with N updates per cycle and every
+/// conversion in, at `--cycle-us`, for `--seconds` (default 0.3) of virtual time.
+fn sim_oversampling(args: &SimArgs, updates: u16) -> Result<(), String> {
+    use lpc1754_cosim::oversampling::{figures_without_sequence, loopback, UPDATES_PER_PDO};
+    if args.iface.is_some() || args.can_port.is_some() || args.pcap.is_some() {
+        return Err(
+            "--oversampling runs the in-process master only (no --iface, --can-port or --pcap)"
+                .into(),
+        );
+    }
+    let per_pdo = UPDATES_PER_PDO as u16;
+    if updates == 0 || !updates.is_multiple_of(per_pdo) {
+        return Err(format!(
+            "--oversampling {updates}: the update PDOs carry {per_pdo} updates each, so N is a \
+             multiple of {per_pdo} (5..=50)"
+        ));
+    }
+    let cycle_ns = u64::from(args.cycle_us) * 1_000;
+    let sample_pdos = loopback::sample_pdos_for(cycle_ns);
+    let seconds = args.seconds.unwrap_or(0.3);
+    let cycles = (seconds * 1e9 / cycle_ns as f64).ceil() as u64;
+    println!(
+        "loop-back with oversampling on the image: {} us cycle, {sample_pdos} sample PDOs, \
+         {updates} updates/cycle, {cycles} cycles; a {:.0} Hz sine on AI1 (ignores --freq, \
+         --amplitude, --offset, --ai, --ao)",
+        args.cycle_us,
+        loopback::SINE_HZ
+    );
+    let image = load_image()?;
+    let update_pdos = u8::try_from(updates / per_pdo).map_err(|e| e.to_string())?;
+    let l = loopback::run(&image, cycle_ns, sample_pdos, update_pdos, cycles)?;
+    println!("{}", l.line());
+    println!("{}", figures_without_sequence(&l.run));
+    print!("{}", l.run.after.summary());
+    if l.run.after.fault.is_some() || !l.run.after.reports.is_empty() {
+        return Err("the image faulted or a model reported a problem (see above)".into());
+    }
+    Ok(())
+}
+
 fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
+    if let Some(updates) = args.oversampling {
+        return sim_oversampling(args, updates);
+    }
     let handle: std::cell::RefCell<Option<CosimHandle>> = std::cell::RefCell::new(None);
     cli::run(
         args,
@@ -211,7 +285,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sim { args, log } => sim(&args, log),
-        Command::Oversampling { cycles } => oversampling(cycles),
+        Command::Oversampling {
+            cycles,
+            loopback_json,
+        } => oversampling(cycles, loopback_json.as_deref()),
         Command::Bench {
             quick,
             json,

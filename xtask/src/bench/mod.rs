@@ -74,6 +74,10 @@ pub struct Args {
     /// conformance checks of both (--quick: the short sweep; --json: the figures as JSON).
     #[arg(long, value_parser = ["soes"], conflicts_with_all = ["plot", "opt_levels", "min_cycle", "by_function"])]
     pub peer: Option<String>,
+    /// Only the oversampling group on the analog-io image (the block PDOs and the 1 kHz
+    /// loop-back with oversampling) and its plot (--plot DIR; --quick: fewer cycles).
+    #[arg(long, conflicts_with_all = ["json", "opt_levels", "min_cycle", "by_function", "peer"])]
+    pub oversampling: bool,
 }
 
 const AFTER_HELP: &str = "\
@@ -132,6 +136,16 @@ pub fn run(args: &Args) -> Result {
     if args.peer.is_some() {
         return peer::run(args.quick, args.json.as_deref());
     }
+    let plot_dir = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| build::target_dir().join("bench"));
+    if args.oversampling {
+        let (lines, png) = oversampling::lines(args.quick, &plot_dir)?;
+        print_oversampling(&lines);
+        println!("figure: {}", png.display());
+        return Ok(());
+    }
     let plan = Plan::new(args.quick);
     let cycle_ns = u64::from(CYCLE_US) * 1000;
 
@@ -156,7 +170,7 @@ pub fn run(args: &Args) -> Result {
     eprintln!("[bench] frames on a network interface (sim --image --iface, as root)");
     let frames = frames::rows(args.quick);
     eprintln!("[bench] input and output oversampling on the image (analog-io)");
-    let oversampled = oversampling::lines(args.quick)?;
+    let (oversampled, oversampled_plot) = oversampling::lines(args.quick, &plot_dir)?;
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
@@ -174,11 +188,8 @@ pub fn run(args: &Args) -> Result {
     rows.extend(image.tasks);
     rows.extend(frames);
 
-    let plot_dir = args
-        .plot
-        .clone()
-        .unwrap_or_else(|| build::target_dir().join("bench"));
-    let figures = figures(&plot_dir, &sim, &on_image)?;
+    let mut figures = figures(&plot_dir, &sim, &on_image)?;
+    figures.push(oversampled_plot);
 
     let mut notes = notes(&bus, &cpu, &derived, &adc_share, &footprint);
     notes.push(format!(
@@ -189,10 +200,7 @@ pub fn run(args: &Args) -> Result {
     ));
     notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
-    println!("\nOversampling on the image, inputs and outputs (lpc1754-cosim oversampling, docs/book/oversampling.md):");
-    for line in &oversampled {
-        println!("- {line}");
-    }
+    print_oversampling(&oversampled);
     for f in figures {
         println!("figure: {}", f.display());
     }
@@ -202,6 +210,17 @@ pub fn run(args: &Args) -> Result {
         println!("JSON: {}", path.display());
     }
     min_cycle.check()
+}
+
+/// The oversampling group's lines, under their heading.
+fn print_oversampling(lines: &[String]) {
+    println!(
+        "\nOversampling on the image, inputs, outputs and the loop-back (lpc1754-cosim \
+         oversampling, docs/book/oversampling.md, docs/book/oversampling-loopback.md):"
+    );
+    for line in lines {
+        println!("- {line}");
+    }
 }
 
 /// The image measured on the co-simulator, and the advertised-minimum rule on its shortest

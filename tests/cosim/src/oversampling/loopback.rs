@@ -201,6 +201,9 @@ impl OutputMaster for LoopbackMaster {
     }
 }
 
+/// Points of a plotted line: (ms, V).
+pub type Points = Vec<(f64, f64)>;
+
 /// A loop-back run and its figures.
 #[derive(Debug)]
 pub struct Loopback {
@@ -259,7 +262,7 @@ impl Loopback {
 
     /// The input and AO1's steps over the last `periods` periods of the window, for a plot:
     /// `(time in ms from the shown start, volts)`, the output as two points per load.
-    pub fn traces(&self, periods: f64) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    pub fn traces(&self, periods: f64) -> (Points, Points) {
         let (w0, w1) = self.analysis.window_ns;
         let start = (w1 as f64 - periods * 1e9 / SINE_HZ).max(w0 as f64) as u64;
         let ms = |t: u64| (t - start) as f64 * 1e-6;

@@ -62,6 +62,12 @@ pub struct SimArgs {
     /// The module's CANopen node-ID (1..=127).
     #[arg(long, value_name = "N", default_value_t = super::DEFAULT_NODE_ID)]
     pub node_id: u8,
+    /// The 1 kHz loop-back with oversampling, on the image only (with `--image`): N output
+    /// updates per cycle (a multiple of 5, the update PDOs carry 5 each), every conversion
+    /// in (the sample PDOs the cycle needs), the master resampling AI1 onto AO1's update
+    /// grid; --cycle-us and --seconds apply (docs/book/oversampling-loopback.md).
+    #[arg(long, value_name = "N")]
+    pub oversampling: Option<u16>,
     /// The product the board runs (`analog-io`, the default, or `analog-io-can`, which
     /// --can-port needs).
     #[arg(long, value_name = "NAME", default_value = firmware::products::default().name)]
@@ -102,6 +108,7 @@ the DAC model recorded it.
 Examples:
   cargo xtask sim
   cargo xtask sim --cycle-us 100 --freq 1000 --seconds 0.05 --pcap sim.pcap
+  cargo xtask sim --image --cycle-us 1000 --oversampling 20   # the loop-back with oversampling
   sudo ip link add vb0 type veth peer name vb1 && sudo ip link set vb0 up && sudo ip link set vb1 up
   sudo cargo xtask sim --iface vb1          # then point a master at vb0 (docs/book/getting-started-virtual.md)
   cargo xtask sim --product analog-io-can --can-port 29536   # then python-canopen (docs/book/canopen.md)";
