@@ -1,0 +1,252 @@
+#!/usr/bin/env python3
+"""SOEM through pysoem with the module's input oversampling PDOs (docs/book/oversampling.md):
+
+    python3 pysoem_oversampling.py IFACE [CYCLES [CYCLE_US [SAMPLE_PDOS]]]
+
+PRE-OP; the input assignment over SDO (0x1C13: sub 0 = 0, the block status 0x1A10, the
+block time 0x1A11, the sample PDOs 0x1A20.., sub 0 = n), as the book tells SOEM users;
+0x8000:03 (the slots it gives) read back; DC with SYNC0 every CYCLE_US (default 1000);
+config_map, which reads the assignment and the mappings over CoE and sizes the image;
+SAFE-OP, OP, and CYCLES process-data exchanges (default 1000) in a thread of their own,
+each keeping the input image as it came. Then INIT. With CYCLES 0: INIT right after OP.
+
+The blocks are judged after the run: a block read twice (the same scan counter: the master's
+frame came before the module wrote the next one) is counted once; for the others the scan
+counter must go on where the block before ended (a gap is lost samples, an overlap repeated
+ones), no status bit may be set, and the block times must lie on the scan grid. AI1's
+samples are printed with their scan counters ([counter, code], the scan counter a clock of
+32 us in the ADC's own time) for the test to compare with the ADC model's signal.
+
+One JSON object per line on stdout: {"step": ..., ...}; the last line is {"step": "done",
+"ok": true|false}. The exit code is 0 only when every step worked.
+"""
+
+import argparse
+import json
+import os
+import struct
+import sys
+import threading
+import time
+
+import pysoem
+
+# Priority of the master below the board's frame-answering thread (tools::iface).
+MASTER_PRIORITY = 30
+# Process data in SAFE-OP before asking for OP.
+SAFE_OP_S = 0.3
+STATE_US = pysoem.settings.timeouts.state
+# Block status, block time, the first sample PDO.
+STATUS_PDO, TIME_PDO, SAMPLE_PDO = 0x1A10, 0x1A11, 0x1A20
+CHANNELS = 8
+PERIOD_NS = 4000
+SCAN_NS = CHANNELS * PERIOD_NS
+# The block header: scan counter (u32), scans (u8), status (u8), block time (u64).
+HEADER = struct.Struct("<IBBQ")
+
+
+def say(**kv):
+    print(json.dumps(kv), flush=True)
+
+
+def realtime():
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(MASTER_PRIORITY))
+        return True
+    except (PermissionError, AttributeError, OSError):
+        return False
+
+
+def wait_state(master, slave, state, timeout_us=STATE_US):
+    slave.state = state
+    slave.write_state()
+    deadline = time.monotonic() + timeout_us / 1e6
+    while time.monotonic() < deadline:
+        if slave.state_check(state, 50_000) == state:
+            return True
+    master.read_state()
+    return slave.state == state
+
+
+class Cyclic(threading.Thread):
+    """One exchange per cycle, the frames kept in step with SYNC0 (half a cycle away from the
+    edges) from the DC time they bring back; every input image kept."""
+
+    def __init__(self, master, slave, cycle_ns):
+        super().__init__(daemon=True)
+        self.master, self.slave, self.cycle_ns = master, slave, cycle_ns
+        self.running = True
+        self.lock = threading.Lock()
+        self.keep = False
+        self.images = []
+        self.exchanges = self.good = 0
+        self.integral = 0
+
+    def run(self):
+        deadline = time.monotonic_ns() + self.cycle_ns
+        while self.running:
+            self.master.send_processdata()
+            wkc = self.master.receive_processdata()
+            with self.lock:
+                self.exchanges += 1
+                self.good += wkc == self.master.expected_wkc
+                if self.keep:
+                    self.images.append(bytes(self.slave.input))
+            deadline += self.cycle_ns + self.offset()
+            left = deadline - time.monotonic_ns()
+            if left > 0:
+                time.sleep(left / 1e9)
+
+    def offset(self):
+        delta = (self.master.dc_time - self.cycle_ns // 2) % self.cycle_ns
+        if delta > self.cycle_ns // 2:
+            delta -= self.cycle_ns
+        self.integral += 1 if delta > 0 else -1 if delta < 0 else 0
+        return -(delta // 100) - (self.integral // 20)
+
+    def kept(self):
+        with self.lock:
+            return len(self.images)
+
+    def stop(self):
+        self.running = False
+        self.join()
+
+
+def assign_inputs(slave, pdos):
+    """0x1C13 over SDO, entry by entry (sub 0 = 0 first, the count last)."""
+    slave.sdo_write(0x1C13, 0, bytes([0]))
+    for sub, pdo in enumerate(pdos, start=1):
+        slave.sdo_write(0x1C13, sub, struct.pack("<H", pdo))
+    slave.sdo_write(0x1C13, 0, bytes([len(pdos)]))
+
+
+def judge(images):
+    """The blocks' verdict: distinct blocks, lost and repeated scans, flagged blocks, the
+    largest distance of a block time from the scan grid, AI1's samples."""
+    blocks, repeats = [], 0
+    for img in images:
+        counter, scans, status, t = HEADER.unpack_from(img)
+        if blocks and blocks[-1][0] == counter:
+            repeats += 1
+            continue
+        blocks.append((counter, scans, status, t, img))
+    lost = duplicated = flagged = 0
+    expected = None
+    t0 = blocks[0][3] - blocks[0][0] * SCAN_NS if blocks else 0
+    off_grid = 0
+    ai1 = []
+    for counter, scans, status, t, img in blocks:
+        if expected is not None:
+            d = (counter - expected) & 0xFFFFFFFF
+            d = d - (1 << 32) if d >= 1 << 31 else d
+            if d > 0:
+                lost += d * CHANNELS
+            else:
+                duplicated += -d * CHANNELS
+        expected = (counter + scans) & 0xFFFFFFFF
+        flagged += status != 0
+        off_grid = max(off_grid, abs(t - (t0 + counter * SCAN_NS)))
+        codes = struct.unpack_from(f"<{scans * CHANNELS}H", img, HEADER.size)
+        ai1.extend((counter + i, codes[i * CHANNELS]) for i in range(scans))
+    return {
+        "blocks": len(blocks),
+        "repeated_reads": repeats,
+        "samples": sum(b[1] for b in blocks) * CHANNELS,
+        "scans_range": [min(b[1] for b in blocks), max(b[1] for b in blocks)] if blocks else [],
+        "lost": lost,
+        "duplicated": duplicated,
+        "flagged_blocks": flagged,
+        "off_grid_ns": off_grid,
+        "first_counter": blocks[0][0] if blocks else None,
+    }, ai1
+
+
+def main():
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("iface")
+    parser.add_argument("cycles", nargs="?", type=int, default=1000)
+    parser.add_argument("cycle_us", nargs="?", type=int, default=1000)
+    parser.add_argument("sample_pdos", nargs="?", type=int, default=8)
+    args = parser.parse_args()
+    cycle_ns = args.cycle_us * 1000
+    say(step="master", realtime=realtime())
+    master = pysoem.Master()
+    master.always_release_gil = True
+    master.open(args.iface)
+    try:
+        if master.config_init() != 1:
+            say(step="config_init", ok=False)
+            return False
+        slave = master.slaves[0]
+        if slave.state_check(pysoem.PREOP_STATE, STATE_US) != pysoem.PREOP_STATE:
+            say(step="preop", ok=False, al_status_code=slave.al_status)
+            return False
+        pdos = [STATUS_PDO, TIME_PDO] + [SAMPLE_PDO + b for b in range(args.sample_pdos)]
+        assign_inputs(slave, pdos)
+        assigned = [
+            struct.unpack("<H", slave.sdo_read(0x1C13, s)[:2])[0] for s in range(1, len(pdos) + 1)
+        ]
+        slots = struct.unpack("<H", slave.sdo_read(0x8000, 3)[:2])[0]
+        say(step="assign", pdos=assigned, slots=slots)
+        dc = master.config_dc()
+        slave.dc_sync(True, cycle_ns)
+        size = master.config_map()
+        say(step="config_map", found_dc=bool(dc), bytes=size, inputs=len(slave.input))
+        if not wait_state(master, slave, pysoem.SAFEOP_STATE):
+            master.read_state()
+            say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
+            return False
+        cyclic = Cyclic(master, slave, cycle_ns)
+        cyclic.start()
+        try:
+            time.sleep(SAFE_OP_S)
+            in_op = wait_state(master, slave, pysoem.OP_STATE)
+            say(step="op", ok=in_op, state=slave.state, al_status_code=slave.al_status)
+            if not in_op:
+                return False
+            if args.cycles == 0:
+                left = wait_state(master, slave, pysoem.INIT_STATE)
+                say(step="init", state=slave.state)
+                return assigned == pdos and left
+            with cyclic.lock:
+                cyclic.keep = True
+                good_before, exchanges_before = cyclic.good, cyclic.exchanges
+            while cyclic.kept() < args.cycles:
+                time.sleep(cycle_ns / 4e9)
+            with cyclic.lock:
+                cyclic.keep = False
+                images = cyclic.images[: args.cycles]
+                good = cyclic.good - good_before
+                exchanges = cyclic.exchanges - exchanges_before
+            master.read_state()
+            in_op = slave.state == pysoem.OP_STATE
+        finally:
+            cyclic.stop()
+        verdict, ai1 = judge(images)
+        ok = (
+            in_op
+            and good == exchanges
+            and verdict["lost"] == 0
+            and verdict["duplicated"] == 0
+            and verdict["flagged_blocks"] == 0
+        )
+        say(step="stream", exchanges=exchanges, good_wkc=good, state=slave.state, **verdict)
+        say(step="ai1", samples=ai1)
+        wait_state(master, slave, pysoem.INIT_STATE)
+        say(step="init", state=slave.state)
+        return ok
+    finally:
+        master.close()
+
+
+if __name__ == "__main__":
+    try:
+        ok = main()
+    except Exception as e:  # a SOEM error is a failed step, reported as such
+        say(step="error", error=repr(e))
+        ok = False
+    say(step="done", ok=bool(ok))
+    sys.exit(0 if ok else 1)

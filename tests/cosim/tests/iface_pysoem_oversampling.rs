@@ -1,0 +1,132 @@
+//! SYSTEM TEST: SOEM (pysoem, `scripts/pysoem_oversampling.py`) with the input oversampling
+//! PDOs, against the release image on the co-simulated LPC1754 served on a veth pair as
+//! `cargo xtask sim --image --iface vb1` serves it: the master assigns 0x1A10, 0x1A11 and
+//! the eight sample PDOs over SDO in PRE-OP (0x1C13), SOEM's config_map sizes the image from
+//! the mappings it reads over CoE, DC SYNC0 at 1 ms, SAFE-OP (the admission), OP.
+//!
+//! The stream itself (1 000 exchanges, every block: the scan counter contiguous, 0 lost, 0
+//! duplicated, AI1 the board's sine) is the second test. It needs a co-simulator that keeps
+//! up with the wall clock while the image serves the 250 kSPS stream, and this one does not
+//! on the project's 2-core machine (the in-process runs take about 8 s of wall time per
+//! second of virtual time under load): behind the wall clock, the CPU sees the SYNC0 edges
+//! closer together than they are, overruns and starves its watchdog half a second into OP.
+//! It is ignored and left out of `cargo xtask test`; run it by hand on a faster machine.
+//!
+//! Needs root (a network namespace, raw sockets), `ip`, python3 with pysoem and tshark, so
+//! both are ignored by default; `cargo xtask test` runs the first as root, one wall-clock
+//! test at a time.
+
+mod common;
+
+use common::{run_script_against_image, ScriptRun};
+use lpc1754_cosim::oversampling::loopback::SCAN_NS;
+use lpc1754_cosim::oversampling::{fit_sine, SINE_OFFSET_V};
+use serde_json::Value;
+use std::path::PathBuf;
+use virtual_board::tools::iface::pysoem_missing;
+use virtual_board::tools::sim::{tshark, SimConfig};
+
+/// Exchanges kept in OP by the stream test (1 s of DC cycles at 1 ms).
+const CYCLES: u32 = 1_000;
+/// The DC cycle (us) and the sample PDOs that hold its every conversion.
+const CYCLE_US: u32 = 1_000;
+const SAMPLE_PDOS: u16 = 8;
+
+fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
+    lines
+        .iter()
+        .find(|l| l["step"] == name)
+        .unwrap_or_else(|| panic!("no step {name} in {lines:?}"))
+}
+
+/// The script with `cycles` exchanges kept (0: INIT right after OP), checked up to OP: the
+/// assignment over SDO, the image SOEM sized from it, OP, INIT, a clean capture.
+fn run_to_op(cycles: u32, pcap: &'static str) -> ScriptRun {
+    if let Some(why) = pysoem_missing() {
+        panic!("this test cannot run here: {why}");
+    }
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_oversampling.py");
+    let args = [cycles, CYCLE_US, u32::from(SAMPLE_PDOS)]
+        .map(|a| a.to_string().into())
+        .to_vec();
+    let o = std::thread::spawn(move || run_script_against_image(script, args, pcap, 60.0))
+        .join()
+        .expect("namespace thread")
+        .unwrap();
+    let steps: Vec<&Value> = o.lines.iter().filter(|l| l["step"] != "ai1").collect();
+    assert!(
+        o.script_ok,
+        "pysoem failed: {steps:?}\n{}\n{}",
+        o.stderr, o.facts
+    );
+    assert!(o.clean, "{}", o.facts);
+    let assign = step(&o.lines, "assign");
+    let want: Vec<u64> = [0x1A10, 0x1A11]
+        .into_iter()
+        .chain((0..u64::from(SAMPLE_PDOS)).map(|b| 0x1A20 + b))
+        .collect();
+    assert_eq!(assign["pdos"], serde_json::json!(want));
+    assert_eq!(assign["slots"], 32 * u64::from(SAMPLE_PDOS));
+    // SOEM sized the image from the mappings: the header (14 B) and the slots.
+    assert_eq!(
+        step(&o.lines, "config_map")["inputs"],
+        14 + 64 * u64::from(SAMPLE_PDOS)
+    );
+    assert_eq!(step(&o.lines, "op")["ok"], true);
+    assert_eq!(step(&o.lines, "init")["state"], 1, "{steps:?}");
+    tshark::assert_clean(&o.pcap);
+    o
+}
+
+#[test]
+#[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]
+fn pysoem_assigns_the_oversampling_pdos_and_reaches_op_over_a_veth_pair() {
+    run_to_op(0, "iface-pysoem-oversampling-op.pcap");
+}
+
+#[test]
+#[ignore = "needs root, pysoem and a co-simulator as fast as the wall clock with the 250 kSPS stream (not this machine): run by hand"]
+fn pysoem_receives_every_conversion_through_the_oversampling_pdos_over_a_veth_pair() {
+    let o = run_to_op(CYCLES, "iface-pysoem-oversampling.pcap");
+    let stream = step(&o.lines, "stream");
+    assert_eq!(stream["good_wkc"], stream["exchanges"], "{stream}");
+    assert_eq!(stream["state"], 8, "still in OP: {stream}");
+    assert_eq!(
+        (
+            &stream["lost"],
+            &stream["duplicated"],
+            &stream["flagged_blocks"]
+        ),
+        (&Value::from(0), &Value::from(0), &Value::from(0)),
+        "{stream}"
+    );
+    assert_eq!(stream["off_grid_ns"], 0, "{stream}");
+    // Every block the master kept holds a cycle's scans (31 or 32 of 32 us in 1 ms), and
+    // most exchanges brought a new block (some read one twice when the co-simulated CPU
+    // was behind the wall clock).
+    let blocks = stream["blocks"].as_u64().unwrap();
+    assert!(blocks >= u64::from(CYCLES) / 2, "{stream}");
+    assert_eq!(
+        stream["scans_range"],
+        serde_json::json!([31, 32]),
+        "{stream}"
+    );
+    // AI1: the board's sine, on the scan counter's clock.
+    let cfg = SimConfig::default();
+    let points: Vec<(f64, f64)> = step(&o.lines, "ai1")["samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let (counter, code) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+            (counter * SCAN_NS as f64 * 1e-9, code / 65536.0 * 10.0)
+        })
+        .collect();
+    assert_eq!(points.len() as u64 * 8, stream["samples"].as_u64().unwrap());
+    let fit = fit_sine(&points, cfg.freqs_hz[0]);
+    eprintln!("{stream}\n{fit:?}");
+    assert_eq!(cfg.amplitude_v, 4.0);
+    assert_eq!(cfg.offset_v, SINE_OFFSET_V);
+    assert!(fit.amplitude_error < 0.001, "{fit:?}");
+    assert!(fit.residual_rms_v < 0.002, "{fit:?}");
+}
