@@ -22,20 +22,17 @@ One JSON object per line on stdout: {"step": ..., ...}; the last line is {"step"
 """
 
 import argparse
-import json
-import os
 import struct
 import sys
-import threading
 import time
 
 import pysoem
 
-# Priority of the master below the board's frame-answering thread (tools::iface).
-MASTER_PRIORITY = 30
+# The shared master parts (the script's own folder is on the path when run as a file).
+from pysoem_master import STATE_US, Cyclic, realtime, say, wait_state
+
 # Process data in SAFE-OP before asking for OP.
 SAFE_OP_S = 0.3
-STATE_US = pysoem.settings.timeouts.state
 # Block status, block time, the first sample PDO.
 STATUS_PDO, TIME_PDO, SAMPLE_PDO = 0x1A10, 0x1A11, 0x1A20
 CHANNELS = 8
@@ -45,42 +42,14 @@ SCAN_NS = CHANNELS * PERIOD_NS
 HEADER = struct.Struct("<IBBQ")
 
 
-def say(**kv):
-    print(json.dumps(kv), flush=True)
-
-
-def realtime():
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(MASTER_PRIORITY))
-        return True
-    except (PermissionError, AttributeError, OSError):
-        return False
-
-
-def wait_state(master, slave, state, timeout_us=STATE_US):
-    slave.state = state
-    slave.write_state()
-    deadline = time.monotonic() + timeout_us / 1e6
-    while time.monotonic() < deadline:
-        if slave.state_check(state, 50_000) == state:
-            return True
-    master.read_state()
-    return slave.state == state
-
-
-class Cyclic(threading.Thread):
-    """One exchange per cycle, the frames kept in step with SYNC0 (half a cycle away from the
-    edges) from the DC time they bring back; every input image kept."""
+class Keeping(Cyclic):
+    """pysoem_master's cyclic task (one exchange per cycle, the frames kept half a cycle
+    away from the SYNC0 edges), keeping every input image instead of writing outputs."""
 
     def __init__(self, master, slave, cycle_ns):
-        super().__init__(daemon=True)
-        self.master, self.slave, self.cycle_ns = master, slave, cycle_ns
-        self.running = True
-        self.lock = threading.Lock()
+        super().__init__(master, slave, cycle_ns, True)
         self.keep = False
         self.images = []
-        self.exchanges = self.good = 0
-        self.integral = 0
 
     def run(self):
         deadline = time.monotonic_ns() + self.cycle_ns
@@ -97,20 +66,9 @@ class Cyclic(threading.Thread):
             if left > 0:
                 time.sleep(left / 1e9)
 
-    def offset(self):
-        delta = (self.master.dc_time - self.cycle_ns // 2) % self.cycle_ns
-        if delta > self.cycle_ns // 2:
-            delta -= self.cycle_ns
-        self.integral += 1 if delta > 0 else -1 if delta < 0 else 0
-        return -(delta // 100) - (self.integral // 20)
-
     def kept(self):
         with self.lock:
             return len(self.images)
-
-    def stop(self):
-        self.running = False
-        self.join()
 
 
 def assign_inputs(slave, pdos):
@@ -199,7 +157,7 @@ def main():
             master.read_state()
             say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
             return False
-        cyclic = Cyclic(master, slave, cycle_ns)
+        cyclic = Keeping(master, slave, cycle_ns)
         cyclic.start()
         try:
             time.sleep(SAFE_OP_S)

@@ -79,6 +79,22 @@ impl Staircase {
         self.steps[i.saturating_sub(1)].1
     }
 
+    /// The waveform over `[from, to]` as a line to plot: `(ms after from, value)`, two
+    /// points at each step so that the line is square.
+    pub fn plot_points(&self, from: u64, to: u64) -> Vec<(f64, f64)> {
+        let ms = |t: u64| (t - from) as f64 * 1e-6;
+        let mut out = vec![(0.0, self.value_at(from))];
+        for &(t, v) in &self.steps {
+            if t > from && t < to {
+                let prev = out.last().map_or(v, |p| p.1);
+                out.push((ms(t), prev));
+                out.push((ms(t), v));
+            }
+        }
+        out.push((ms(to), self.value_at(to)));
+        out
+    }
+
     /// The constant segments overlapping `[t0, t1)`, clipped to it: `(start, end, value)`.
     fn segments(&self, t0: u64, t1: u64) -> impl Iterator<Item = (u64, u64, f64)> + '_ {
         let first = self.steps.partition_point(|s| s.0 <= t0).saturating_sub(1);
@@ -95,6 +111,16 @@ impl Staircase {
             .take_while(move |&(s, _, _)| s < t1)
             .filter(|&(s, e, _)| e > s)
     }
+}
+
+/// `signal` over `[from, to]` as a line to plot: 1 001 points `(ms after from, value)`.
+pub fn signal_points(signal: &Signal, from: u64, to: u64) -> Vec<(f64, f64)> {
+    (0..=1000u64)
+        .map(|i| {
+            let t = from + (to - from) * i / 1000;
+            ((t - from) as f64 * 1e-6, signal.eval(t))
+        })
+        .collect()
 }
 
 /// Fourier coefficients of a real signal over a window of whole periods.

@@ -940,7 +940,7 @@ fn figures(dir: &std::path::Path, sim: &SimReport, image: &ImageFigures) -> Resu
 /// Input and DAC output over the last periods of each frequency's window.
 fn traces(sim: &SimReport) -> Result<Vec<plot::Trace>> {
     use virtual_board::models::adc::Signal;
-    use virtual_board::tools::loopback::Staircase;
+    use virtual_board::tools::loopback::{signal_points, Staircase};
     let cfg = SimConfig::default();
     let mut out = Vec::new();
     for (f, r) in &sim.loopback {
@@ -954,23 +954,9 @@ fn traces(sim: &SimReport) -> Result<Vec<plot::Trace>> {
             freq_hz: *f,
             phase: 0.0,
         };
-        let ms = |t: u64| (t - start) as f64 * 1e-6;
-        let input = (0..=1000u64)
-            .map(|i| {
-                let t = start + (w1 - start) * i / 1000;
-                (ms(t), signal.eval(t))
-            })
-            .collect();
-        let stairs = Staircase::from_dac_updates(&sim.dac_updates, cfg.ao_channel, 0x8000);
-        let mut output = vec![(0.0, stairs.value_at(start))];
-        for &(t, v) in stairs.steps() {
-            if t > start && t < w1 {
-                let prev = output.last().map_or(v, |p| p.1);
-                output.push((ms(t), prev));
-                output.push((ms(t), v));
-            }
-        }
-        output.push((ms(w1), stairs.value_at(w1)));
+        let input = signal_points(&signal, start, w1);
+        let output = Staircase::from_dac_updates(&sim.dac_updates, cfg.ao_channel, 0x8000)
+            .plot_points(start, w1);
         out.push(plot::Trace {
             freq_hz: *f,
             input,

@@ -17,7 +17,7 @@ use std::collections::VecDeque;
 use std::f64::consts::PI;
 use virtual_board::models::adc::Signal;
 use virtual_board::tools::loopback::{
-    analyze, dac_code_to_volts, Analysis, AnalysisOptions, Staircase,
+    analyze, dac_code_to_volts, signal_points, Analysis, AnalysisOptions, Staircase,
 };
 
 /// The loop-back's sine (Hz): the thesis' 1 kHz.
@@ -265,24 +265,8 @@ impl Loopback {
     pub fn traces(&self, periods: f64) -> (Points, Points) {
         let (w0, w1) = self.analysis.window_ns;
         let start = (w1 as f64 - periods * 1e9 / SINE_HZ).max(w0 as f64) as u64;
-        let ms = |t: u64| (t - start) as f64 * 1e-6;
-        let signal = input_signal();
-        let input = (0..=1000u64)
-            .map(|i| {
-                let t = start + (w1 - start) * i / 1000;
-                (ms(t), signal.eval(t))
-            })
-            .collect();
-        let stairs = output_staircase(&self.run);
-        let mut output = vec![(0.0, stairs.value_at(start))];
-        for &(t, v) in stairs.steps() {
-            if t > start && t < w1 {
-                let prev = output.last().map_or(v, |p| p.1);
-                output.push((ms(t), prev));
-                output.push((ms(t), v));
-            }
-        }
-        output.push((ms(w1), stairs.value_at(w1)));
+        let input = signal_points(&input_signal(), start, w1);
+        let output = output_staircase(&self.run).plot_points(start, w1);
         (input, output)
     }
 }
