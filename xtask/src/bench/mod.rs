@@ -47,7 +47,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Write the figures (PNG: loop-back, cycle-time sweep, SYNC0 -> LDAC latency
-    /// histogram, CPU per task) into DIR (default target/bench).
+    /// histogram, CPU per task, loop-back with oversampling) into DIR (default
+    /// target/bench).
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
     /// Only the advertised-minimum rule: the image's shortest sustained DC cycle on the

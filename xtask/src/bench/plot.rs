@@ -1,7 +1,9 @@
 //! The bench's figures as PNG files (`cargo xtask bench --plot DIR`), which the book embeds:
 //!
 //! - `loopback.png`: the thesis loop-back, one panel per frequency with the input sine and
-//!   the DAC output over the last periods, the figures of the run in each panel's caption;
+//!   the DAC output over the last periods, the figures of the run in each panel's caption
+//!   (and `loopback-oversampling.png`, the same drawing of the loop-back with oversampling
+//!   on the image, one panel per cycle: `bench::oversampling`);
 //! - `cycle-sweep.png`: the release image's DC cycle-time sweep on the co-simulator, CPU load
 //!   and the longest SYNC0 -> LDAC latency per cycle time, sustained or not;
 //! - `ldac-latency.png`: the histogram of the SYNC0 edge -> LDAC edge latency;
