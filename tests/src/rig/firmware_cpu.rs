@@ -10,6 +10,7 @@
 //! | ESC IRQ line       | PDI task (middle)         | `PdiTask::run` (edge), then the DAC task if pended |
 //! | after every event  | PDI task background       | `PdiTask::run` (poll)                        |
 //! | SysTick (1 ms)     | `tick` -> PDI task        | `PdiTask::run` (poll)                        |
+//! | PDI task asked for the mailbox | mailbox task (lowest) | `PdiTask::mailbox_step` until done, right after the PDI task |
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
 //! | CAN frame received, CAN node deadline, PDI task left CAN work | CAN task (same priority as the PDI task) | [`firmware::stacks::canopen::task::run`] on the board's CAN bus ([`BusController`]) |
 //!
@@ -50,7 +51,7 @@ use firmware::io::analog::AnalogApplication;
 use firmware::platform::adc_scan::SCAN_CONFIG;
 use firmware::products::{analog_io, analog_io_can, Product};
 use firmware::stacks::canopen::task::{self as can_task, CanController, CanHost, CanInbox};
-use firmware::stacks::ethercat::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
+use firmware::stacks::ethercat::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS, MAILBOX_STEPS};
 use firmware::stacks::ethercat::{AppConfig, Application, SlaveApp};
 
 /// A product as the board runs it: which one, its CANopen node-ID where it has CAN, and the
@@ -210,9 +211,21 @@ impl<A: HostedApplication> Tasks for PdiTask<A> {
         still_asserted: &mut dyn FnMut() -> bool,
         drain: &mut dyn FnMut(&mut Sampler),
     ) -> Done {
-        PdiTask::run(self, esc, stage, now_ns, wake, still_asserted, |app| {
+        let mut done = PdiTask::run(self, esc, stage, now_ns, wake, still_asserted, |app| {
             drain(&mut app.analog().sampler)
-        })
+        });
+        // The mailbox task (below the PDI task) runs its steps before the harness's next
+        // event: the host-compiled firmware takes no time.
+        if core::mem::take(&mut done.serve_mailbox) {
+            for _ in 0..MAILBOX_STEPS {
+                let step = PdiTask::mailbox_step(self, esc, stage, now_ns);
+                done.apply_outputs |= step.apply_outputs;
+                if !step.more {
+                    break;
+                }
+            }
+        }
+        done
     }
 
     fn can_host(&mut self) -> Option<&mut dyn CanHost<Stage = OutputStage>> {
