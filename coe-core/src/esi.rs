@@ -113,7 +113,7 @@ pub fn write_esi_with<W: Write>(
 ) -> Result<(), EsiError> {
     desc.validate()?;
     os.validate(desc)?;
-    let config = config_data(desc)?;
+    let config = config_data(desc, os)?;
     check_entry_names(desc)?;
     let mut xml = Xml {
         out,
@@ -129,9 +129,14 @@ pub fn write_esi_with<W: Write>(
 
 /// SII words 0..7 exactly as [`sii::generate`] writes them (it fills as much of the buffer
 /// as there is and reports the size it would need).
-fn config_data(desc: &DeviceDescription) -> Result<[u8; CONFIG_DATA_LEN], EsiError> {
+fn config_data(
+    desc: &DeviceDescription,
+    os: &Oversampling,
+) -> Result<[u8; CONFIG_DATA_LEN], EsiError> {
     let mut head = [0u8; CONFIG_DATA_LEN];
-    match sii::generate(desc, &mut head) {
+    // The SII of the same description, oversampling part included (it decides whether
+    // the image fits the EEPROM).
+    match sii::generate_with(desc, os, &mut head) {
         Ok(_) | Err(SiiError::BufferTooSmall { .. }) => Ok(head),
         Err(SiiError::Description(e)) => Err(EsiError::Description(e)),
         Err(e) => Err(EsiError::Sii(e)),

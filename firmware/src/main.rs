@@ -218,7 +218,8 @@ mod rtic_app {
             defmt::warn!("reset by the MCU watchdog");
         }
         wdt.start();
-        adc.start();
+        let word0_ns = adc.start();
+        pdi.samples_out.started(word0_ns);
         syst.enable_interrupt();
         syst.enable_counter();
 
@@ -312,6 +313,7 @@ mod rtic_app {
             || esc_irq.still_asserted(),
             |app| {
                 samples.drain_into(&mut app.analog().sampler);
+                samples.feed(app);
             },
         );
         if done.apply_outputs {

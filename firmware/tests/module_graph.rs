@@ -493,7 +493,15 @@ fn import_graph(src: &Path) -> BTreeMap<ModPath, BTreeMap<ModPath, String>> {
             path,
         })
         .collect();
-    let file_nodes: BTreeSet<ModPath> = files.iter().map(|f| f.module.clone()).collect();
+    let mut file_nodes: BTreeSet<ModPath> = files.iter().map(|f| f.module.clone()).collect();
+    // The bootloader includes the application's `hw` as its own `hw` (`#[path]`): the same
+    // files are modules of both binaries. Their imports are read once, as the application's.
+    let shared_hw: Vec<ModPath> = file_nodes
+        .iter()
+        .filter(|(krate, path)| *krate == Crate::Bin && path.first().is_some_and(|p| p == "hw"))
+        .map(|(_, path)| (Crate::Boot, path.clone()))
+        .collect();
+    file_nodes.extend(shared_hw);
     // Modules: the files and the inline modules they open.
     let mut modules = file_nodes.clone();
     let parsed: Vec<_> = files

@@ -66,6 +66,7 @@ pub mod rig {
     pub mod clock;
     pub mod firmware_cpu;
     pub mod foe_client;
+    pub mod gateway_cpu;
     pub mod master;
     pub mod master_host;
     pub mod module_cpu;

@@ -8,6 +8,7 @@
 //! tests compare every object with the firmware's dictionary).
 
 use crate::util::{display, have, root, Result};
+use coe_core::device::oversampling::Oversampling;
 use coe_core::device::DeviceDescription;
 use coe_core::eds::EdsInfo;
 use std::path::{Path, PathBuf};
@@ -40,8 +41,8 @@ pub fn run(args: &Args) -> Result {
     for product in products {
         println!("{}:", product.name);
         let desc = product.device;
-        let xml = write_xml(desc, &dir)?;
-        write_sii(desc, &dir)?;
+        let xml = write_xml(desc, product.oversampling, &dir)?;
+        write_sii(desc, product.oversampling, &dir)?;
         if let Some(can) = &product.can {
             write_eds(desc, &can.eds, &dir)?;
         }
@@ -56,9 +57,9 @@ pub fn file_stem(desc: &DeviceDescription) -> String {
 }
 
 /// Writes `<stem>.xml` into `dir`; returns its path.
-fn write_xml(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
+fn write_xml(desc: &DeviceDescription, os: &Oversampling, dir: &Path) -> Result<PathBuf> {
     let mut xml = String::new();
-    coe_core::esi::write_esi(desc, &mut xml).map_err(|e| e.to_string())?;
+    coe_core::esi::write_esi_with(desc, os, &mut xml).map_err(|e| e.to_string())?;
     let path = dir.join(format!("{}.xml", file_stem(desc)));
     std::fs::write(&path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("ESI: {} ({} bytes)", path.display(), xml.len());
@@ -77,9 +78,9 @@ pub fn write_eds(desc: &DeviceDescription, info: &EdsInfo, dir: &Path) -> Result
 }
 
 /// Writes `<stem>.bin`, the whole SII EEPROM, into `dir`; returns its path.
-fn write_sii(desc: &DeviceDescription, dir: &Path) -> Result<PathBuf> {
+fn write_sii(desc: &DeviceDescription, os: &Oversampling, dir: &Path) -> Result<PathBuf> {
     let mut eeprom = vec![0u8; desc.eeprom.size_bytes as usize];
-    coe_core::sii::generate_eeprom(desc, &mut eeprom).map_err(|e| e.to_string())?;
+    coe_core::sii::generate_eeprom_with(desc, os, &mut eeprom).map_err(|e| e.to_string())?;
     let path = dir.join(format!("{}.bin", file_stem(desc)));
     std::fs::write(&path, &eeprom).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("SII: {} ({} bytes)", path.display(), eeprom.len());
@@ -123,6 +124,7 @@ fn validate(xml: &Path) -> Result {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firmware::products::Product;
 
     #[test]
     fn file_stem_keeps_safe_characters_only() {
@@ -139,7 +141,12 @@ mod tests {
     fn the_module_esi_is_written() {
         let dir = std::env::temp_dir().join(format!("xtask-esi-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = write_xml(&firmware::products::analog_io::device::DEVICE, &dir).unwrap();
+        let path = write_xml(
+            &firmware::products::analog_io::device::DEVICE,
+            &firmware::products::analog_io::oversampling::OVERSAMPLING,
+            &dir,
+        )
+        .unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(text.starts_with("<?xml"));
@@ -155,13 +162,14 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("xtask-sii-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let desc = &firmware::products::analog_io::device::DEVICE;
-        let path = write_sii(desc, &dir).unwrap();
+        let os = &firmware::products::analog_io::oversampling::OVERSAMPLING;
+        let path = write_sii(desc, os, &dir).unwrap();
         let bin = std::fs::read(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert_eq!(path.file_name().unwrap(), "AIO-8AI2AO.bin");
         assert_eq!(bin.len(), desc.eeprom.size_bytes as usize);
         let mut image = vec![0u8; bin.len()];
-        let len = coe_core::sii::generate(desc, &mut image).unwrap();
+        let len = coe_core::sii::generate_with(desc, os, &mut image).unwrap();
         assert_eq!(&bin[..len], &image[..len]);
         assert!(bin[len..].iter().all(|b| *b == 0xFF));
         // Checksum word 7 over words 0..6, identity at words 8..
@@ -181,7 +189,7 @@ mod tests {
     fn the_minimum_cycle_is_one_figure() {
         use firmware::products::analog_io::sync::{AnalogFigures, MIN_CYCLE_TIME_NS};
         for product in firmware::products::PRODUCTS {
-            the_minimum_cycle_is_one_figure_in(product.device, MIN_CYCLE_TIME_NS);
+            the_minimum_cycle_is_one_figure_in(product, MIN_CYCLE_TIME_NS);
         }
         let monitor = firmware::stacks::ethercat::sync::SyncMonitor::<AnalogFigures>::new();
         for inputs in [false, true] {
@@ -191,10 +199,11 @@ mod tests {
         }
     }
 
-    fn the_minimum_cycle_is_one_figure_in(desc: &DeviceDescription, min_cycle_ns: u32) {
+    fn the_minimum_cycle_is_one_figure_in(product: &Product, min_cycle_ns: u32) {
+        let desc = product.device;
         assert_eq!(desc.dc.min_cycle_ns, min_cycle_ns);
         let mut xml = String::new();
-        coe_core::esi::write_esi(desc, &mut xml).unwrap();
+        coe_core::esi::write_esi_with(desc, product.oversampling, &mut xml).unwrap();
         for index in ["#x1C32", "#x1C33"] {
             let object = xml
                 .split(&format!("<Index>{index}</Index>"))

@@ -383,9 +383,11 @@ fn save<'a>(dir: &Path, inputs: impl Iterator<Item = &'a Vec<u8>>) -> Result {
 
 /// The firmware's SII EEPROM, as `cargo xtask esi` writes it.
 fn firmware_sii() -> Result<Vec<u8>> {
-    let desc = &firmware::products::analog_io::device::DEVICE;
+    let product = &firmware::products::analog_io::PRODUCT;
+    let desc = product.device;
     let mut eeprom = vec![0u8; desc.eeprom.size_bytes as usize];
-    coe_core::sii::generate_eeprom(desc, &mut eeprom).map_err(|e| e.to_string())?;
+    coe_core::sii::generate_eeprom_with(desc, product.oversampling, &mut eeprom)
+        .map_err(|e| e.to_string())?;
     Ok(eeprom)
 }
 

@@ -358,12 +358,14 @@ impl<P: Pdi> Et1100<P> {
     }
 
     /// SYNC0 status (0x098E b0). Side effect: the read acknowledges SYNC0 (clears AL event
-    /// bit 2 and, in acknowledge mode, the SYNC0 signal).
+    /// bit 2 and, in acknowledge mode, the SYNC0 signal). On a 16-bit bus that reads whole
+    /// halfwords for byte reads (an STM32 FSMC) it acknowledges SYNC1 (0x098F) as well.
     pub fn sync0_status(&mut self) -> Result<bool, Error<P::BusError>> {
         self.read_u8(Register::DcSync0Status).map(|v| v & 0x01 != 0)
     }
 
-    /// SYNC1 status (0x098F b0). Side effect: acknowledges SYNC1 (AL event bit 3).
+    /// SYNC1 status (0x098F b0). Side effect: acknowledges SYNC1 (AL event bit 3); on a
+    /// 16-bit bus that reads whole halfwords for byte reads, SYNC0 (0x098E) as well.
     pub fn sync1_status(&mut self) -> Result<bool, Error<P::BusError>> {
         self.read_u8(Register::DcSync1Status).map(|v| v & 0x01 != 0)
     }

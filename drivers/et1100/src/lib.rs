@@ -90,7 +90,7 @@ mod pdi;
 mod register;
 mod spi;
 mod sync_manager;
-mod unconfirmed;
+pub mod unconfirmed;
 mod watchdog;
 
 pub use al::{AlControl, AlEvents, AlStatus};

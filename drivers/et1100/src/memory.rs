@@ -2,15 +2,24 @@
 //! FSMC/FMC bank wired to the ESC's µC PDI).
 //!
 //! Unlike SPI, a parallel access does not shift out the AL events, so every
-//! [`Pdi::read`]/[`Pdi::write`] of a [`MemoryPdi`] first reads 0x0220..0x0223 explicitly and
-//! then performs the data access: **one extra 4-byte access per call**. The events are sampled
-//! before the data access, as on SPI.
+//! [`Pdi::read`]/[`Pdi::write`] of a [`MemoryPdi`] first reads the event bits explicitly and
+//! then performs the data access. It reads 0x0220..0x0221, the bits the ET1100 has (AL
+//! control .. SM7; bits 16.. belong to SyncManagers 8..15), as the SPI PDI's 2-byte address
+//! phase does: **one extra 16-bit access per call** (two on an 8-bit bus). The events are
+//! sampled before the data access, as on SPI.
 
 use crate::pdi::check_range;
 use crate::{AlEvents, Error, Pdi, Register};
 
 /// Byte-offset access to the ESC's address window, implemented by the user (volatile reads
 /// and writes into the FSMC bank, a test fake, ...).
+///
+/// On a 16-bit bus a byte write must drive only its byte lane (the FSMC's NBL0/NBL1 wired to
+/// the ESC's ADR\[0\]/BHE do). A byte read may read the whole halfword, as the FSMC does (it
+/// drives both NBL low on reads): the ESC then sees a 16-bit read and the read side effects
+/// of both bytes. [`MemoryPdi`] reads nothing whose neighbour in the halfword has an effect
+/// it does not want, with two exceptions named where they are
+/// ([`crate::Et1100::sync0_status`], [`crate::Et1100::sync1_status`]).
 pub trait MemoryBus {
     /// The bus error (use [`core::convert::Infallible`] for plain memory-mapped I/O).
     type Error;
@@ -35,7 +44,8 @@ pub enum BusWidth {
     /// Byte accesses only.
     Bits8,
     /// Aligned word accesses; a leading odd byte and a trailing single byte use byte
-    /// accesses, so no byte outside the requested range is touched.
+    /// accesses, so no byte outside the requested range is written. (A word write past the
+    /// last byte of an odd-length 3-buffer SyncManager would land in its next buffer.)
     Bits16,
 }
 
@@ -110,29 +120,44 @@ impl<B: MemoryBus> MemoryPdi<B> {
     }
 }
 
+impl<B: MemoryBus> MemoryPdi<B> {
+    /// The ET1100's AL event bits, 0x0220..0x0221: one 16-bit access (two byte accesses on
+    /// an 8-bit bus).
+    fn event_bits(&mut self) -> Result<AlEvents, Error<B::Error>> {
+        let mut b = [0u8; 2];
+        self.read_raw(Register::AlEventRequest.addr(), &mut b)?;
+        Ok(AlEvents::from_bits_retain(u32::from(u16::from_le_bytes(b))))
+    }
+}
+
 impl<B: MemoryBus> Pdi for MemoryPdi<B> {
     type BusError = B::Error;
 
-    /// Reads the events (0x0220..0x0223), then `buf`.
+    /// Reads the event bits (0x0220..0x0221), then `buf`.
     fn read(&mut self, addr: u16, buf: &mut [u8]) -> Result<AlEvents, Error<B::Error>> {
         check_range(addr, buf.len())?;
-        let events = self.events()?;
+        let events = self.event_bits()?;
         self.read_raw(addr, buf)?;
         Ok(events)
     }
 
-    /// Reads the events (0x0220..0x0223), then writes `data`.
+    /// Reads the event bits (0x0220..0x0221), then writes `data`.
     fn write(&mut self, addr: u16, data: &[u8]) -> Result<AlEvents, Error<B::Error>> {
         check_range(addr, data.len())?;
-        let events = self.events()?;
+        let events = self.event_bits()?;
         self.write_raw(addr, data)?;
         Ok(events)
     }
 
-    /// Reads 0x0220..0x0223 (one 4-byte access).
+    /// Reads 0x0220..0x0223 (two 16-bit accesses, four on an 8-bit bus).
     fn events(&mut self) -> Result<AlEvents, Error<B::Error>> {
         let mut b = [0u8; 4];
         self.read_raw(Register::AlEventRequest.addr(), &mut b)?;
         Ok(AlEvents::from_le_bytes(b))
+    }
+
+    /// Reads 0x0220..0x0221 (one 16-bit access).
+    fn low_events(&mut self) -> Result<AlEvents, Error<B::Error>> {
+        self.event_bits()
     }
 }

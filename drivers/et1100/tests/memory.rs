@@ -80,11 +80,11 @@ fn sixteen_bit_bus_reads_events_then_data_without_touching_neighbours() {
     assert_eq!(buf, [1, 2, 3, 4, 5]);
     assert!(ev.contains(AlEvents::AL_CONTROL | AlEvents::SM2));
     let bus = pdi.destroy();
+    // The event bits the ET1100 has (0x0220..0x0221) in one word, then the data.
     assert_eq!(
         bus.log,
         [
             Access::R16(0x0220),
-            Access::R16(0x0222),
             Access::R8(0x1001),
             Access::R16(0x1002),
             Access::R16(0x1004),
@@ -98,8 +98,12 @@ fn sixteen_bit_bus_write_ends_with_last_byte() {
     pdi.write(0x1080, &[0xA, 0xB, 0xC]).unwrap();
     let bus = pdi.destroy();
     assert_eq!(
-        bus.log[2..],
-        [Access::W16(0x1080, 0x0B0A), Access::W8(0x1082, 0x0C)]
+        bus.log,
+        [
+            Access::R16(0x0220),
+            Access::W16(0x1080, 0x0B0A),
+            Access::W8(0x1082, 0x0C)
+        ]
     );
     assert_eq!(bus.mem[0x1083], 0);
 }
@@ -120,13 +124,13 @@ fn eight_bit_bus_and_helpers() {
         .unwrap();
     let bus = esc.destroy().destroy();
     assert_eq!(bus.mem[0x0204..0x0208], [0x11, 0x0F, 0x00, 0x00]);
-    // Each call: 4 event bytes, then the data bytes, in ascending order.
-    let expected_sm: Vec<Access> = (0x0220..0x0224)
+    // Each call: the 2 event bytes, then the data bytes, in ascending order.
+    let expected_sm: Vec<Access> = (0x0220..0x0222)
         .chain(0x0800..0x0808)
         .map(Access::R8)
         .collect();
-    assert_eq!(bus.log[..12], expected_sm[..]);
-    assert_eq!(bus.log.len(), 12 + 8 + 8);
+    assert_eq!(bus.log[..10], expected_sm[..]);
+    assert_eq!(bus.log.len(), 10 + 6 + 6);
 }
 
 #[test]
@@ -148,4 +152,39 @@ fn low_events_default_masks_the_upper_event_bytes() {
     let mut pdi = MemoryPdi::new(bus, BusWidth::Bits16);
     assert_eq!(pdi.events().unwrap().bits(), 0x0001_0401);
     assert_eq!(pdi.low_events().unwrap().bits(), 0x0401);
+    // events: two words; low_events: one.
+    assert_eq!(
+        pdi.destroy().log,
+        [
+            Access::R16(0x0220),
+            Access::R16(0x0222),
+            Access::R16(0x0220)
+        ]
+    );
+}
+
+#[test]
+fn sixteen_bit_bus_writes_an_odd_sm_buffer_without_reaching_past_it() {
+    // A 5-byte buffer at an odd start (0x1181..0x1185): a leading byte, two words, and no
+    // word that would reach 0x1186 (in 3-buffer mode the first byte of the next buffer).
+    let mut pdi = MemoryPdi::new(FakeBus::new(), BusWidth::Bits16);
+    pdi.write(0x1181, &[1, 2, 3, 4, 5]).unwrap();
+    // An even start with an odd length: two words, then the last byte alone.
+    pdi.write(0x1100, &[6, 7, 8, 9, 10]).unwrap();
+    let bus = pdi.destroy();
+    assert_eq!(
+        bus.log,
+        [
+            Access::R16(0x0220),
+            Access::W8(0x1181, 1),
+            Access::W16(0x1182, 0x0302),
+            Access::W16(0x1184, 0x0504),
+            Access::R16(0x0220),
+            Access::W16(0x1100, 0x0706),
+            Access::W16(0x1102, 0x0908),
+            Access::W8(0x1104, 10),
+        ]
+    );
+    assert_eq!(bus.mem[0x1186], 0);
+    assert_eq!(bus.mem[0x1105], 0);
 }

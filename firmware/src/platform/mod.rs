@@ -9,6 +9,7 @@
 //! | [`adc_scan`]  | the board's AD7689 scan: CFG word and frame pipeline                    |
 //! | [`div`]       | 64-by-32-bit division with the Cortex-M3's `UDIV`                      |
 //! | [`timebase`]  | a 64-bit time base from a 32-bit timer                                 |
+//! | [`stm32f1`]   | the second board (STM32F103VC + ET1100 on the FSMC) as data            |
 //!
 //! The binaries add the hardware layer (`platform/hw`, register access, the only `unsafe`)
 //! and the bootloader program (`platform/bootloader`).
@@ -18,4 +19,5 @@ pub mod board;
 pub mod boot;
 pub mod chip;
 pub mod div;
+pub mod stm32f1;
 pub mod timebase;

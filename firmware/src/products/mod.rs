@@ -16,6 +16,7 @@
 
 use crate::platform::board::Board;
 use crate::platform::boot::header::Target;
+use coe_core::device::oversampling::Oversampling;
 use coe_core::device::DeviceDescription;
 use coe_core::eds::EdsInfo;
 use coe_core::od::ObjectDesc;
@@ -34,6 +35,9 @@ pub struct Product {
     pub update: Target,
     /// The device description the SII image and the ESI file are generated from.
     pub device: &'static DeviceDescription,
+    /// The oversampling part of the description (replicated PDOs listed once in the ESI
+    /// and the SII; `coe_core::device::oversampling`).
+    pub oversampling: &'static Oversampling,
     /// CANopen on CAN, if the product has it: the EDS's own facts and the node-ID.
     pub can: Option<CanFacts>,
     /// The flash and static RAM its application image may use.
@@ -100,6 +104,11 @@ products! {
     /// The same with CANopen on CAN1, for the board with a CAN transceiver.
     analog_io_can = "analog-io-can",
 }
+
+/// The CAN gateway (an EtherCAT slave that is a CANopen master on CAN1, issue 28): its
+/// application, dictionary and device description, host-tested. Not in the list yet: its
+/// image is over the application slot (docs/book/gateway.md, "Image size").
+pub mod can_gateway;
 
 /// The default product (the thesis board's).
 pub fn default() -> &'static Product {

@@ -29,7 +29,7 @@ use std::time::Duration;
 use virtual_board::models::adc::Signal;
 use virtual_board::models::esc::regs;
 use virtual_board::models::esc::SyncSignal;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::board::VirtualBoard;
 use virtual_board::rig::can_master::CanMaster;
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::rig::sdo_client::SdoClient;
@@ -381,14 +381,8 @@ pub fn dc_run_traffic(
     can_load: Option<CanLoad>,
     traffic: &Traffic,
 ) -> Result<DcRun, String> {
-    let (mut target, handle) = (program.target)(program.image.clone(), Options::default())?;
-    let board = Rc::new(RefCell::new(VirtualBoard::new({
-        let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
-        cfg.capture = false;
-        cfg
-    })));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let (target, handle) = (program.target)(program.image.clone(), Options::default())?;
+    let board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
     {
         let adc = board.borrow().adc().clone();
         let mut adc = adc.borrow_mut();

@@ -33,6 +33,7 @@ pub mod iap;
 pub mod image;
 pub mod machine;
 pub mod nvic;
+pub mod oversampling;
 pub mod peer;
 pub mod periph;
 pub mod profile;

@@ -55,6 +55,13 @@ enum Command {
         #[arg(long, value_name = "US")]
         also_cycle_us: Option<u64>,
     },
+    /// Input oversampling on the image (docs/book/oversampling.md): the block PDOs at
+    /// 1 ms, 250 us and 100 us, one line of figures each.
+    Oversampling {
+        /// Cycles per configuration.
+        #[arg(long, default_value_t = 1_000)]
+        cycles: u64,
+    },
     /// This project's image and a peer stack (SOES, `$SOES_IMAGE` or `cargo xtask peer
     /// soes`'s output) measured the same way, and the conformance checks of both.
     PeerBench {
@@ -68,6 +75,28 @@ enum Command {
         #[arg(long)]
         conformance: bool,
     },
+}
+
+fn oversampling(cycles: u64) -> Result<(), String> {
+    use lpc1754_cosim::oversampling::{figures, run, Config, BENCH_CONFIGS};
+    let image = load_image()?;
+    for (cycle_ns, sample_pdos) in BENCH_CONFIGS {
+        let config = Config {
+            cycle_ns,
+            cycles,
+            sample_pdos,
+            sine_hz: 1_234.5,
+        };
+        match run(&image, config) {
+            Ok(r) => println!("{}", figures(&r)),
+            Err(e) => println!(
+                "cycle {:>5} us, {sample_pdos} sample PDOs: not run: {}",
+                cycle_ns / 1_000,
+                e.lines().next().unwrap_or("")
+            ),
+        }
+    }
+    Ok(())
 }
 
 fn bench(
@@ -181,6 +210,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sim { args, log } => sim(&args, log),
+        Command::Oversampling { cycles } => oversampling(cycles),
         Command::Bench {
             quick,
             json,

@@ -14,7 +14,6 @@ use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::run::{image_target, load_image_of};
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::tx_rx_task;
 
 /// Boots `product`'s image, reads its identity and walks it to OP; the DAC code of AO 1
@@ -27,11 +26,7 @@ fn boot_to_op(product: &'static Product, value: i16) -> u16 {
         "the update file in the slot is the product's"
     );
     let (target, handle) = image_target(image, Options::default()).expect("boot ROM checks");
-    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        target.sii,
-    ))));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let board = Rc::new(RefCell::new(target.into_board(|_| {})));
     let storage = Box::new(PduStorage::new());
     let (md, tx, rx) = master(&storage).unwrap();
     let names = product.device.names;

@@ -7,16 +7,11 @@ use lpc1754_cosim::periph::syscon::PCONP_RESET;
 use lpc1754_cosim::run::{image_target, load_image};
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 
 /// Boots a (patched) image on a board for `ns` and returns the reported messages.
 fn reports_after(image: lpc1754_cosim::image::Image, options: Options, ns: u64) -> Vec<String> {
     let (target, handle) = image_target(image, options).expect("boot ROM checks");
-    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        target.sii,
-    ))));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let board = Rc::new(RefCell::new(target.into_board(|_| {})));
     board.borrow_mut().step(ns);
     let facts = handle.with(|c| c.facts()).unwrap();
     assert!(facts.fault.is_none(), "{}", facts.summary());

@@ -19,7 +19,6 @@ use lpc1754_cosim::run::{image_target, load_image, CosimHandle};
 use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::models::esc::regs;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::tx_rx_task;
 use virtual_board::rig::sdo_client::SdoClient;
 
@@ -27,11 +26,7 @@ fn image_board_with(options: Options, sii: impl FnOnce(&mut Vec<u8>)) -> (Board,
     let image = load_image().expect("the release image");
     let (mut target, handle) = image_target(image, options).expect("boot ROM checks");
     sii(&mut target.sii);
-    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        target.sii,
-    ))));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let board = Rc::new(RefCell::new(target.into_board(|_| {})));
     (board, handle)
 }
 

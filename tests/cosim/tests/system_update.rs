@@ -35,7 +35,7 @@ use lpc1754_cosim::run::{
 };
 use std::cell::RefCell;
 use std::rc::Rc;
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
+use virtual_board::rig::board::VirtualBoard;
 use virtual_board::rig::foe_client::{
     configure_mailbox, enter_boot, request_state, FoeClient, FoeFailure,
 };
@@ -54,11 +54,7 @@ fn image_board() -> (Board, CosimHandle) {
 
 fn board_of(image: Image) -> (Board, CosimHandle) {
     let (target, handle) = image_target(image, Options::default()).expect("boot ROM checks");
-    let board = Rc::new(RefCell::new(VirtualBoard::new(BoardConfig::new(
-        target.sii,
-    ))));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let board = Rc::new(RefCell::new(target.into_board(|_| {})));
     (board, handle)
 }
 

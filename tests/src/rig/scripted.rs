@@ -28,7 +28,7 @@
 //! [`ScriptedMaster::wait`] lets virtual time pass with the board running.
 
 use crate::models::esc::{cmd, parse_frame, regs, FrameBuilder, ParsedDatagram};
-use crate::rig::board::{BoardConfig, VirtualBoard};
+use crate::rig::board::BoardConfig;
 use crate::rig::master::SharedBoard;
 use crate::rig::sdo_client::{
     Emergency, RegisterPort, SdoClient, SdoError, Upload, MAILBOX_TYPE_COE,
@@ -314,12 +314,7 @@ impl ScriptedMaster {
     /// configuration first: ESC fault switches, capture).
     pub fn firmware(edit: impl FnOnce(&mut BoardConfig)) -> Self {
         let target = sim::firmware_target().expect("the firmware target builds");
-        let mut cfg = BoardConfig::new(target.sii);
-        edit(&mut cfg);
-        let board = Rc::new(RefCell::new(VirtualBoard::new(cfg)));
-        let cpu = (target.make_cpu)(board.borrow().io());
-        board.borrow_mut().set_cpu(cpu);
-        Self::new(board)
+        Self::new(Rc::new(RefCell::new(target.into_board(edit))))
     }
 
     /// The board.

@@ -24,6 +24,7 @@ mod frames;
 mod image_rows;
 mod model;
 mod opt_levels;
+mod oversampling;
 mod peer;
 mod plot;
 mod report;
@@ -154,6 +155,8 @@ pub fn run(args: &Args) -> Result {
     let image = image_rows::rows(&on_image);
     eprintln!("[bench] frames on a network interface (sim --image --iface, as root)");
     let frames = frames::rows(args.quick);
+    eprintln!("[bench] input oversampling on the image (analog-io)");
+    let oversampled = oversampling::lines(args.quick)?;
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
@@ -186,6 +189,10 @@ pub fn run(args: &Args) -> Result {
     ));
     notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
+    println!("\nInput oversampling on the image (lpc1754-cosim oversampling, docs/book/oversampling.md):");
+    for line in &oversampled {
+        println!("- {line}");
+    }
     for f in figures {
         println!("figure: {}", f.display());
     }

@@ -184,6 +184,10 @@ pub enum ConfigError {
     StartupSize,
     /// Node guarding with a life time factor of 0.
     LifeTimeFactor,
+    /// The master is running: a place changes only while it is stopped.
+    Running,
+    /// No such place.
+    NoPlace,
 }
 
 impl NodeConfig {

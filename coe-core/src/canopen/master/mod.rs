@@ -181,6 +181,8 @@ struct NodeRuntime<const BUF: usize> {
     last_error: Option<BootError>,
     guard: GuardMaster,
     emcy: EmcyLog,
+    /// What the node showed of its identity in its last boot (0 where not read).
+    detected: Identity,
     inputs: [Input; PDOS_PER_NODE],
     outputs: [Output; PDOS_PER_NODE],
     /// Outputs to send (bit p: output place p).
@@ -206,6 +208,7 @@ impl<const BUF: usize> NodeRuntime<BUF> {
             last_error: None,
             guard: GuardMaster::new(),
             emcy: EmcyLog::default(),
+            detected: Identity::default(),
             inputs: [Input::default(); PDOS_PER_NODE],
             outputs: [Output::default(); PDOS_PER_NODE],
             pending: 0,
@@ -240,11 +243,20 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     /// A master with `cfg` and the node places `nodes` (checked: the first wrong place and
     /// its problem).
     pub fn new(cfg: MasterConfig, nodes: [NodeConfig; N]) -> Result<Self, (usize, ConfigError)> {
-        // Places are reported as u8 and outputs pending as 8 bits.
-        const { assert!(N <= 255 && PDOS_PER_NODE <= 8) };
         for (i, n) in nodes.iter().enumerate() {
             n.check(cfg.sync_cob_id).map_err(|e| (i, e))?;
         }
+        Ok(Self::with_places(cfg, nodes))
+    }
+
+    /// A master with `cfg` and every place empty (to be filled with [`Self::place_mut`]).
+    pub fn unconfigured(cfg: MasterConfig) -> Self {
+        Self::with_places(cfg, [NodeConfig::EMPTY; N])
+    }
+
+    fn with_places(cfg: MasterConfig, nodes: [NodeConfig; N]) -> Self {
+        // Places are reported as u8 and outputs pending as 8 bits.
+        const { assert!(N <= 255 && PDOS_PER_NODE <= 8) };
         let hb_entries = core::array::from_fn(|i| {
             let n = nodes.get(i).copied().unwrap_or(NodeConfig::EMPTY);
             ConsumerEntry {
@@ -258,7 +270,7 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
                 cfg.sdo_timeout_ms,
             )
         });
-        Ok(Self {
+        Self {
             sync: SyncProducer::new(
                 cfg.sync_cob_id,
                 cfg.sync_period_us,
@@ -278,7 +290,7 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
             sync_pending: false,
             cursor: 0,
             stats: MasterStats::default(),
-        })
+        }
     }
 
     // ------------------------------------------------------------------ queries
@@ -291,6 +303,53 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     /// The configuration of place `slot`.
     pub fn node_config(&self, slot: usize) -> Option<&NodeConfig> {
         self.nodes.get(slot)
+    }
+
+    /// True between [`Self::start`] and [`Self::stop`].
+    pub const fn is_started(&self) -> bool {
+        self.started
+    }
+
+    /// Place `slot`'s configuration to change; only while the master is stopped, so no
+    /// boot runs on a configuration half written. [`Self::start`] checks every place (as
+    /// [`Self::new`] does) and leaves a place that fails its check unused: check them first
+    /// with [`Self::check`].
+    pub fn place_mut(&mut self, slot: usize) -> Result<&mut NodeConfig, ConfigError> {
+        if self.started {
+            return Err(ConfigError::Running);
+        }
+        self.nodes.get_mut(slot).ok_or(ConfigError::NoPlace)
+    }
+
+    /// Changes the master's own parameters; only while it is stopped. (A node's SDO timeout
+    /// follows at the next [`Self::start`].)
+    pub fn set_config(&mut self, cfg: MasterConfig) -> Result<(), ConfigError> {
+        if self.started {
+            return Err(ConfigError::Running);
+        }
+        self.cfg = cfg;
+        self.sync = SyncProducer::new(
+            cfg.sync_cob_id,
+            cfg.sync_period_us,
+            cfg.sync_multiplier,
+            cfg.sync_overflow,
+        );
+        Ok(())
+    }
+
+    /// The first place whose configuration is wrong, and what is wrong with it.
+    pub fn check(&self) -> Result<(), (usize, ConfigError)> {
+        for (i, n) in self.nodes.iter().enumerate() {
+            n.check(self.cfg.sync_cob_id).map_err(|e| (i, e))?;
+        }
+        Ok(())
+    }
+
+    /// What the node of place `slot` showed of its identity (0x1000, 0x1018:01..04) in its
+    /// last boot; 0 where the boot did not read it (an identity value not configured, or a
+    /// boot that stopped before).
+    pub fn detected(&self, slot: usize) -> Option<&Identity> {
+        self.rt.get(slot).map(|r| &r.detected)
     }
 
     /// Where the node of place `slot` is.
@@ -506,6 +565,30 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
     /// Starts the master at `now_us`: SYNC, its heartbeat, and the boot of every node
     /// (after an NMT reset of communication of all nodes if so configured).
     pub fn start(&mut self, now_us: u64) {
+        // The places may have changed while stopped (`place_mut`).
+        for ((n, r), hb) in self
+            .nodes
+            .iter_mut()
+            .zip(self.rt.iter_mut())
+            .zip(self.hb_entries.iter_mut())
+        {
+            if n.check(self.cfg.sync_cob_id).is_err() {
+                *n = NodeConfig::EMPTY;
+            }
+            // What was heard of the node before the start stays (an operational node's
+            // boot begins with an L).
+            *r = NodeRuntime {
+                emcy: r.emcy,
+                last_error: r.last_error,
+                detected: r.detected,
+                state: r.state,
+                ..NodeRuntime::new(n, self.cfg.sdo_timeout_ms)
+            };
+            *hb = ConsumerEntry {
+                node: if n.uses_heartbeat() { n.node_id } else { 0 },
+                time_ms: n.heartbeat_consumer_ms,
+            };
+        }
         self.started = true;
         self.network_started = false;
         self.sync.start(now_us);
@@ -546,6 +629,7 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
             *r = NodeRuntime {
                 emcy: r.emcy,
                 last_error: r.last_error,
+                detected: r.detected,
                 ..NodeRuntime::new(n, self.cfg.sdo_timeout_ms)
             };
         }
@@ -879,6 +963,22 @@ impl<const N: usize, const BUF: usize> Master<N, BUF> {
         let failure = match (op, result) {
             (BootOp::Read { check, .. }, Ok(_)) => {
                 let actual = self.rt.get(slot).map_or(0, |r| r.sdo.value_u32());
+                if let Some(r) = self.rt.get_mut(slot) {
+                    let d = &mut r.detected;
+                    match (index, sub) {
+                        (0x1000, 0) => {
+                            *d = Identity {
+                                device_type: actual,
+                                ..Identity::default()
+                            }
+                        }
+                        (0x1018, 1) => d.vendor_id = actual,
+                        (0x1018, 2) => d.product_code = actual,
+                        (0x1018, 3) => d.revision = actual,
+                        (0x1018, 4) => d.serial = actual,
+                        _ => {}
+                    }
+                }
                 check.verdict(actual).map(|e| {
                     (
                         e,

@@ -806,6 +806,79 @@ fn bad_configurations_are_refused() {
     );
 }
 
+#[test]
+fn places_change_only_while_stopped_and_the_identity_seen_is_kept() {
+    let mut net = Net::new(
+        MasterConfig::default(),
+        places(&[]),
+        std::vec![FakeNode::new(3), FakeNode::new(4)],
+    );
+    assert_eq!(net.m.place_mut(4).err(), Some(ConfigError::NoPlace));
+    assert_eq!(net.m.phase(0), Some(NodePhase::Unused));
+    let mut bad = axis(4);
+    bad.tpdo[1] = bad.tpdo[0];
+    *net.m.place_mut(1).unwrap() = bad;
+    assert_eq!(net.m.check(), Err((1, ConfigError::DuplicateCobId)));
+    let mut node = axis(3);
+    node.identity.product_code = 0x0640;
+    node.identity.serial = 0x42;
+    *net.m.place_mut(0).unwrap() = node;
+    net.m.start(0);
+    assert!(net.m.is_started());
+    assert_eq!(net.m.place_mut(0).err(), Some(ConfigError::Running));
+    // The wrong place is left unused; the other boots.
+    assert_eq!(net.m.phase(1), Some(NodePhase::Unused));
+    assert_eq!(net.m.node_config(1), Some(&NodeConfig::EMPTY));
+    net.run_to(100_000);
+    assert_eq!(net.take_events(), [booted(0, 3)]);
+    // Read: device type, vendor (configured), product and serial (configured); the
+    // revision was not asked for.
+    assert_eq!(
+        net.m.detected(0),
+        Some(&Identity {
+            device_type: 0x0002_0192,
+            vendor_id: 0x1234,
+            product_code: 0x0640,
+            revision: 0,
+            serial: 0x42,
+        })
+    );
+    assert_eq!(
+        net.m.set_config(MasterConfig::default()),
+        Err(ConfigError::Running)
+    );
+    net.m.stop();
+    assert_eq!(net.m.detected(0).map(|d| d.vendor_id), Some(0x1234));
+    let cfg = MasterConfig {
+        sync_period_us: 5_000,
+        ..MasterConfig::default()
+    };
+    assert_eq!(net.m.set_config(cfg), Ok(()));
+    assert_eq!(net.m.config().sync_period_us, 5_000);
+    // Another node in the place: it boots after the next start.
+    *net.m.place_mut(0).unwrap() = axis(4);
+    net.m.start(net.now);
+    let from = net.now;
+    net.run_to(net.now + 100_000);
+    // Booted; the new parameters run: SYNCs every 5 ms, and node 4 (which sends no TPDO
+    // here) misses its synchronous TPDO.
+    let ev = net.take_events();
+    assert_eq!(ev[0], booted(0, 4));
+    assert!(
+        matches!(ev[1], MasterEvent::PdoMissing { node: 4, .. }),
+        "{ev:?}"
+    );
+    let syncs: Vec<u64> = net
+        .log
+        .iter()
+        .filter(|(t, f)| *t >= from && f.id() == 0x80)
+        .map(|(t, _)| *t)
+        .collect();
+    assert!(syncs.windows(2).all(|w| w[1] - w[0] == 5_000), "{syncs:?}");
+    assert!(syncs.len() >= 10);
+    assert_eq!(net.m.phase(0), Some(NodePhase::Operational));
+}
+
 /// What one instance of the master takes in RAM (the gateway chooses N and BUF).
 #[test]
 fn footprint() {

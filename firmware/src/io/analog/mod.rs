@@ -10,6 +10,7 @@
 //! | [`dac`]          | the AD5663 as the DAC task drives it                               |
 //! | [`sampler`]      | the samples between the ADC path and the process data              |
 //! | [`adc_dma`]      | the PDI task's side of the GPDMA ring of scans                     |
+//! | [`oversampling`] | input oversampling: the sample blocks cut from the ring at DC times |
 //! | [`scaling`]      | codes <-> process values <-> volts                                 |
 //! | [`settings`]     | the manufacturer settings object (AI filter)                        |
 
@@ -17,6 +18,7 @@ pub mod adc_dma;
 pub mod dac;
 pub mod objects;
 pub mod outputs;
+pub mod oversampling;
 pub mod process_data;
 pub mod sampler;
 pub mod scaling;

@@ -16,7 +16,9 @@
 //! filter modes and fault values outside 0..=0x7FFF (0x06090030), and 0x1003:00 other than
 //! 0 (0x06090030, CiA 301).
 
+use super::adc_dma::RING_WORDS;
 use super::outputs::{AnalogOutputs, ErrorMode, OutputStage};
+use super::oversampling::{self, Stream};
 use super::process_data::{ProcessData, SlotValues, MAX_IMAGE};
 use super::sampler::{PublishMode, Sampler};
 use super::settings::SETTINGS_INDEX;
@@ -24,10 +26,11 @@ use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
 use crate::stacks::diagnostics::{Diagnostics, EMCY_AO_OUT_OF_RANGE, ERR_MANUFACTURER};
 use crate::stacks::entry_bytes::{channel, put_le};
 use crate::stacks::ethercat::sync::{le_u16, le_u32, Figures, SyncMonitor};
-use crate::stacks::ethercat::{Application, Effects};
+use crate::stacks::ethercat::{Application, DcStart, Effects};
 use coe_core::device::SyncManagerDesc;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
 use coe_core::{AlState, AlStatusCode, SdoAbortCode};
+use core::sync::atomic::AtomicU16;
 use et1100::SyncManager;
 
 /// The analog I/O behind the dictionary, in an image with the sync figures `F`.
@@ -43,6 +46,8 @@ pub struct AnalogIo<F> {
     pub diag: Diagnostics,
     /// The slave application's sync mode, 0x1C32/0x1C33 and cycle monitor.
     pub sync: SyncMonitor<F>,
+    /// The input oversampling blocks.
+    pub stream: Stream,
     ao_written: Option<[i16; AO_CHANNELS]>,
 }
 
@@ -56,8 +61,15 @@ impl<F: Figures> AnalogIo<F> {
             pd,
             diag: Diagnostics::new(),
             sync: SyncMonitor::new(),
+            stream: Stream::new(),
             ao_written: None,
         }
+    }
+
+    /// The ADC's DMA ring and how many words its DMA has written so far (the RTIC
+    /// application, before each PDI activation's work).
+    pub fn on_adc_ring(&mut self, ring: &'static [AtomicU16; RING_WORDS], written: u32) {
+        self.stream.set_ring(ring, written);
     }
 
     /// Adds samples directly (harnesses without a ring).
@@ -176,6 +188,9 @@ impl<F: Figures> ObjectAccess for AnalogIo<F> {
                 (v.unwrap_or(0) as u32, 4)
             }
             (SETTINGS_INDEX, 1) => (self.sampler.mode().setting().into(), 1),
+            (oversampling::SETTINGS_INDEX, 3) if oversampling::BUILT => {
+                (self.pd.assigned_slots() as u32, 2)
+            }
             _ => return self.read_default(index, sub, buf),
         };
         put_le(buf, value, len)
@@ -317,7 +332,35 @@ impl<F: Figures> Application for AnalogIo<F> {
         expect2: &SyncManagerDesc,
         expect3: &SyncManagerDesc,
     ) -> Result<(), AlStatusCode> {
-        self.pd.prepare(self.od, sm2, sm3, expect2, expect3)
+        self.pd.prepare(self.od, sm2, sm3, expect2, expect3)?;
+        if oversampling::BUILT {
+            self.stream.restart(*self.pd.input_blocks());
+        }
+        Ok(())
+    }
+
+    const WANTS_DC_START: bool = oversampling::BUILT;
+
+    /// Oversampling needs DC SYNC0 and a configuration that fits its cycle
+    /// ([`oversampling::admit`]); the stream's DC times come from `dc`.
+    fn start_sync(&mut self, dc: Option<DcStart>) -> Result<(), AlStatusCode> {
+        if !oversampling::BUILT {
+            return Ok(());
+        }
+        let blocks = *self.pd.input_blocks();
+        let cycle = dc.map(|d| d.cycle_ns);
+        oversampling::admit(&blocks, self.pd.input_len(), self.pd.output_len(), cycle)?;
+        if let Some(d) = dc {
+            self.stream
+                .set_dc_reference(d.cycle_ns, d.next_sync0_dc, d.previous_edge_lo);
+        }
+        Ok(())
+    }
+
+    fn on_cycle_polled(&mut self, now_ns: u64, edge_lo: Option<u32>) {
+        if let Some(lo) = edge_lo.filter(|_| oversampling::BUILT) {
+            self.stream.on_edge(now_ns, lo);
+        }
     }
 
     fn output_image(&mut self) -> &mut [u8] {
@@ -339,6 +382,9 @@ impl<F: Figures> Application for AnalogIo<F> {
     }
 
     fn input_image(&mut self) -> Option<&[u8]> {
+        if oversampling::BUILT {
+            self.stream.write(self.pd.input_blocks_image_mut());
+        }
         self.sampler.publish();
         let ao = self.outputs.values();
         let values = SlotValues {

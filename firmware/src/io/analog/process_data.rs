@@ -16,6 +16,7 @@
 //!   its length not the size of the assigned RxPDOs (TxPDOs), or enabled/disabled against
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
+use super::oversampling::{self, InputBlocks};
 use super::scaling::adc_code_to_ai;
 use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
 use crate::stacks::entry_bytes::{channel, put};
@@ -33,8 +34,21 @@ pub const RX_PDOS: usize = 2;
 pub const TX_PDOS: usize = 3;
 /// Entries per mapping object.
 pub const PDO_ENTRIES: usize = 8;
-/// Largest process image per direction in bytes.
+/// Largest process image per direction in bytes (without the oversampling PDOs).
 pub const MAX_IMAGE: usize = 32;
+/// Largest input image: the plain PDOs and the oversampling ones (when built in).
+pub const MAX_INPUT_IMAGE: usize = if oversampling::BUILT {
+    MAX_IMAGE + oversampling::MAX_BYTES
+} else {
+    MAX_IMAGE
+};
+/// PDOs 0x1C13 can hold: the plain TxPDOs, the block status and time, the sample PDOs
+/// (when built in).
+pub const TX_ASSIGN: usize = if oversampling::BUILT {
+    TX_PDOS + 2 + oversampling::SAMPLE_PDOS
+} else {
+    TX_PDOS
+};
 /// Largest number of mapped objects per direction.
 pub const MAX_FIELDS: usize = 16;
 
@@ -179,19 +193,23 @@ pub struct ProcessData {
     rx: [Mapping; RX_PDOS],
     tx: [Mapping; TX_PDOS],
     rx_assign: PdoAssignment<RX_PDOS>,
-    tx_assign: PdoAssignment<TX_PDOS>,
+    tx_assign: PdoAssignment<TX_ASSIGN>,
     defaults: (
         [Mapping; RX_PDOS],
         [Mapping; TX_PDOS],
         PdoAssignment<RX_PDOS>,
-        PdoAssignment<TX_PDOS>,
+        PdoAssignment<TX_ASSIGN>,
     ),
     rx_layout: ImageLayout<MAX_FIELDS>,
     tx_layout: ImageLayout<MAX_FIELDS>,
     rx_fast: Option<FastImage>,
     tx_fast: Option<FastImage>,
+    /// The oversampling PDOs of the TxPDO layout in effect (after the plain ones).
+    tx_blocks: InputBlocks,
+    /// Whether 0x1C13 takes the oversampling PDOs (a product whose dictionary has them).
+    blocks_offered: bool,
     outputs: [u8; MAX_IMAGE],
-    inputs: [u8; MAX_IMAGE],
+    inputs: [u8; MAX_INPUT_IMAGE],
 }
 
 /// The mapping objects `indices` with their default `entries` (a product's default
@@ -233,14 +251,17 @@ impl ProcessData {
             tx_layout: ImageLayout::new(),
             rx_fast: None,
             tx_fast: None,
+            tx_blocks: InputBlocks::NONE,
+            blocks_offered: false,
             outputs: [0; MAX_IMAGE],
-            inputs: [0; MAX_IMAGE],
+            inputs: [0; MAX_INPUT_IMAGE],
         }
     }
 
     /// Back to the default configuration (INIT).
     pub fn reset(&mut self) {
         let (rx, tx, ra, ta) = self.defaults;
+        let blocks_offered = self.blocks();
         *self = Self {
             rx,
             tx,
@@ -251,9 +272,22 @@ impl ProcessData {
             tx_layout: ImageLayout::new(),
             rx_fast: None,
             tx_fast: None,
+            tx_blocks: InputBlocks::NONE,
+            blocks_offered,
             outputs: [0; MAX_IMAGE],
-            inputs: [0; MAX_IMAGE],
+            inputs: [0; MAX_INPUT_IMAGE],
         };
+    }
+
+    /// Whether 0x1C13 takes the oversampling PDOs (never in a build without them).
+    fn blocks(&self) -> bool {
+        oversampling::BUILT && self.blocks_offered
+    }
+
+    /// The same, with the input oversampling PDOs (`super::oversampling`) offered in 0x1C13.
+    pub fn with_input_blocks(mut self) -> Self {
+        self.blocks_offered = oversampling::BUILT;
+        self
     }
 
     /// Size in bytes of the assigned RxPDOs (SM2 length).
@@ -263,7 +297,22 @@ impl ProcessData {
 
     /// Size in bytes of the assigned TxPDOs (SM3 length).
     pub fn input_len(&self) -> usize {
-        (self.tx_assign.bit_len(&self.tx) as usize).div_ceil(8)
+        let plain = (self.tx_assign.bit_len(&self.tx) as usize).div_ceil(8);
+        if !self.blocks() {
+            return plain;
+        }
+        let blocks = InputBlocks::split(self.tx_assign.pdos()).map_or(0, |(_, b)| b.byte_len());
+        plain + blocks
+    }
+
+    /// Sample slots the TxPDO assignment holds now (0x8000:03).
+    pub fn assigned_slots(&self) -> usize {
+        InputBlocks::split(self.tx_assign.pdos()).map_or(0, |(_, b)| b.slots())
+    }
+
+    /// The oversampling PDOs of the TxPDO layout in effect.
+    pub fn input_blocks(&self) -> &InputBlocks {
+        &self.tx_blocks
     }
 
     /// True if `index:subindex` is in an assigned RxPDO.
@@ -317,7 +366,26 @@ impl ProcessData {
         }
         match index {
             0x1C12 => self.rx_assign.write_sub(sub, data, &self.rx, MAX_BITS),
-            0x1C13 => self.tx_assign.write_sub(sub, data, &self.tx, MAX_BITS),
+            0x1C13 if !self.blocks() => self.tx_assign.write_sub(sub, data, &self.tx, MAX_BITS),
+            0x1C13 => {
+                let tx = &self.tx;
+                let plain_bits = |pdo| tx.iter().find(|m| m.index() == pdo).map(|m| m.bit_len());
+                let offered = self.blocks_offered;
+                self.tx_assign.write_sub_with(
+                    sub,
+                    data,
+                    |pdo| plain_bits(pdo).or(InputBlocks::pdo_bits(pdo).filter(|_| offered)),
+                    |pdos| {
+                        let (plain, _) = InputBlocks::split(pdos)?;
+                        let bits = pdos.iter().take(plain).filter_map(|p| plain_bits(*p));
+                        if bits.sum::<u32>() > MAX_BITS {
+                            return Err(SdoAbortCode::PdoLengthExceeded);
+                        }
+                        Ok(())
+                    },
+                    (MAX_INPUT_IMAGE * 8) as u32,
+                )
+            }
             _ => {
                 let rx_pos = self.rx.iter().position(|m| m.index() == index);
                 let tx_pos = self.tx.iter().position(|m| m.index() == index);
@@ -361,12 +429,26 @@ impl ProcessData {
         if !valid(&self.rx) || self.rx_assign.validate(&self.rx, MAX_BITS).is_err() {
             return Err(AlStatusCode::InvalidOutputMapping);
         }
-        if !valid(&self.tx) || self.tx_assign.validate(&self.tx, MAX_BITS).is_err() {
+        // The plain TxPDOs come first, the oversampling ones after them (`InputBlocks`).
+        let (plain, tx_blocks) = match self.blocks() {
+            true => InputBlocks::split(self.tx_assign.pdos())
+                .map_err(|_| AlStatusCode::InvalidInputMapping)?,
+            false => (self.tx_assign.pdos().len(), InputBlocks::NONE),
+        };
+        let prefix;
+        let tx_plain = if self.blocks() {
+            let pdos = self.tx_assign.pdos().get(..plain).unwrap_or(&[]);
+            prefix = PdoAssignment::<TX_ASSIGN>::with_pdos(0x1C13, pdos);
+            &prefix
+        } else {
+            &self.tx_assign
+        };
+        if !valid(&self.tx) || tx_plain.validate(&self.tx, MAX_BITS).is_err() {
             return Err(AlStatusCode::InvalidInputMapping);
         }
         let rx_layout = ImageLayout::build(&self.rx_assign, &self.rx)
             .map_err(|_| AlStatusCode::InvalidOutputMapping)?;
-        let tx_layout = ImageLayout::build(&self.tx_assign, &self.tx)
+        let tx_layout = ImageLayout::build(tx_plain, &self.tx)
             .map_err(|_| AlStatusCode::InvalidInputMapping)?;
         if rx_layout.byte_len() > MAX_IMAGE {
             return Err(AlStatusCode::InvalidOutputMapping);
@@ -377,14 +459,21 @@ impl ProcessData {
         if !sm_matches(sm2, expect2, rx_layout.byte_len()) {
             return Err(AlStatusCode::InvalidOutputConfiguration);
         }
-        if !sm_matches(sm3, expect3, tx_layout.byte_len()) {
+        let mut len = tx_layout.byte_len();
+        if self.blocks() {
+            len += tx_blocks.byte_len();
+        }
+        if !sm_matches(sm3, expect3, len) {
             return Err(AlStatusCode::InvalidInputConfiguration);
         }
         self.rx_fast = FastImage::build(&rx_layout, |s| matches!(s, Slot::Ao(_)));
         self.tx_fast = FastImage::build(&tx_layout, |_| true);
         self.rx_layout = rx_layout;
         self.tx_layout = tx_layout;
-        self.inputs = [0; MAX_IMAGE];
+        if self.blocks() {
+            self.tx_blocks = tx_blocks;
+        }
+        self.inputs = [0; MAX_INPUT_IMAGE];
         Ok(())
     }
 
@@ -417,17 +506,31 @@ impl ProcessData {
         Ok(ao)
     }
 
+    /// The oversampling part of the input image (after the plain PDOs), to be filled
+    /// before [`ProcessData::pack_values`].
+    pub fn input_blocks_image_mut(&mut self) -> &mut [u8] {
+        let n = self.tx_layout.byte_len().min(MAX_IMAGE);
+        let end = n + self.tx_blocks.byte_len();
+        self.inputs.get_mut(n..end).unwrap_or(&mut [])
+    }
+
     /// Packs the input image from `values` (fast plan, else through the slot-by-slot packer) and
-    /// returns it (SM3 content).
+    /// returns it (SM3 content: the plain PDOs, then the oversampling part as it was filled).
     pub fn pack_values(&mut self, values: &SlotValues) -> Result<&[u8], SdoAbortCode> {
         let n = self.tx_layout.byte_len().min(MAX_IMAGE);
+        let whole = if self.blocks() {
+            n + self.tx_blocks.byte_len()
+        } else {
+            n
+        };
         let Some(plan) = &self.tx_fast else {
             let mut source = TxSource {
                 ai: values.ai_codes.map(adc_code_to_ai),
                 ao: *values.ao,
                 error_register: values.error_register,
             };
-            return self.pack(&mut source);
+            self.pack(&mut source)?;
+            return Ok(self.inputs.get(..whole).unwrap_or(&[]));
         };
         let image = self.inputs.get_mut(..n).unwrap_or(&mut []);
         for run in plan.runs() {
@@ -453,7 +556,7 @@ impl ProcessData {
                 Slot::ErrorRegister => dst.fill(values.error_register),
             }
         }
-        Ok(image)
+        Ok(self.inputs.get(..whole).unwrap_or(&[]))
     }
 
     /// The RxPDO image layout in effect (SAFEOP, OP).
@@ -734,5 +837,99 @@ mod tests {
         .unwrap();
         assert!(FastImage::build(&layout, |s| matches!(s, Slot::Ao(_))).is_none());
         assert!(FastImage::build(&layout, |_| true).is_some());
+    }
+
+    /// Writes 0x1C13 as a master does (sub 0 = 0, the entries, sub 0 = n).
+    fn assign_inputs(pd: &mut ProcessData, pdos: &[u16]) -> Result<(), SdoAbortCode> {
+        let w = |pd: &mut ProcessData, sub: u8, data: &[u8]| {
+            pd.write(0x1C13, sub, data, AlState::PreOp, &od::OD)
+        };
+        w(pd, 0, &[0])?;
+        for (sub, pdo) in (1..).zip(pdos) {
+            w(pd, sub, &pdo.to_le_bytes())?;
+        }
+        w(pd, 0, &[pdos.len() as u8])
+    }
+
+    fn sm_for(e: &SyncManagerDesc, len: usize) -> SyncManager {
+        SyncManager {
+            start: e.start,
+            length: len as u16,
+            control: e.control,
+            activate: SyncManager::ACTIVATE_ENABLE,
+            ..SyncManager::default()
+        }
+    }
+
+    #[test]
+    fn oversampling_pdos_in_the_input_assignment() {
+        let mut pd = crate::products::analog_io::process_data();
+        let mut all = std::vec![0x1A00, 0x1A10, 0x1A11];
+        all.extend(0x1A20..0x1A28);
+        assert_eq!(assign_inputs(&mut pd, &all), Ok(()));
+        assert_eq!(pd.input_len(), 16 + 6 + 8 + 512);
+        let mut buf = [0u8; 2];
+        assert_eq!(pd.read(0x1C13, 0, &mut buf), Ok(1));
+        assert_eq!(buf[0], 11);
+        // Refused orders (0x06040043) and PDOs that do not exist (0x06090030) leave the
+        // assignment as it was written last... sub 0 stays 0 after a refused sub 0.
+        for bad in [&[0x1A20][..], &[0x1A10, 0x1A21], &[0x1A10, 0x1A00]] {
+            assert_eq!(
+                assign_inputs(&mut pd, bad),
+                Err(SdoAbortCode::ParameterIncompatible),
+                "{bad:x?}"
+            );
+        }
+        assert_eq!(
+            assign_inputs(&mut pd, &[0x1A10, 0x1A28]),
+            Err(SdoAbortCode::ValueRangeExceeded)
+        );
+        // Not offered by a product without the objects (analog-io-can's configuration).
+        let mut plain = ProcessData::new(
+            [Mapping::new(0x1600), Mapping::new(0x1601)],
+            [
+                Mapping::new(0x1A00),
+                Mapping::new(0x1A01),
+                Mapping::new(0x1A02),
+            ],
+            &[],
+            &[],
+        );
+        assert_eq!(
+            assign_inputs(&mut plain, &[0x1A10]),
+            Err(SdoAbortCode::ValueRangeExceeded)
+        );
+    }
+
+    #[test]
+    fn the_blocks_follow_the_plain_inputs_in_the_image() {
+        let mut pd = crate::products::analog_io::process_data();
+        assign_inputs(&mut pd, &[0x1A00, 0x1A10, 0x1A20]).unwrap();
+        let [_, _, e2, e3] = crate::products::analog_io::layout::SYNC_MANAGERS;
+        let (sm2, sm3) = (sm_for(&e2, pd.output_len()), sm_for(&e3, pd.input_len()));
+        // SM3 of the plain length only: refused.
+        let short = sm_for(&e3, 16);
+        assert_eq!(
+            pd.prepare(&od::OD, &sm2, &short, &e2, &e3),
+            Err(AlStatusCode::InvalidInputConfiguration)
+        );
+        pd.prepare(&od::OD, &sm2, &sm3, &e2, &e3).unwrap();
+        assert_eq!(
+            *pd.input_blocks(),
+            InputBlocks {
+                status: true,
+                time: false,
+                sample_pdos: 1
+            }
+        );
+        let blocks = pd.input_blocks_image_mut();
+        assert_eq!(blocks.len(), 6 + 64);
+        for (i, b) in blocks.iter_mut().enumerate() {
+            *b = i as u8;
+        }
+        let image = pd.pack_values(&VALUES).unwrap().to_vec();
+        assert_eq!(image.len(), 16 + 70);
+        assert_eq!(&image[..2], &adc_code_to_ai(0x0204).to_le_bytes());
+        assert!(image[16..].iter().enumerate().all(|(i, b)| *b == i as u8));
     }
 }

@@ -59,6 +59,14 @@ const _: () = assert!(CNV_RISE < CNV_FALL && CNV_FALL < FRAME_START && FRAME_STA
 
 /// Start-up frames that hold no scan result (the CFG pipeline, `adc_scan`).
 pub const SKIP_FRAMES: u32 = FIRST_RESULT;
+/// From Timer2's start (TC = 0) to the conversion whose result is ring word 0, in ns: the
+/// CNV rise (the AD7689 samples there) of period [`SKIP_FRAMES`] (each period's frame reads
+/// that period's conversion; the first results go to the skip word). Ring word `w` is the
+/// conversion `w x` [`PERIOD_TICKS`] ticks later.
+pub const fn word0_after_start_ns() -> u64 {
+    (SKIP_FRAMES as u64 * PERIOD_TICKS as u64 + CNV_RISE as u64) * TICK_NS as u64
+}
+
 /// Transfers of the TX channel's NOP item before it reloads itself.
 pub const NOP_TRANSFERS: u32 = control::MAX_TRANSFERS;
 

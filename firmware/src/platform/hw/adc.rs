@@ -16,6 +16,7 @@
 
 use super::ssp::Ssp;
 use firmware::io::analog::sampler::Sampler;
+use firmware::io::analog::AnalogApplication;
 use lpc17xx_pac as pac;
 
 #[cfg(not(feature = "adc-irq"))]
@@ -38,9 +39,9 @@ mod path {
     pub struct AdcFront(AdcDma);
 
     impl AdcFront {
-        /// Starts the conversions.
-        pub fn start(&mut self) {
-            self.0.start();
+        /// Starts the conversions; returns when ring word 0 is converted (time base ns).
+        pub fn start(&mut self) -> u64 {
+            self.0.start()
         }
 
         /// TIMER2 is masked on this path; should it fire anyway (match flags raising the
@@ -57,9 +58,29 @@ mod path {
         reader: ScanReader,
         position_errors: u32,
         dma_errors: u32,
+        word0_ns: Option<u64>,
     }
 
     impl AdcSource {
+        /// The conversions started; ring word 0 is converted at `word0_ns`.
+        pub fn started(&mut self, word0_ns: u64) {
+            if firmware::io::analog::oversampling::BUILT {
+                self.word0_ns = Some(word0_ns);
+            }
+        }
+
+        /// The ring, its write position and its timing to the oversampling stream.
+        pub fn feed<A: AnalogApplication>(&mut self, app: &mut A) {
+            if !firmware::io::analog::oversampling::BUILT {
+                return;
+            }
+            let analog = app.analog();
+            if let (Some(w0), Ok(written)) = (self.word0_ns, self.ring.words_written()) {
+                analog.stream.set_word0(w0);
+                analog.on_adc_ring(self.ring.ring, written);
+            }
+        }
+
         /// Adds the whole scans the DMA wrote since the last call; returns the samples added.
         pub fn drain_into(&mut self, sampler: &mut Sampler) -> usize {
             self.check_errors();
@@ -100,6 +121,7 @@ mod path {
                 reader: ScanReader::new(),
                 position_errors: 0,
                 dma_errors: 0,
+                word0_ns: None,
             },
         )
     }
@@ -135,9 +157,10 @@ mod path {
     }
 
     impl AdcFront {
-        /// Starts the conversions.
-        pub fn start(&mut self) {
+        /// Starts the conversions (no ring: the oversampling stream gets none, 0 returned).
+        pub fn start(&mut self) -> u64 {
             self.adc.start();
+            0
         }
 
         /// CNV low, previous result into the ring, next frame started.
@@ -158,6 +181,12 @@ mod path {
     pub struct AdcSource(SampleConsumer<'static, SAMPLE_RING_LEN>);
 
     impl AdcSource {
+        /// No ring on this path: nothing to record.
+        pub fn started(&mut self, _word0_ns: u64) {}
+
+        /// No ring on this path: the oversampling blocks stay empty.
+        pub fn feed<A: AnalogApplication>(&mut self, _app: &mut A) {}
+
         /// Moves every queued sample into `sampler`; returns how many.
         pub fn drain_into(&mut self, sampler: &mut Sampler) -> usize {
             self.0.drain_into(sampler)

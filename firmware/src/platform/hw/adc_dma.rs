@@ -16,8 +16,8 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU32, Ordering};
 use firmware::io::analog::adc_dma::{words_written, HalfCounter, PositionError, RING_WORDS};
 use firmware::platform::chip::adc_dma::{
-    cnv_chain, rx_chain, tx_chain, CnvAddresses, RxAddresses, TxAddresses, CNV_RISE, FRAME_START,
-    MR0_SEQUENCE, PERIOD_TICKS, TX_WORDS,
+    cnv_chain, rx_chain, tx_chain, word0_after_start_ns, CnvAddresses, RxAddresses, TxAddresses,
+    CNV_RISE, FRAME_START, MR0_SEQUENCE, PERIOD_TICKS, TICK_NS, TX_WORDS,
 };
 use firmware::platform::chip::gpdma::{config_m2p, config_p2m, request, Chain, Lli};
 use lpc17xx_pac as pac;
@@ -250,11 +250,19 @@ impl AdcDma {
     }
 
     /// Starts the conversions; the TIMER2 interrupt stays masked (no timer interrupt is
-    /// used on this path).
-    pub fn start(&mut self) {
+    /// used on this path). Returns the time base's time ([`crate::hw::timers::now_ns`]) of
+    /// ring word 0's conversion: Timer2's start, from its counter read right after the
+    /// time base, plus the start-up frames ([`word0_after_start_ns`]).
+    pub fn start(&mut self) -> u64 {
         cortex_m::peripheral::NVIC::mask(pac::Interrupt::TIMER2);
         // SAFETY: TCR enable.
         self.t.tcr.write(|w| unsafe { w.bits(TCR_ENABLE) });
+        if !firmware::io::analog::oversampling::BUILT {
+            return 0;
+        }
+        let now = crate::hw::timers::now_ns();
+        let tc = u64::from(self.t.tc.read().bits());
+        now.saturating_sub(tc * u64::from(TICK_NS)) + word0_after_start_ns()
     }
 
     /// Clears Timer2's flags other than MR0/MR1 (clearing those might drop a pending DMA

@@ -17,21 +17,22 @@
 
 use super::identity::{IDENTITY, NAMES};
 use super::layout::SYNC_MANAGERS;
+use super::oversampling;
+use crate::io::analog::oversampling::SAMPLE_PDOS;
 use super::sync::FIGURES;
-use crate::io::analog::process_data::{PDO_ENTRIES, RX_PDOS, TX_PDOS};
+use crate::io::analog::process_data::{PDO_ENTRIES, RX_PDOS, TX_ASSIGN, TX_PDOS};
 use crate::io::analog::{
     AI_CHANNELS, AI_FILTER_AVERAGE, AI_FILTER_LATEST, AO_CHANNELS, SETTINGS_INDEX,
 };
 use crate::platform::board::FULL_SCALE_UV;
 use crate::products::{identity_objects, merge_objects};
 use crate::stacks::diagnostics::ERROR_HISTORY;
-use crate::stacks::ethercat::sync::{SUPPORTED_MODES, SYNC_MODE_SM, SYNC_MODE_SM2_INPUTS};
+use crate::stacks::ethercat::sync_objects;
 use coe_core::od::{
     Access, DataType, EntryDefault, EntryDesc, ObjectDesc, ObjectDictionary, Value, ValueRange,
 };
 use coe_core::pdo::PdoEntry;
 
-const BOOL: DataType = DataType::Boolean;
 const I16: DataType = DataType::Integer16;
 const I32: DataType = DataType::Integer32;
 const U8: DataType = DataType::Unsigned8;
@@ -94,7 +95,8 @@ pub const RX_ASSIGN_DEFAULT: [u16; 1] = [RX_MAPPINGS[0]];
 /// The default TxPDO assignment (0x1C13).
 pub const TX_ASSIGN_DEFAULT: [u16; 1] = [TX_MAPPINGS[0]];
 
-const SUB_NAMES: [&str; 8] = [
+/// Names of subindices 1..: as many as the largest 0x1C13 (plain and oversampling PDOs).
+const SUB_NAMES: [&str; TX_PDOS + 2 + SAMPLE_PDOS] = [
     "SubIndex 001",
     "SubIndex 002",
     "SubIndex 003",
@@ -103,6 +105,11 @@ const SUB_NAMES: [&str; 8] = [
     "SubIndex 006",
     "SubIndex 007",
     "SubIndex 008",
+    "SubIndex 009",
+    "SubIndex 010",
+    "SubIndex 011",
+    "SubIndex 012",
+    "SubIndex 013",
 ];
 
 /// Sub 0 plus `N - 1` entries of `data_type`, named from `names`, with `defaults` as the
@@ -177,7 +184,23 @@ static TXPDO_2_DEFAULTS: [EntryDefault; TXPDO_AI_1_4.len() + 1] = mapping_defaul
 static TXPDO_3_DEFAULTS: [EntryDefault; TXPDO_AI_5_8.len() + 1] = mapping_defaults(TX_DEFAULTS[2]);
 
 static RX_ASSIGN: [EntryDesc; RX_PDOS + 1] = assignment(&RX_ASSIGN_DEFAULT);
-static TX_ASSIGN: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
+static TX_ASSIGNMENT: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
+/// This product's 0x1C13 holds the plain TxPDOs and the oversampling ones
+/// (`super::oversampling`); it replaces the plain one of [`ANALOG_OBJECTS`].
+static TX_ASSIGNMENT_OVERSAMPLING: [EntryDesc; TX_ASSIGN + 1] = assignment(&TX_ASSIGN_DEFAULT);
+
+/// `objects` with the object of `by`'s index replaced by `by`.
+const fn replaced<const N: usize>(objects: &[ObjectDesc; N], by: ObjectDesc) -> [ObjectDesc; N] {
+    let mut out = *objects;
+    let mut i = 0;
+    while i < N {
+        if out[i].index == by.index {
+            out[i] = by;
+        }
+        i += 1;
+    }
+    out
+}
 
 /// 0x1C00: the communication type of each SyncManager, from the SyncManager layout.
 static SM_TYPES: [EntryDesc; 5] = {
@@ -192,51 +215,11 @@ static SM_TYPES: [EntryDesc; 5] = {
     out
 };
 
-/// 0x1C32 (outputs) / 0x1C33 (inputs), ETG.1020 "SM synchronisation": the subindices the
-/// application's sync monitor serves (`crate::stacks::ethercat::sync::SyncMonitor`, which a test holds
-/// to this description), with the figures of [`super::sync`] as defaults; the sync mode,
-/// calc and copy time and delay time are each object's own ([`SYNC_OUTPUT_DEFAULTS`],
-/// [`SYNC_INPUT_DEFAULTS`]).
-/// 0x0E..=0x12 (RxPDO toggle failed, cycle and SM sync distances) are optional in ETG.1020 and
-/// not measured here, so they are absent (a gap before 0x20; sub 0 stays 0x20).
-static SYNC_PARAMETERS: [EntryDesc; 15] = [
-    EntryDesc::new(0, "SubIndex 000", U8, RO).with_default(Value::Uint(0x20)),
-    EntryDesc::new(1, "Sync mode", U16, RWP),
-    EntryDesc::new(2, "Cycle time", U32, RWP).with_default(Value::Uint(0)),
-    EntryDesc::new(3, "Shift time", U32, RO).with_default(Value::Uint(0)),
-    EntryDesc::new(4, "Sync modes supported", U16, RO)
-        .with_default(Value::Uint(SUPPORTED_MODES as u64)),
-    EntryDesc::new(5, "Minimum cycle time", U32, RO).with_default(ns(FIGURES.min_cycle_ns)),
-    EntryDesc::new(6, "Calc and copy time", U32, RO),
-    EntryDesc::new(7, "Minimum delay time", U32, RO).with_default(Value::Uint(0)),
-    EntryDesc::new(8, "Get cycle time", U16, RW).with_range(&ValueRange {
-        min: Value::Uint(0),
-        max: Value::Uint(2),
-    }),
-    EntryDesc::new(9, "Delay time", U32, RO),
-    EntryDesc::new(0x0A, "Sync0 cycle time", U32, RO),
-    EntryDesc::new(0x0B, "SM event missed", U16, RO),
-    EntryDesc::new(0x0C, "Cycle time too small", U16, RO),
-    EntryDesc::new(0x0D, "Shift time too short", U16, RO),
-    EntryDesc::new(0x20, "Sync error", BOOL, RO),
-];
-
-/// 0x1C32's own defaults: SM-synchronous, the output path's calc and copy and delay times.
-static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = [
-    EntryDefault::new(1, SYNC_MODE_SM as u32),
-    EntryDefault::new(6, FIGURES.output_calc_copy_ns),
-    EntryDefault::new(9, FIGURES.output_delay_ns),
-];
-/// 0x1C33's own defaults: synchronous with SM2, the input path's calc and copy time.
-static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = [
-    EntryDefault::new(1, SYNC_MODE_SM2_INPUTS as u32),
-    EntryDefault::new(6, FIGURES.input_calc_copy_ns),
-    EntryDefault::new(9, 0),
-];
-
-const fn ns(value: u32) -> Value {
-    Value::Uint(value as u64)
-}
+/// 0x1C32 (outputs) / 0x1C33 (inputs), served by the slave application's sync monitor, with
+/// the figures of [`super::sync`] as defaults.
+static SYNC_PARAMETERS: [EntryDesc; 15] = sync_objects::sync_parameters(&FIGURES);
+static SYNC_OUTPUT_DEFAULTS: [EntryDefault; 3] = sync_objects::output_defaults(&FIGURES);
+static SYNC_INPUT_DEFAULTS: [EntryDefault; 3] = sync_objects::input_defaults(&FIGURES);
 
 const AI_NAMES: [&str; AI_CHANNELS] = [
     "AI 1", "AI 2", "AI 3", "AI 4", "AI 5", "AI 6", "AI 7", "AI 8",
@@ -311,7 +294,7 @@ pub static ANALOG_OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT] = [
         .with_defaults(&TXPDO_3_DEFAULTS),
     ObjectDesc::array(0x1C00, "Sync manager type", &SM_TYPES),
     ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGN),
-    ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGN),
+    ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGNMENT),
     // Record type 0x0042: the ETG.1020 SM synchronisation record (as SSC/SOES name it).
     ObjectDesc::record(
         0x1C32,
@@ -372,8 +355,15 @@ pub const MODULE_DESCRIPTION_OBJECT: ObjectDesc = ObjectDesc::var(
 
 /// The module's object dictionary.
 pub static OD: ObjectDictionary = ObjectDictionary::new(&OBJECTS);
-static OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT + 5] =
-    merge_objects(&[&ANALOG_OBJECTS, &PRODUCT_OBJECTS]);
+static OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT + 5 + oversampling::OBJECT_COUNT] =
+    merge_objects(&[
+        &replaced(
+            &ANALOG_OBJECTS,
+            ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGNMENT_OVERSAMPLING),
+        ),
+        &PRODUCT_OBJECTS,
+        &oversampling::OBJECTS,
+    ]);
 
 /// 0x1000: CiA 401 (0x0191) with analog inputs (bit 18) and analog outputs (bit 19).
 pub const DEVICE_TYPE: u32 = 0x0191 | 1 << 18 | 1 << 19;
@@ -387,6 +377,7 @@ mod tests {
     use super::super::device::DEVICE;
     use super::*;
     use crate::stacks::ethercat::mailbox::{MAILBOX_SIZE, TRANSFER_BUFFER};
+    use crate::io::analog::oversampling::InputBlocks;
     use coe_core::pdo::PdoDirection;
     use std::vec::Vec;
 
@@ -453,14 +444,32 @@ mod tests {
     #[test]
     fn product_default_is_built_from_the_dictionary() {
         // Every mapping object of the dictionary has a slot in the application, and only those.
+        // (The fixed oversampling PDOs are the dictionary's own: their lengths below.)
+        let plain = |o: &&ObjectDesc| !InputBlocks::is_block_pdo(o.index);
         assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
-        assert_eq!(DEVICE.pdo_objects(PdoDirection::Tx).count(), TX_PDOS);
+        assert_eq!(
+            DEVICE.pdo_objects(PdoDirection::Tx).filter(plain).count(),
+            TX_PDOS
+        );
         let pd = super::super::process_data();
         assert_eq!(pd.output_len(), 4);
         assert_eq!(pd.input_len(), 16);
+        let mut blocks = 0;
+        for object in DEVICE.pdo_objects(PdoDirection::Tx) {
+            if let Some(bits) = InputBlocks::pdo_bits(object.index) {
+                let mapped: u32 = DEVICE
+                    .pdo_entries(object.index)
+                    .map(|e| u32::from(e.bit_len))
+                    .sum();
+                assert_eq!(mapped, bits, "{:#06x}", object.index);
+                assert!(!pd.owns(object.index));
+                blocks += 1;
+            }
+        }
+        assert_eq!(blocks, 2 + crate::io::analog::oversampling::SAMPLE_PDOS);
         for object in DEVICE
             .pdo_objects(PdoDirection::Rx)
-            .chain(DEVICE.pdo_objects(PdoDirection::Tx))
+            .chain(DEVICE.pdo_objects(PdoDirection::Tx).filter(plain))
         {
             assert!(pd.owns(object.index), "{:#06x}", object.index);
             let entries: Vec<PdoEntry> = DEVICE.pdo_entries(object.index).collect();

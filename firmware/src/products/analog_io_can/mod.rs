@@ -34,6 +34,7 @@ pub mod od;
 #[cfg(test)]
 mod tests;
 
+use coe_core::device::oversampling::Oversampling;
 use super::{analog_io, Budget, CanFacts, ImageBuild, Product};
 use crate::io::analog::AnalogIo;
 use crate::stacks::ethercat::AppConfig;
@@ -48,6 +49,7 @@ pub static PRODUCT: Product = Product {
     board: &BOARD,
     update: identity::UPDATE_TARGET,
     device: &device::DEVICE,
+    oversampling: &Oversampling::NONE,
     can: Some(CanFacts {
         eds: can::EDS_INFO,
         node_id: can::DEFAULT_NODE_ID,

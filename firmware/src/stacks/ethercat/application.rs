@@ -30,6 +30,18 @@ pub trait CycleStage {
     fn fault_waiting(&self) -> bool;
 }
 
+/// PREOP -> SAFEOP in DC SYNC0 mode: where the SYNC0 edges lie in DC time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DcStart {
+    /// SYNC0 cycle (0x09A0), ns.
+    pub cycle_ns: u32,
+    /// The ESC's next SYNC0 time (0x0990), DC ns.
+    pub next_sync0_dc: u64,
+    /// The captured time (low 32 bits, MCU ns) of the SYNC0 edge right before
+    /// `next_sync0_dc`, if SYNC0 was running; `None`: the next edge captured is the first.
+    pub previous_edge_lo: Option<u32>,
+}
+
 /// What an application's call asks of the caller besides its answer.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Effects {
@@ -108,6 +120,33 @@ pub trait Application {
         expect2: &SyncManagerDesc,
         expect3: &SyncManagerDesc,
     ) -> Result<(), AlStatusCode>;
+
+    /// Whether [`Self::start_sync`] wants the SYNC0 timing in DC mode (two ESC reads at
+    /// PREOP -> SAFEOP; left out of the images of applications that do not).
+    const WANTS_DC_START: bool = false;
+
+    /// PREOP -> SAFEOP, after [`Self::prepare`]: the sync mode chosen, with the SYNC0
+    /// timing in DC mode when [`Self::WANTS_DC_START`] (`None` otherwise); the AL status
+    /// code of a configuration the application cannot serve in that mode.
+    fn start_sync(&mut self, dc: Option<DcStart>) -> Result<(), AlStatusCode> {
+        let _ = dc;
+        Ok(())
+    }
+
+    /// SAFEOP -> OP: whether the device can run its outputs now, else the AL status code of
+    /// the refusal (a gateway whose mandatory nodes do not all run yet: 0x0018, its inputs
+    /// are not valid). The default: always.
+    #[inline(always)]
+    fn check_op(&mut self) -> Result<(), AlStatusCode> {
+        Ok(())
+    }
+
+    /// In OP, at each background poll: a fault of the device that takes it to SAFEOP with
+    /// the error flag and this code (a gateway's mandatory node lost). The default: none.
+    #[inline(always)]
+    fn op_fault(&mut self) -> Option<AlStatusCode> {
+        None
+    }
 
     /// The output image of the configuration in effect (SAFEOP, OP), to read SM2 into.
     fn output_image(&mut self) -> &mut [u8];

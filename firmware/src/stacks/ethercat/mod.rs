@@ -39,8 +39,9 @@ pub mod confirm;
 pub mod mailbox;
 pub mod pdi_task;
 pub mod sync;
+pub mod sync_objects;
 
-pub use application::{Application, CycleStage, Effects};
+pub use application::{Application, CycleStage, DcStart, Effects};
 
 use crate::platform::div::div_u64_u32;
 use crate::stacks::diagnostics::{
@@ -275,6 +276,11 @@ impl<A: Application> SlaveApp<A> {
         if sync0 == SyncVerdict::FatalSyncError {
             self.sync_error(esc, stage, AlStatusCode::FatalSyncError, &mut out)?;
         }
+        if self.esm.state() == AlState::Op {
+            if let Some(code) = self.app.op_fault() {
+                self.local_error(esc, stage, code, &mut out)?;
+            }
+        }
         let mut events = None;
         if matches!(self.esm.state(), AlState::SafeOp | AlState::Op) {
             let mode = self.app.sync().mode();
@@ -484,6 +490,9 @@ impl<A: Application> SlaveApp<A> {
                 }
             }
             (AlState::SafeOp, AlState::Op) => {
+                if let Err(code) = self.app.check_op() {
+                    return Ok(Err((AlState::SafeOp, code)));
+                }
                 // Accepted before the first outputs arrive; the outputs stay safe until
                 // fresh process data come in OP.
                 self.app.sync_mut().enter_op();
@@ -523,6 +532,15 @@ impl<A: Application> SlaveApp<A> {
         if let Err(code) = self.app.prepare(&sm2, &sm3, &expect2, &expect3) {
             return Ok(Err(code));
         }
+        let dc = match mode {
+            SyncMode::DcSync0 if A::WANTS_DC_START => {
+                Some(self.dc_start(esc, stage, sync0_cycle_ns)?)
+            }
+            _ => None,
+        };
+        if let Err(code) = self.app.start_sync(dc) {
+            return Ok(Err(code));
+        }
         self.app.sync_mut().start(mode, sync0_cycle_ns);
         self.confirm_outputs = mode != SyncMode::DcSync0
             || sync0_cycle_ns >= self.app.sync().figures().confirm_outputs_min_cycle_ns;
@@ -530,6 +548,33 @@ impl<A: Application> SlaveApp<A> {
         // Inputs are valid in SAFEOP.
         self.write_inputs(esc)?;
         Ok(Ok(()))
+    }
+
+    /// Where the SYNC0 edges lie in DC time: the system time and the next SYNC0 time read
+    /// back to back, and the last edge captured before them if SYNC0 runs (the edge that
+    /// came `cycle - (next - now)` before); read again if an edge came during the reads.
+    fn dc_start<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &A::Stage,
+        cycle_ns: u32,
+    ) -> PdiResult<DcStart, P> {
+        let mut tries = 2;
+        loop {
+            let before = stage.sync0_counts();
+            let now = esc.system_time()?;
+            let next = esc.read_u64(Register::DcStartTime)?;
+            let after = stage.sync0_counts();
+            tries -= 1;
+            if before.edges == after.edges || tries == 0 {
+                let running = next.wrapping_sub(now) <= u64::from(cycle_ns) && after.edges > 0;
+                return Ok(DcStart {
+                    cycle_ns,
+                    next_sync0_dc: next,
+                    previous_edge_lo: running.then_some(after.last_edge_lo),
+                });
+            }
+        }
     }
 
     // ------------------------------------------------------------ faults

@@ -18,7 +18,6 @@ use ethercrab::PduStorage;
 use std::cell::RefCell;
 use std::rc::Rc;
 use virtual_board::models::esc::{AlWrite, Side};
-use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::master::tx_rx_task;
 use virtual_board::rig::sdo_client::{
     request, sdo_request_bytes, sdo_response, MailboxClient, MAILBOX_TYPE_COE,
@@ -43,14 +42,8 @@ const SDO_STEP_NS: u64 = 1_000;
 
 /// The program on a fresh board (its SII, its CPU) and the handle on its co-simulator.
 pub fn board_for(program: &Program) -> Result<(Board, CosimHandle), String> {
-    let (mut target, handle) = (program.target)(program.image.clone(), Options::default())?;
-    let board = Rc::new(RefCell::new(VirtualBoard::new({
-        let mut cfg = BoardConfig::new(std::mem::take(&mut target.sii));
-        cfg.capture = false;
-        cfg
-    })));
-    let cpu = (target.make_cpu)(board.borrow().io());
-    board.borrow_mut().set_cpu(cpu);
+    let (target, handle) = (program.target)(program.image.clone(), Options::default())?;
+    let board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
     Ok((board, handle))
 }
 

@@ -56,6 +56,31 @@ pub fn ns_to_ticks(ns: u64, hz: u64) -> u64 {
     }
 }
 
+/// What the peripherals' unit tests share: a tick at PCLK 100 MHz, and a peripheral run on
+/// its own events.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::{Peripheral, Tick};
+
+    /// The time `now_ns` with PCLK at CCLK (100 MHz).
+    pub fn t(now_ns: u64) -> Tick {
+        Tick {
+            now_ns,
+            pclk_hz: 100_000_000,
+        }
+    }
+
+    /// Everything `p` schedules up to `until` (ns) happens, in order.
+    pub fn run_until(p: &mut impl Peripheral, until: u64) {
+        while let Some(e) = p.next_event() {
+            if e > until {
+                break;
+            }
+            p.on_event(t(e));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

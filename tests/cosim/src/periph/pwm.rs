@@ -300,22 +300,7 @@ impl Peripheral for Pwm {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn t(now_ns: u64) -> Tick {
-        Tick {
-            now_ns,
-            pclk_hz: 100_000_000,
-        }
-    }
-
-    fn run(p: &mut Pwm, until: u64) {
-        while let Some(e) = p.next_event() {
-            if e > until {
-                break;
-            }
-            p.on_event(t(e));
-        }
-    }
+    use crate::periph::testing::{run_until, t};
 
     /// The LDAC waveform of the design: period 20 us (MR0 = 1999, reset), PWM1.4 single edge,
     /// low for the last 200 ns of each cycle (MR4 = 1980); the falling edges lie on the 20 us
@@ -347,7 +332,7 @@ mod tests {
             Some(false),
             "nothing before the first cycle start"
         );
-        run(&mut p, 100_000);
+        run_until(&mut p, 100_000);
         // The first cycle starts at the first MR0 reset (20 us); each one rises at its
         // start and falls 200 ns before its end.
         assert_eq!(
@@ -366,15 +351,15 @@ mod tests {
     fn shadow_registers_take_effect_at_the_next_cycle() {
         let mut p = Pwm::new();
         ldac_pwm(&mut p);
-        run(&mut p, 45_000);
+        run_until(&mut p, 45_000);
         p.write(t(45_000), 0x18, 2_004); // the cycle from 60 us lasts 50 ns longer
         p.write(t(45_000), 0x50, 1);
         assert_eq!(p.read(t(45_000), 0x18), 1_999, "still active");
-        run(&mut p, 65_000);
+        run_until(&mut p, 65_000);
         assert_eq!(p.read(t(65_000), 0x18), 2_004, "active from 60 us");
         p.write(t(65_000), 0x18, 1_999); // and back from the cycle after it
         p.write(t(65_000), 0x50, 1);
-        run(&mut p, 121_000);
+        run_until(&mut p, 121_000);
         assert_eq!(
             edges_of(&p, 4, true),
             [20_000, 40_000, 60_000, 80_050, 100_050, 120_050]
@@ -396,7 +381,7 @@ mod tests {
         p.write(t(0), 0x4C, 1 << 2 | 1 << 10); // PWMSEL2 double edge, PWMENA2
         p.write(t(0), 0x50, 0b111);
         p.write(t(0), 0x04, TCR_ENABLE | TCR_PWM);
-        run(&mut p, 25_000);
+        run_until(&mut p, 25_000);
         let edges: Vec<(u64, bool)> = p
             .edges
             .iter()
@@ -429,7 +414,7 @@ mod tests {
         p.write(t(0), 0x18, 499);
         p.write(t(0), 0x14, 1 << 2 | 1); // MR0 stops the counter and interrupts
         p.write(t(0), 0x04, TCR_ENABLE);
-        run(&mut p, 1_000_000);
+        run_until(&mut p, 1_000_000);
         assert_eq!(p.read(t(1_000_000), 0x08), 499);
         assert_eq!(p.read(t(1_000_000), 0x04) & TCR_ENABLE, 0);
         assert_eq!(p.matches[0], 1);

@@ -159,13 +159,7 @@ impl Peripheral for Spi {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn t(now_ns: u64) -> Tick {
-        Tick {
-            now_ns,
-            pclk_hz: 100_000_000,
-        }
-    }
+    use crate::periph::testing::t;
 
     #[test]
     fn a_byte_takes_eight_ccr_periods_and_spif_clears_by_sr_then_dr() {

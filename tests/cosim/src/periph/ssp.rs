@@ -183,13 +183,7 @@ impl Peripheral for Ssp {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn t(now_ns: u64) -> Tick {
-        Tick {
-            now_ns,
-            pclk_hz: 100_000_000,
-        }
-    }
+    use crate::periph::testing::t;
 
     #[test]
     fn frames_take_bits_times_the_sck_period_and_fill_the_rx_fifo() {

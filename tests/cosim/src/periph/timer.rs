@@ -315,22 +315,7 @@ impl Peripheral for Timer {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn t(now_ns: u64) -> Tick {
-        Tick {
-            now_ns,
-            pclk_hz: 100_000_000,
-        }
-    }
-
-    fn run(tm: &mut Timer, until: u64) {
-        while let Some(e) = tm.next_event() {
-            if e > until {
-                break;
-            }
-            tm.on_event(t(e));
-        }
-    }
+    use crate::periph::testing::{run_until, t};
 
     /// Timer2 as the ADC DMA path sets it up: MR3 resets every 400 ticks, MR0 toggles
     /// MAT2.0, MR0/MR1 request DMA.
@@ -345,15 +330,15 @@ mod tests {
         tm.write(t(0), 0x3C, 0b11 << 4);
         tm.write(t(0), 0x04, 1);
         assert_eq!(tm.next_event(), Some(10));
-        run(&mut tm, 10);
+        run_until(&mut tm, 10);
         assert!(tm.match_output(0) && tm.dma_request(0));
         tm.clear_dma_request(0);
-        run(&mut tm, 2330);
+        run_until(&mut tm, 2330);
         assert!(tm.dma_request(1));
-        run(&mut tm, 3990);
+        run_until(&mut tm, 3990);
         assert_eq!(tm.read(t(3995), 0x08), 399, "MR3 holds for one tick");
         assert_eq!(tm.read(t(4000), 0x08), 0, "then TC is 0");
-        run(&mut tm, 4010);
+        run_until(&mut tm, 4010);
         assert!(!tm.match_output(0), "toggled again one period later");
         // MR2 = 0 matches when the MR3 reset brings TC to 0 (not when the timer starts).
         assert_eq!(tm.matches, [2, 1, 1, 1]);

@@ -148,13 +148,7 @@ impl Peripheral for Wdt {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn t(now_ns: u64) -> Tick {
-        Tick {
-            now_ns,
-            pclk_hz: 100_000_000,
-        }
-    }
+    use crate::periph::testing::t;
 
     /// The firmware's setup: IRC, 100 000 ticks of 1 us, WDEN | WDRESET, fed.
     #[test]

@@ -3,11 +3,13 @@
 //! process-data watchdog.
 //!
 //! The model has two sides, as the chip has: the EtherCAT side (frames, see
-//! [`Esc::process_frame`]) and the PDI side (the SPI front end in [`crate::models::spi`] and the
-//! direct [`Esc::pdi_read`]/[`Esc::pdi_write`] helpers). Every access goes through one
+//! [`Esc::process_frame`]) and the PDI side (the SPI front end in [`crate::models::spi`], the
+//! 16-bit µC front end in [`parallel`] and the direct [`Esc::pdi_read`]/[`Esc::pdi_write`]
+//! helpers). Every access goes through one
 //! routine, [`Esc::access`], which applies register write masks, read/write side effects
 //! and the SyncManager buffer rules (Beckhoff ESC datasheet Section I chapter 8).
 
+pub mod parallel;
 pub mod regs;
 
 mod dc;

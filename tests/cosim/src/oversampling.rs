@@ -1,0 +1,484 @@
+//! Input oversampling on the image (docs/book/oversampling.md): ethercrab assigns the block
+//! PDOs (0x1A10, 0x1A11, 0x1A20..) over SDO in PRE-OP, runs DC SYNC0 at a cycle, and keeps
+//! every block; the analysis checks the stream (scan counter continuous, nothing lost or
+//! repeated, status clean) and rebuilds a sine fed to AI1 from the samples and their DC
+//! times. Shared by the system test and `cargo xtask bench`.
+
+use crate::bench::{al_status, master, step_to, sync0_started, Board, Storage};
+use crate::cosim::{Facts, Options};
+use crate::image::Image;
+use crate::run::image_target;
+use ethercrab::subdevice_group::DcConfiguration;
+use ethercrab::{DcSync, PduStorage};
+use std::cell::RefCell;
+use std::f64::consts::PI;
+use std::rc::Rc;
+use std::time::Duration;
+use virtual_board::models::adc::Signal;
+use virtual_board::rig::master::tx_rx_task;
+
+/// Channels of a scan.
+pub const CHANNELS: usize = 8;
+/// Conversion period (ns).
+pub const PERIOD_NS: u64 = 4_000;
+/// Block PDOs: status, time, then the sample PDOs.
+const STATUS_PDO: u16 = 0x1A10;
+const TIME_PDO: u16 = 0x1A11;
+const SAMPLE_PDO: u16 = 0x1A20;
+/// Cycles in OP before the blocks count (the stream starts at SAFE-OP; the first blocks
+/// in OP are kept from the warm-up on).
+const WARM_UP_CYCLES: u64 = 20;
+
+/// The sine on AI1 (V at the connector): 4 V around 5 V.
+pub const SINE_AMPLITUDE_V: f64 = 4.0;
+/// Its offset.
+pub const SINE_OFFSET_V: f64 = 5.0;
+/// Its phase at DC time 0.
+pub const SINE_PHASE: f64 = 0.3;
+/// The constant inputs of AI2..AI8.
+pub const OTHER_INPUTS_V: [f64; 7] = [1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 9.5];
+
+/// What the master assigns.
+#[derive(Debug, Clone, Copy)]
+pub struct Config {
+    /// DC cycle (ns).
+    pub cycle_ns: u64,
+    /// Cycles in OP that count.
+    pub cycles: u64,
+    /// Sample PDOs (32 slots each).
+    pub sample_pdos: u8,
+    /// Frequency of the sine on AI1 (Hz).
+    pub sine_hz: f64,
+}
+
+/// One block as the master received it.
+#[derive(Debug, Clone, Default)]
+pub struct Block {
+    /// Scan counter of its first scan.
+    pub counter: u32,
+    /// Whole scans.
+    pub scans: u8,
+    /// Status bits.
+    pub status: u8,
+    /// DC time of its first conversion.
+    pub time_dc: u64,
+    /// The valid samples (scans x 8).
+    pub samples: Vec<u16>,
+}
+
+/// A run: the blocks and the image's facts around it.
+#[derive(Debug)]
+pub struct OsRun {
+    /// The configuration.
+    pub config: Config,
+    /// The blocks of the counted cycles, in order.
+    pub blocks: Vec<Block>,
+    /// Input image bytes per cycle.
+    pub input_bytes: usize,
+    /// Virtual time of the counted cycles (ns).
+    pub span_ns: u64,
+    /// The ESC's DC system time minus the board's virtual time (ns): the ADC model's
+    /// inputs are functions of virtual time.
+    pub dc_minus_virtual_ns: i64,
+    /// Facts at the start of the counted cycles and at the end.
+    pub before: Facts,
+    /// At the end.
+    pub after: Facts,
+}
+
+/// The stream's verdict.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StreamCheck {
+    /// Conversions delivered.
+    pub samples: u64,
+    /// Conversions the counter says were skipped (lost).
+    pub lost: u64,
+    /// Conversions delivered twice (a block overlapping the one before).
+    pub duplicated: u64,
+    /// Blocks with a status bit set.
+    pub flagged_blocks: u64,
+    /// Smallest and largest scans per block.
+    pub scans_range: (u8, u8),
+    /// Samples per second delivered (all channels).
+    pub samples_per_s: f64,
+    /// Block time against scan counter x scan length + t0: largest deviation (ns).
+    pub time_jitter_ns: u64,
+}
+
+/// The sine rebuilt from AI1's samples.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SineFit {
+    /// Amplitude (V).
+    pub amplitude_v: f64,
+    /// Its error against the input's, relative.
+    pub amplitude_error: f64,
+    /// The phase error as a time (ns): the sample times against the input's.
+    pub time_error_ns: f64,
+    /// RMS residual (V).
+    pub residual_rms_v: f64,
+}
+
+/// Runs the image with the block PDOs at `config`.
+pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
+    let (target, handle) = image_target(image.clone(), Options::default())?;
+    let board: Board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
+    {
+        let adc = board.borrow().adc().clone();
+        let mut adc = adc.borrow_mut();
+        adc.inputs[0] = Signal::Sine {
+            amplitude: SINE_AMPLITUDE_V,
+            offset: SINE_OFFSET_V,
+            freq_hz: config.sine_hz,
+            phase: SINE_PHASE,
+        };
+        for (i, v) in OTHER_INPUTS_V.iter().enumerate() {
+            adc.inputs[i + 1] = Signal::Constant(*v);
+        }
+    }
+    let facts = || {
+        handle
+            .with(|c| c.facts())
+            .ok_or_else(|| "the co-simulator did not start".to_string())
+    };
+    let storage: Box<Storage> = Box::new(PduStorage::new());
+    let (md, tx, rx) = master(&storage)?;
+    let mut blocks = Vec::new();
+    let mut input_bytes = 0;
+    let mut before = None;
+    let mut start = 0;
+    step_to(&board, 2_000_000);
+    let cycle_ns = config.cycle_ns;
+    let master = async {
+        let clock = board.borrow().clock().clone();
+        let group = md
+            .init_single_group::<2, 1024>(|| clock.now_ns())
+            .await
+            .map_err(|e| format!("INIT -> PRE-OP: {e}"))?;
+        let mut pdos = vec![STATUS_PDO, TIME_PDO];
+        pdos.extend((0..u16::from(config.sample_pdos)).map(|b| SAMPLE_PDO + b));
+        {
+            let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+            sd.sdo_write(0x1C13, 0, 0u8)
+                .await
+                .map_err(|e| format!("0x1C13:00 = 0: {e}"))?;
+            for (sub, pdo) in (1u8..).zip(&pdos) {
+                sd.sdo_write(0x1C13, sub, *pdo)
+                    .await
+                    .map_err(|e| format!("0x1C13:{sub} = {pdo:#06x}: {e}"))?;
+            }
+            sd.sdo_write(0x1C13, 0, pdos.len() as u8)
+                .await
+                .map_err(|e| format!("0x1C13:00 = {}: {e}", pdos.len()))?;
+        }
+        let mut group = group;
+        for mut sd in group.iter_mut(&md) {
+            sd.set_dc_sync(DcSync::Sync0);
+        }
+        let group = group
+            .into_pre_op_pdi(&md)
+            .await
+            .map_err(|e| format!("process data: {e}"))?;
+        let group = group
+            .configure_dc_sync(
+                &md,
+                DcConfiguration {
+                    // ethercrab rounds the start down to a whole cycle: a delay of
+                    // several cycles keeps it in the future.
+                    start_delay: Duration::from_nanos(10_000_000.max(4 * cycle_ns)),
+                    sync0_period: Duration::from_nanos(cycle_ns),
+                    sync0_shift: Duration::from_nanos(cycle_ns / 2),
+                },
+            )
+            .await
+            .map_err(|e| format!("DC: {e}"))?;
+        let refused = |step: &str, e: ethercrab::error::Error| {
+            let (status, code) = al_status(&board);
+            format!("{step} refused: {e} (AL status {status:#06x}, AL status code {code:#06x})")
+        };
+        let group = group
+            .into_safe_op(&md)
+            .await
+            .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
+        sync0_started(&board);
+        let group = group
+            .into_op(&md)
+            .await
+            .map_err(|e| refused("SAFE-OP -> OP", e))?;
+        for i in 0..WARM_UP_CYCLES + config.cycles {
+            if i == WARM_UP_CYCLES {
+                before = Some(facts()?);
+                start = board.borrow().now_ns();
+            }
+            let t0 = board.borrow().now_ns();
+            let resp = group
+                .tx_rx_dc(&md)
+                .await
+                .map_err(|e| format!("cycle {i}: {e}"))?;
+            if !resp.all_op() {
+                let (status, code) = al_status(&board);
+                return Err(format!(
+                    "the slave left OP at cycle {i} (AL status {status:#06x}, code {code:#06x})"
+                ));
+            }
+            if i >= WARM_UP_CYCLES {
+                let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+                let img = sd.inputs_raw();
+                input_bytes = img.len();
+                blocks.push(parse_block(&img)?);
+            }
+            let phase = resp.extra.dc_system_time % cycle_ns;
+            step_to(&board, t0 + (cycle_ns - phase) + cycle_ns / 2);
+        }
+        Ok::<(), String>(())
+    };
+    let result = futures_lite::future::block_on(futures_lite::future::or(
+        master,
+        tx_rx_task(board.clone(), tx, rx),
+    ));
+    let after = facts()?;
+    if let Err(e) = result {
+        return Err(format!("{e}\n{}", after.summary()));
+    }
+    if let Some(f) = &after.fault {
+        return Err(format!("the image faulted: {f}"));
+    }
+    let span_ns = board.borrow().now_ns() - start;
+    let dc_minus_virtual_ns = {
+        let b = board.borrow();
+        let sys = b.esc().borrow().dc_system_time();
+        sys as i64 - b.now_ns() as i64
+    };
+    Ok(OsRun {
+        config,
+        blocks,
+        input_bytes,
+        span_ns,
+        dc_minus_virtual_ns,
+        before: before.ok_or("no counted cycle")?,
+        after,
+    })
+}
+
+/// A block from the input image (status, time, samples).
+fn parse_block(img: &[u8]) -> Result<Block, String> {
+    if img.len() < 14 {
+        return Err(format!("input image of {} bytes", img.len()));
+    }
+    let scans = img[4];
+    let valid = usize::from(scans) * CHANNELS;
+    let slots = (img.len() - 14) / 2;
+    if valid > slots {
+        return Err(format!("{scans} scans in {slots} slots"));
+    }
+    Ok(Block {
+        counter: u32::from_le_bytes([img[0], img[1], img[2], img[3]]),
+        scans,
+        status: img[5],
+        time_dc: u64::from_le_bytes(img[6..14].try_into().map_err(|_| "time")?),
+        samples: img[14..14 + 2 * valid]
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+            .collect(),
+    })
+}
+
+/// The stream's verdict over the blocks of `run`.
+pub fn check_stream(run: &OsRun) -> StreamCheck {
+    let mut c = StreamCheck {
+        scans_range: (u8::MAX, 0),
+        ..Default::default()
+    };
+    let scan_ns = PERIOD_NS * CHANNELS as u64;
+    let mut expected: Option<u32> = None;
+    let t0 = run
+        .blocks
+        .first()
+        .map(|b| b.time_dc.wrapping_sub(u64::from(b.counter) * scan_ns));
+    for b in &run.blocks {
+        c.samples += b.samples.len() as u64;
+        if let Some(e) = expected {
+            let d = i64::from(b.counter.wrapping_sub(e) as i32) * CHANNELS as i64;
+            if d > 0 {
+                c.lost += d as u64;
+            } else {
+                c.duplicated += (-d) as u64;
+            }
+        }
+        expected = Some(b.counter.wrapping_add(u32::from(b.scans)));
+        c.flagged_blocks += u64::from(b.status != 0);
+        c.scans_range = (c.scans_range.0.min(b.scans), c.scans_range.1.max(b.scans));
+        if let Some(t0) = t0 {
+            let want = t0 + u64::from(b.counter) * scan_ns;
+            c.time_jitter_ns = c.time_jitter_ns.max(b.time_dc.abs_diff(want));
+        }
+    }
+    c.samples_per_s = c.samples as f64 * 1e9 / run.span_ns.max(1) as f64;
+    c
+}
+
+/// AI1's samples with their times (s; the board's virtual time, from the DC times the
+/// blocks give) and volts.
+pub fn ai1_samples(run: &OsRun) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for b in &run.blocks {
+        let first = b.time_dc as i64 - run.dc_minus_virtual_ns;
+        for (i, code) in b.samples.iter().step_by(CHANNELS).enumerate() {
+            let t = first as f64 + (i * CHANNELS) as f64 * PERIOD_NS as f64;
+            out.push((t * 1e-9, f64::from(*code) / 65536.0 * 10.0));
+        }
+    }
+    out
+}
+
+/// Least-squares fit of `offset + a sin(w t) + b cos(w t)` at the input's frequency: the
+/// amplitude and the phase against the input's (as a time).
+pub fn fit_sine(points: &[(f64, f64)], freq_hz: f64) -> SineFit {
+    let w = 2.0 * PI * freq_hz;
+    // Normal equations of the three unknowns.
+    let mut m = [[0.0f64; 3]; 3];
+    let mut v = [0.0f64; 3];
+    for (t, y) in points {
+        let row = [(w * t).sin(), (w * t).cos(), 1.0];
+        for ((mi, vi), ri) in m.iter_mut().zip(v.iter_mut()).zip(row) {
+            for (mij, rj) in mi.iter_mut().zip(row) {
+                *mij += ri * rj;
+            }
+            *vi += ri * y;
+        }
+    }
+    let x = solve3(m, v);
+    let amplitude = x[0].hypot(x[1]);
+    // a sin + b cos = A sin(w t + phi), phi = atan2(b, a).
+    let phase = x[1].atan2(x[0]);
+    let mut dphi = phase - SINE_PHASE;
+    while dphi > PI {
+        dphi -= 2.0 * PI;
+    }
+    while dphi < -PI {
+        dphi += 2.0 * PI;
+    }
+    let residual = points
+        .iter()
+        .map(|(t, y)| y - (x[0] * (w * t).sin() + x[1] * (w * t).cos() + x[2]))
+        .map(|r| r * r)
+        .sum::<f64>();
+    SineFit {
+        amplitude_v: amplitude,
+        amplitude_error: (amplitude - SINE_AMPLITUDE_V).abs() / SINE_AMPLITUDE_V,
+        // A sample time late by d reads the input at t + d: the phase leads by w d.
+        time_error_ns: dphi / w * 1e9,
+        residual_rms_v: (residual / points.len().max(1) as f64).sqrt(),
+    }
+}
+
+fn solve3(mut m: [[f64; 3]; 3], mut v: [f64; 3]) -> [f64; 3] {
+    for col in 0..3 {
+        let pivot = (col..3)
+            .max_by(|a, b| m[*a][col].abs().total_cmp(&m[*b][col].abs()))
+            .unwrap_or(col);
+        m.swap(col, pivot);
+        v.swap(col, pivot);
+        let (pivot_row, pivot_v) = (m[col], v[col]);
+        for (row, (mr, vr)) in m.iter_mut().zip(v.iter_mut()).enumerate() {
+            if row != col && pivot_row[col] != 0.0 {
+                let f = mr[col] / pivot_row[col];
+                for (x, p) in mr.iter_mut().zip(pivot_row) {
+                    *x -= f * p;
+                }
+                *vr -= f * pivot_v;
+            }
+        }
+    }
+    [0, 1, 2].map(|i| if m[i][i] != 0.0 { v[i] / m[i][i] } else { 0.0 })
+}
+
+/// The configurations `cargo xtask bench` measures: the fewest sample PDOs that hold a
+/// cycle's scans at 1 ms, 250 us and 100 us.
+pub const BENCH_CONFIGS: [(u64, u8); 3] = [(1_000_000, 8), (250_000, 2), (100_000, 1)];
+
+/// One line of figures of a run: samples per second (total and per channel), lost and
+/// duplicated, flagged blocks, PDI input bytes per cycle against the valid payload, CPU
+/// load over the counted cycles.
+pub fn figures(run: &OsRun) -> String {
+    let c = check_stream(run);
+    let cycles = run.blocks.len().max(1) as f64;
+    let payload = c.samples as f64 * 2.0 / cycles;
+    let busy = |f: &Facts| f.cycles.saturating_sub(f.sleep_cycles);
+    let all = run.after.cycles.saturating_sub(run.before.cycles).max(1);
+    let load = busy(&run.after).saturating_sub(busy(&run.before)) as f64 / all as f64;
+    format!(
+        "cycle {:>5} us, {} sample PDOs: {:>7.0} samples/s ({:.0} per channel), lost {}, \
+         duplicated {}, blocks flagged {}, scans/block {}..{}, input image {} B/cycle \
+         ({:.0} B of samples), CPU load {:.1} %",
+        run.config.cycle_ns / 1_000,
+        run.config.sample_pdos,
+        c.samples_per_s,
+        c.samples_per_s / CHANNELS as f64,
+        c.lost,
+        c.duplicated,
+        c.flagged_blocks,
+        c.scans_range.0,
+        c.scans_range.1,
+        run.input_bytes,
+        payload,
+        100.0 * load
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fit_finds_amplitude_and_a_time_shift() {
+        let f = 1_234.5;
+        let shift = 1.5e-6;
+        let points: Vec<(f64, f64)> = (0..20_000)
+            .map(|i| {
+                let t = 0.01 + i as f64 * 32e-6;
+                let y = SINE_OFFSET_V
+                    + SINE_AMPLITUDE_V * (2.0 * PI * f * (t + shift) + SINE_PHASE).sin();
+                (t, y)
+            })
+            .collect();
+        let fit = fit_sine(&points, f);
+        assert!(fit.amplitude_error < 1e-9, "{fit:?}");
+        assert!((fit.time_error_ns - 1_500.0).abs() < 1.0, "{fit:?}");
+    }
+
+    fn run_of(blocks: Vec<Block>) -> OsRun {
+        OsRun {
+            config: Config {
+                cycle_ns: 1_000_000,
+                cycles: 0,
+                sample_pdos: 8,
+                sine_hz: 1.0,
+            },
+            blocks,
+            input_bytes: 0,
+            span_ns: 1_000_000,
+            dc_minus_virtual_ns: 0,
+            before: Facts::default(),
+            after: Facts::default(),
+        }
+    }
+
+    fn block(counter: u32, scans: u8) -> Block {
+        Block {
+            counter,
+            scans,
+            status: 0,
+            time_dc: 1_000 + u64::from(counter) * 32_000,
+            samples: vec![0; usize::from(scans) * CHANNELS],
+        }
+    }
+
+    #[test]
+    fn the_stream_check_counts_gaps_and_overlaps() {
+        let c = check_stream(&run_of(vec![block(0, 31), block(31, 32), block(63, 31)]));
+        assert_eq!((c.lost, c.duplicated, c.samples), (0, 0, 94 * 8));
+        assert_eq!(c.scans_range, (31, 32));
+        let c = check_stream(&run_of(vec![block(0, 31), block(33, 32), block(60, 31)]));
+        assert_eq!((c.lost, c.duplicated), (2 * 8, 5 * 8));
+    }
+}

@@ -1,0 +1,33 @@
+//! The input oversampling group (docs/book/oversampling.md): the analog-io image on the
+//! co-simulator with the block PDOs at 1 ms, 250 us and 100 us
+//! (`lpc1754-cosim oversampling`), one line of figures each.
+
+use crate::build;
+use crate::util::{cargo, Result};
+
+/// Cycles per configuration (the short form: fewer).
+const CYCLES: u64 = 1_000;
+const CYCLES_QUICK: u64 = 200;
+
+/// Runs the group and returns its lines.
+pub fn lines(quick: bool) -> Result<Vec<String>> {
+    let product = build::product("analog-io")?;
+    let out = build::build(&build::Args::of(product))?;
+    let cycles = if quick { CYCLES_QUICK } else { CYCLES };
+    let output = cargo()
+        .args(["run", "--quiet", "-p", "lpc1754-cosim", "--"])
+        .args(["oversampling", "--cycles", &cycles.to_string()])
+        .env("LPC1754_IMAGE", &out.elf)
+        .output()
+        .map_err(|e| format!("lpc1754-cosim oversampling: {e}"))?;
+    if !output.status.success() {
+        return Err(format!(
+            "lpc1754-cosim oversampling failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    Ok(String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .map(str::to_string)
+        .collect())
+}
