@@ -65,6 +65,12 @@
 #[path = "platform/hw/mod.rs"]
 mod hw;
 
+/// `analog-io-can` links the bootloader's small copy and fill routines instead of
+/// compiler-builtins': they keep it in its flash budget (the module says what they cost).
+#[cfg(all(target_os = "none", feature = "analog-io-can"))]
+#[path = "platform/bootloader/aeabi_mem.rs"]
+mod aeabi_mem;
+
 #[cfg(all(target_os = "none", feature = "rtt"))]
 use defmt_rtt as _;
 #[cfg(target_os = "none")]
