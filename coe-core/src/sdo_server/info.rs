@@ -72,10 +72,26 @@ impl ServiceDataSink for FragmentWriter<'_> {
     }
 
     // One out-of-line copy: the responses write a dozen u16 fields, each would otherwise
-    // carry its own conversion and call.
+    // carry its own conversion and call. An OD list is a u16 per object and each fragment
+    // regenerates the whole list (in the mailbox task, under the lock of the PDI side): a
+    // u16 outside the window is only counted, one inside it stored directly, without the
+    // general path's window arithmetic and byte copy.
     #[inline(never)]
     fn push_u16(&mut self, value: u16) {
-        self.push(&value.to_le_bytes())
+        let start = self.pos;
+        let end = start.saturating_add(2);
+        let window_end = self.skip.saturating_add(self.out.len());
+        if end <= self.skip || start >= window_end {
+            self.pos = end;
+        } else if let Some(dst) = start
+            .checked_sub(self.skip)
+            .and_then(|at| self.out.get_mut(at..at + 2))
+        {
+            dst.copy_from_slice(&value.to_le_bytes());
+            self.pos = end;
+        } else {
+            self.push(&value.to_le_bytes())
+        }
     }
 }
 
