@@ -836,9 +836,37 @@ impl Rig {
     }
 }
 
+/// In DC mode with no output events (the master stopped sending frames), the poll asks
+/// for the safety service itself once it is a whole period overdue.
+#[test]
+fn dc_safety_service_without_output_events_comes_from_the_poll() {
+    let mut r = Rig::new();
+    r.goto_op_dc_1ms();
+    r.dc_cycles_until_the_safety_service_is_due();
+    let Rig {
+        mut esc,
+        app,
+        stage,
+        now,
+        ..
+    } = r;
+    let mut task = PdiTask::new(app);
+    let poll = Wake {
+        edge: false,
+        line_asserted: false,
+        poll: true,
+        pdi_ready: true,
+    };
+    let mut run = |at: u64| task.run(&mut esc.driver(), &stage, at, poll, || false, |_| {});
+    assert!(!run(now + 5_000).serve_mailbox, "left to the output event");
+    let period = u64::from(SAFETY_SERVICE_MS) * 1_000_000;
+    assert!(run(now + period + 5_000).serve_mailbox, "overdue: the poll asks");
+}
+
 /// In DC mode in OP the safety service (the PDI error counter and the mailbox registers)
-/// is the mailbox task's: an SM2 activation reads none of its registers, the poll that
-/// finds it due asks the mailbox task, which reads them, one step per access.
+/// is the mailbox task's: the output event that finds it due asks the mailbox task (so its
+/// steps start after the outputs are preloaded, not just before the next frame) and reads
+/// none of its registers itself; the mailbox task reads them, one step per access.
 #[test]
 fn dc_safety_service_is_the_mailbox_tasks() {
     let mut r = Rig::new();
@@ -862,21 +890,20 @@ fn dc_safety_service_is_the_mailbox_tasks() {
         poll: false,
         pdi_ready: true,
     };
-    esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
-    let done = run(&mut task, &mut esc, now + 10_000, irq);
-    assert!(done.preload_outputs && !done.serve_mailbox);
-    assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
-    assert_eq!(esc.sm_register_reads, sm_reads, "the outputs only");
-    assert!(task.app().safety_service_due(now + 10_000));
-    // The poll after the edge asks the mailbox task.
+    // The poll after an edge leaves it to the next output event.
     let poll = Wake {
         edge: false,
         line_asserted: false,
         poll: true,
         pdi_ready: true,
     };
-    let done = run(&mut task, &mut esc, now + 20_000, poll);
-    assert!(done.serve_mailbox);
+    let done = run(&mut task, &mut esc, now + 5_000, poll);
+    assert!(!done.serve_mailbox, "left to the output event");
+    assert!(task.app().safety_service_due(now + 5_000));
+    esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
+    let done = run(&mut task, &mut esc, now + 10_000, irq);
+    assert!(done.preload_outputs && done.serve_mailbox);
+    assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
     assert_eq!(esc.sm_register_reads, sm_reads, "not read by the PDI task");
     assert!(!task.app().safety_service_due(now + 20_000), "re-armed");
     let reads = esc.reads;

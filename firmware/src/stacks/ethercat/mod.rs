@@ -228,6 +228,9 @@ impl<A: Application> SlaveApp<A> {
             self.outputs(esc, stage, now_ns, &mut out)?;
             out.sm2_event = true;
             self.app.on_output_event(now_ns);
+            if self.safety_service_due(now_ns) {
+                self.want_safety_service(now_ns, &mut out);
+            }
         }
         let activation = events.contains(AlEvents::SM_ACTIVATION);
         if activation {
@@ -302,14 +305,18 @@ impl<A: Application> SlaveApp<A> {
                 None => AlEvents::empty(),
             };
             let work = self.mailbox_has_work(events);
-            if self.safety_service_due(now_ns) {
-                // The periodic register reads are the mailbox task's, below this one, so
-                // they hold no SM2 event wherever in the cycle they fall.
-                self.pdi_errors_due = true;
-                let how = Service::Registers {
-                    check_repeat: false,
-                };
-                self.want_mailbox(now_ns, how, &mut out);
+            // In DC cycles the output event asks for the periodic register reads, so that
+            // their steps start after the outputs are preloaded and cannot hold a frame's
+            // outputs back past SYNC0; here only if no output event came for a period.
+            let dc_cycles = matches!(self.esm.state(), AlState::SafeOp | AlState::Op)
+                && self.app.sync().mode() == SyncMode::DcSync0
+                && self.app.sync().armed();
+            let overdue = now_ns
+                >= self
+                    .mailbox_check_ns
+                    .saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
+            if self.safety_service_due(now_ns) && (!dc_cycles || overdue) {
+                self.want_safety_service(now_ns, &mut out);
             } else if work {
                 self.want_mailbox(now_ns, Service::Events(events), &mut out);
             }
@@ -752,6 +759,17 @@ impl<A: Application> SlaveApp<A> {
             AlState::Init => u64::MAX,
             _ => now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000),
         };
+    }
+
+    /// Asks for the periodic safety service: the PDI error counter, then the mailbox
+    /// registers, in the mailbox task. The register reads are the mailbox task's, below
+    /// this one, so they hold no SM2 event wherever in the cycle they fall.
+    fn want_safety_service(&mut self, now_ns: u64, out: &mut PdiOutcome) {
+        self.pdi_errors_due = true;
+        let how = Service::Registers {
+            check_repeat: false,
+        };
+        self.want_mailbox(now_ns, how, out);
     }
 
     /// Asks for the mailbox service `how` (run by [`Self::mailbox_step`]). Reading the
