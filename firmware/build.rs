@@ -1,8 +1,9 @@
-//! Link setup of the two LPC1754 binaries.
+//! Link setup of the two LPC1754 binaries and the STM32F103 one.
 //!
 //! Each binary gets its own memory map (`firmware::platform::boot::layout`): the application
 //! (`application`) `memory-app.x` (the application slot after the update header), the
-//! bootloader `memory-boot.x` (the first 12 KB, vectors with the checksum and the CRP word).
+//! bootloader `memory-boot.x` (the first 12 KB, vectors with the checksum and the CRP word),
+//! the STM32F103 application (`application-stm32f103`) `memory-stm32f103.x` (the whole flash).
 //! cortex-m-rt's `link.x` includes `memory.x`, which the linker finds in the workspace root
 //! (the directory it runs in, searched before any search path); that file includes
 //! `memory-map.x`, which no directory but the binary's own has: each map is copied under that
@@ -36,7 +37,8 @@ fn main() {
     let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by cargo")).join("..");
     let app = root.join("memory-app.x");
     let boot = root.join("memory-boot.x");
-    for script in [&root.join("memory.x"), &app, &boot] {
+    let stm32 = root.join("memory-stm32f103.x");
+    for script in [&root.join("memory.x"), &app, &boot, &stm32] {
         println!("cargo:rerun-if-changed={}", script.display());
     }
     println!("cargo:rerun-if-changed=build.rs");
@@ -56,6 +58,12 @@ fn main() {
         "bootloader",
         &boot,
         &out.join("bootloader"),
+        &["link.x", "defmt.x"],
+    );
+    link(
+        "application-stm32f103",
+        &stm32,
+        &out.join("application-stm32f103"),
         &["link.x", "defmt.x"],
     );
 }

@@ -465,27 +465,75 @@ impl SyncPin {
 /// PDI type code of an SPI slave (register 0x0140).
 pub const PDI_SPI_SLAVE: u8 = 0x05;
 
+/// PDI type code of the 16-bit asynchronous µC interface (register 0x0140).
+pub const PDI_ASYNC_UC_16BIT: u8 = 0x08;
+
+/// The process data interface and its own bits of 0x0150 (the rest of the PDI
+/// configuration is common to both).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PdiInterface {
+    /// SPI slave ([`PDI_SPI_SLAVE`]).
+    Spi {
+        /// SPI mode 0..3 (0x0150 b1:0).
+        mode: u8,
+        /// SPI_SEL active high (0x0150 b4).
+        sel_active_high: bool,
+        /// Late MISO sampling (0x0150 b5).
+        miso_late_sample: bool,
+    },
+    /// 16-bit asynchronous µC interface ([`PDI_ASYNC_UC_16BIT`]).
+    AsyncUc16 {
+        /// BUSY driver and polarity (0x0150 b1:0).
+        busy: PinDriver,
+        /// BHE active high (0x0150 b4).
+        bhe_active_high: bool,
+        /// RD active high (0x0150 b7).
+        rd_active_high: bool,
+    },
+}
+
+impl PdiInterface {
+    /// The PDI type code (0x0140).
+    pub const fn pdi_type(&self) -> u8 {
+        match self {
+            Self::Spi { .. } => PDI_SPI_SLAVE,
+            Self::AsyncUc16 { .. } => PDI_ASYNC_UC_16BIT,
+        }
+    }
+
+    /// The interface's bits of 0x0150 (the IRQ driver, b3:2, is common).
+    pub const fn config_bits(&self) -> u8 {
+        match *self {
+            Self::Spi {
+                mode,
+                sel_active_high,
+                miso_late_sample,
+            } => (mode & 0x03) | (sel_active_high as u8) << 4 | (miso_late_sample as u8) << 5,
+            Self::AsyncUc16 {
+                busy,
+                bhe_active_high,
+                rd_active_high,
+            } => busy.code() | (bhe_active_high as u8) << 4 | (rd_active_high as u8) << 7,
+        }
+    }
+}
+
 /// The PDI configuration the ESC loads from SII words 0..3 (ESC registers 0x0140/0x0141,
 /// 0x0150/0x0151, 0x0982, 0x0152).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PdiConfig {
-    /// PDI type (0x0140), e.g. [`PDI_SPI_SLAVE`].
-    pub pdi_type: u8,
+    /// The interface (0x0140 and its bits of 0x0150).
+    pub interface: PdiInterface,
     /// 0x0141 b1: enhanced link detection.
     pub enhanced_link_detect: bool,
     /// 0x0141 b2: DC SYNC output unit enabled.
     pub dc_sync_unit: bool,
     /// 0x0141 b3: DC latch input unit enabled.
     pub dc_latch_unit: bool,
-    /// SPI mode 0..3 (0x0150 b1:0).
-    pub spi_mode: u8,
-    /// SPI_IRQ driver and polarity (0x0150 b3:2).
+    /// IRQ (SPI_IRQ) driver and polarity (0x0150 b3:2).
     pub irq: PinDriver,
-    /// SPI_SEL active high (0x0150 b4).
-    pub sel_active_high: bool,
-    /// Late MISO sampling (0x0150 b5).
-    pub miso_late_sample: bool,
     /// SYNC0/LATCH0 pin (0x0151 b3:0).
     pub sync0: SyncPin,
     /// SYNC1/LATCH1 pin (0x0151 b7:4).
@@ -502,15 +550,12 @@ impl PdiConfig {
         let esc_config = (self.enhanced_link_detect as u8) << 1
             | (self.dc_sync_unit as u8) << 2
             | (self.dc_latch_unit as u8) << 3;
-        u16::from_le_bytes([self.pdi_type, esc_config])
+        u16::from_le_bytes([self.interface.pdi_type(), esc_config])
     }
 
     /// SII word 1: PDI configuration (0x0150) and SYNC/LATCH configuration (0x0151).
     pub const fn word1(&self) -> u16 {
-        let pdi = (self.spi_mode & 0x03)
-            | self.irq.code() << 2
-            | (self.sel_active_high as u8) << 4
-            | (self.miso_late_sample as u8) << 5;
+        let pdi = self.interface.config_bits() | self.irq.code() << 2;
         let sync = self.sync0.nibble() | self.sync1.nibble() << 4;
         u16::from_le_bytes([pdi, sync])
     }

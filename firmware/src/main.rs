@@ -5,7 +5,7 @@
 //!
 //! | task            | binds / kind                 | prio | owns                                         |
 //! |-----------------|------------------------------|------|----------------------------------------------|
-//! | `sync0_dac`     | TIMER1 (CAP1.0, pend)        | 4    | SYNC0 capture, AD5663 + LDAC, `DacLatch`     |
+//! | `sync0_dac`     | TIMER1 (CAP1.0, MR1, pend)   | 4    | SYNC0 capture, AD5663 + LDAC, `DacLatch`, the LDAC grid (`analog-io`) |
 //! | `pdi`           | EINT3 (P0.22 falling, pend)  | 3    | `PdiSide`: ET1100 (legacy SPI), sample consumer, `SlaveApp` (with `can`, `mailbox`) |
 //! | `can` (`canopen-node`) | CAN (CAN1 receive, pend) | 3 | CAN1 (P0.0/P0.1); `PdiSide` with `pdi`      |
 //! | `adc_dma`       | DMA (TC per half ring)       | 2    | - (GPDMA path: counts ring halves)           |
@@ -31,6 +31,9 @@
 //! (`firmware::stacks::ethercat`) and the product's (`firmware::products`), tested on the
 //! host; the task bodies only read pins and pend each other:
 //!
+//! - Output oversampling (`analog-io`, `hw::ldac_grid`): at each SYNC0 edge the DAC task
+//!   starts, stops or locks the LDAC grid (PWM1.4) and writes the next update; Timer1's MR1
+//!   brings it back after every LDAC edge of the cycle for the next.
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::latch_at_sync0`: LDAC
 //!   pulse or write-and-update) before it reads the capture's time, records the edge, then
 //!   requests the PDI task's background work (`SlaveApp::poll`:
@@ -87,6 +90,8 @@ mod rtic_app {
     use crate::hw::esc::Esc;
     use crate::hw::gpio::InPin;
     use crate::hw::gpio_irq::EscIrq;
+    #[cfg(feature = "analog-io")]
+    use crate::hw::ldac_grid::LdacGrid;
     use crate::hw::timers::{Sync0Capture, Timer1Event};
     use crate::hw::wdt::Watchdog;
     use core::sync::atomic::{AtomicBool, Ordering};
@@ -140,6 +145,7 @@ mod rtic_app {
         dac: Dac,
         latch: DacLatch,
         stage_dac: &'static OutputStage,
+        ldac_grid: LdacGrid,
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
         stage_pdi: &'static OutputStage,
@@ -158,6 +164,17 @@ mod rtic_app {
         task: PdiTask<product::Application>,
         esc: Esc,
         samples_out: AdcSource,
+    }
+
+    /// A product without output oversampling owns no LDAC grid (PWM1 stays off).
+    #[cfg(not(feature = "analog-io"))]
+    pub struct LdacGrid;
+
+    #[cfg(not(feature = "analog-io"))]
+    impl LdacGrid {
+        fn new(_: lpc17xx_pac::PWM1) -> Self {
+            Self
+        }
     }
 
     /// Asks the DAC task to apply the staged outputs now (called from the PDI task).
@@ -196,6 +213,7 @@ mod rtic_app {
             mut dac,
             adc,
             mut wdt,
+            pwm1,
             can,
         } = board;
         #[cfg(feature = "canopen-node")]
@@ -237,6 +255,7 @@ mod rtic_app {
                 dac,
                 latch: DacLatch::new(),
                 stage_dac: stage,
+                ldac_grid: LdacGrid::new(pwm1),
                 esc_irq,
                 esc_eeprom_loaded,
                 stage_pdi: stage,
@@ -260,7 +279,7 @@ mod rtic_app {
 
     /// SYNC0 edge (CAP1.0 capture) -> latch the DAC pair; or, pended by the PDI task, apply
     /// now / preload the input registers for the next edge (DC fast path).
-    #[task(binds = TIMER1, priority = 4, local = [sync0, dac, latch, stage_dac])]
+    #[task(binds = TIMER1, priority = 4, local = [sync0, dac, latch, stage_dac, ldac_grid])]
     fn sync0_dac(cx: sync0_dac::Context) {
         // The stage's fields by offsets from one register on the way to the LDAC edge.
         let stage = hw::in_register(*cx.local.stage_dac);
@@ -268,10 +287,29 @@ mod rtic_app {
             Timer1Event::Sync0(edge) => {
                 // LDAC first: the capture's time is only bookkeeping for the PDI side.
                 let r = cx.local.dac.execute(cx.local.latch.latch_at_sync0(stage));
-                DacLatch::record_sync0(stage, cx.local.sync0.capture_ns(edge));
+                let edge_ns = cx.local.sync0.capture_ns(edge);
+                #[cfg(feature = "analog-io")]
+                let grid = cx
+                    .local
+                    .ldac_grid
+                    .on_sync0(cx.local.sync0, stage.block_grid(), edge_ns);
+                DacLatch::record_sync0(stage, edge_ns);
                 request_pdi_poll(); // the PDI side's per-cycle work
+                #[cfg(feature = "analog-io")]
+                if grid {
+                    if let Some(pair) = cx.local.ldac_grid.on_update(cx.local.sync0, stage) {
+                        let _ = cx.local.dac.preload(pair);
+                    }
+                }
                 r
             }
+            #[cfg(feature = "analog-io")]
+            Timer1Event::Update => match cx.local.ldac_grid.on_update(cx.local.sync0, stage) {
+                Some(pair) => cx.local.dac.preload(pair),
+                None => Ok(()),
+            },
+            #[cfg(not(feature = "analog-io"))]
+            Timer1Event::Update => Ok(()),
             Timer1Event::Pended if DAC_APPLY.swap(false, Ordering::AcqRel) => {
                 let action = cx.local.latch.apply_now(stage);
                 cx.local.dac.execute(action)

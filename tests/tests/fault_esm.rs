@@ -381,7 +381,7 @@ fn wrong_sync_manager_configuration() {
         (
             "SM3 overlapping SM2",
             3,
-            shifted(sm3, inp, 0u16.wrapping_sub(sm3.start - sm2.start)),
+            shifted(sm3, inp, sm2.start.wrapping_sub(sm3.start)),
             al::INVALID_INPUT_CONFIG,
         ),
         (

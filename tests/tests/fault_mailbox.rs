@@ -8,7 +8,8 @@ use fault_common::*;
 use firmware::products::analog_io::od::{MODULE_DESCRIPTION, MODULE_DESCRIPTION_INDEX};
 use std::path::PathBuf;
 use virtual_board::capture_tests;
-use virtual_board::rig::scripted::{block, state, ScriptedMaster, Sync};
+use virtual_board::models::esc::{cmd, FrameBuilder};
+use virtual_board::rig::scripted::{block, state, ScriptedMaster, Sync, STATION};
 use virtual_board::rig::sdo_client::{
     expedited_upload, mailbox_counter, request, sdo_request_bytes, SdoError, MAILBOX_TYPE_COE,
 };
@@ -47,7 +48,7 @@ capture_tests!(
 fn scenario_cable_pulled(pcap: &str) -> PathBuf {
     let m = preop();
     let other = &mut |_| {};
-    // Upload: the initiate response and one segment, then the cable goes.
+    // Upload: the initiate response, then the cable goes with the first segment's answer.
     let first = block(m.sdo().exchange(
         &m,
         &request::initiate_upload(MODULE_DESCRIPTION_INDEX, 0, false),
@@ -55,11 +56,10 @@ fn scenario_cable_pulled(pcap: &str) -> PathBuf {
     ))
     .unwrap();
     assert_eq!(first[0], 0x41, "normal upload with size");
-    block(m.sdo().upload_segment(&m, false, other)).unwrap();
     assert!(block(m.sdo().mailbox().send(
         &m,
         MAILBOX_TYPE_COE,
-        &sdo_request_bytes(&request::upload_segment(true))
+        &sdo_request_bytes(&request::upload_segment(false))
     ))
     .unwrap());
     m.pull_cable();
@@ -75,7 +75,8 @@ fn scenario_cable_pulled(pcap: &str) -> PathBuf {
         "the stale segment, discarded"
     );
     m.take_unexpected();
-    let r = block(m.sdo().upload_segment(&m, true, other));
+    // The master asks again for the segment it did not get.
+    let r = block(m.sdo().upload_segment(&m, false, other));
     assert_eq!(r.unwrap_err().abort_code(), Some(ABORT_TIMEOUT));
     let up = m
         .sdo_upload_full(MODULE_DESCRIPTION_INDEX, 0, false)
@@ -372,5 +373,57 @@ fn duplicate_writes_with_the_same_counter() {
             ..
         })
     ));
+    assert_eq!(al(&m), (state::PREOP, 0));
+}
+
+/// SOEM's `ecx_mbxreceive` drops an Emergency it reads and reads SM1 again at once; finding
+/// it empty, it takes the frame for lost and toggles the repeat request. When a new request
+/// waits in SM0 by then (the slave could not read it while SM1 was full), repeating the
+/// dropped frame starts the same race again, and SOEM's SDO Information calls failed that
+/// way on a loaded host. The master has moved on to a new request, so the frame it asks for
+/// again was one it did not ask for: the waiting request's reply answers the repeat. Here
+/// the frame in SM1 is an older reply, read in the same frame as the repeat request (the
+/// slave sees both at once, as when it is slower than the master's second read).
+#[test]
+fn a_repeat_with_a_new_request_waiting_is_answered_by_its_reply() {
+    let m = preop();
+    let first = sdo_request_bytes(&[0x40, 0x18, 0x10, 2, 0, 0, 0, 0]);
+    assert!(block(m.sdo().mailbox().send(&m, MAILBOX_TYPE_COE, &first)).unwrap());
+    assert!((0..100).any(|_| block(m.sdo().mailbox().reply_waiting(&m)).unwrap()));
+    let next = sdo_request_bytes(&[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]);
+    assert!(block(m.sdo().mailbox().send(&m, MAILBOX_TYPE_COE, &next)).unwrap());
+    m.wait(500_000);
+    let activate = m.read(0x080E, 1).unwrap()[0];
+    let request = activate ^ 0x02;
+    let frame = FrameBuilder::new()
+        .datagram(cmd::FPRD, STATION, 0x1080, &[0; 128])
+        .datagram(cmd::FPWR, STATION, 0x080E, &[request]);
+    let got = m.transmit(&frame).expect("an answer");
+    assert_eq!(got[0].wkc, 1);
+    assert_eq!(expedited_upload(&got[0].data).unwrap().0, 0x1018);
+    assert!(
+        (0..100).any(|_| m.read(0x080F, 1).unwrap()[0] & 0x02 == request & 0x02),
+        "the repeat is acknowledged"
+    );
+    let reply = block(m.sdo().mailbox().read(&m)).unwrap();
+    assert_eq!(
+        expedited_upload(&reply).unwrap(),
+        (
+            0x1000,
+            0,
+            firmware::products::analog_io::od::DEVICE_TYPE
+                .to_le_bytes()
+                .to_vec()
+        ),
+        "the waiting request's reply, not the older frame again"
+    );
+    // Nothing stale or doubled follows: the next exchange gets its own reply.
+    assert_eq!(
+        upload(&m, 0x1018, 1),
+        firmware::products::analog_io::identity::IDENTITY
+            .vendor_id
+            .to_le_bytes()
+    );
+    assert!(m.take_unexpected().is_empty());
     assert_eq!(al(&m), (state::PREOP, 0));
 }

@@ -18,12 +18,16 @@
 //! - `release/NAME-flash-image.bin`: what `cargo xtask flash --product NAME` writes from
 //!   address 0 (bootloader, update file in the slot, the staging area's header erased).
 //!
+//! A product whose board has no bootloader (`analog-io-stm32`: its MCU's own binary,
+//! `crate::mcu`) has only `release/NAME`, `release/NAME.bin` (from the start of its flash)
+//! and `release/NAME-flash-image.bin` (the same bytes): no update file.
+//!
 //! It prints the paths, the update file's version and CRC, each product's flash and RAM
 //! against its budget and the bootloader's against its region, and fails when one is over.
 
 use crate::image::{self, Budget, Crp, Usage, BOOT_BUDGET};
-use crate::setup;
 use crate::util::{cargo, exec, root, Result};
+use crate::{mcu, setup};
 use firmware::platform::boot::header::HeaderRepr;
 use firmware::platform::boot::layout::APP_VECTORS;
 use firmware::products::{Product, PRODUCTS};
@@ -105,22 +109,34 @@ pub struct Output {
     pub bin: PathBuf,
     /// The application's memory use.
     pub usage: Usage,
-    /// The bootloader of the product's board.
-    pub boot: Program,
+    /// The bootloader and the update file (boards with a bootloader).
+    pub boot: Option<BootParts>,
+    /// The whole flash content for a probe, from the flash's first address.
+    pub image: PathBuf,
+}
+
+/// The bootloader of a product's board and the product's update file.
+#[derive(Debug, Clone)]
+pub struct BootParts {
+    /// The bootloader.
+    pub program: Program,
     /// The CRP level of the flash image (the bootloader's word at 0x2FC).
     pub crp: Crp,
     /// The update file.
     pub efw: PathBuf,
     /// Its header.
     pub header: HeaderRepr,
-    /// The whole flash content for a probe, from address 0.
-    pub image: PathBuf,
 }
 
 impl Output {
     /// The application's budget (the product's).
     pub fn budget(&self) -> Budget {
         budget_of(self.product)
+    }
+
+    /// Whether the flash image locks the part (CRP; only LPC1754 bootloaders carry a word).
+    pub fn crp_protects(&self) -> bool {
+        self.boot.as_ref().is_some_and(|b| b.crp.protects())
     }
 }
 
@@ -181,8 +197,15 @@ pub fn print_budgets(outs: &[Output]) {
     println!("budgets:");
     for out in outs {
         let (u, b) = (&out.usage, out.budget());
+        let boot = match &out.boot {
+            Some(boot) => format!(
+                "bootloader {:>5} B of {:>5} B",
+                boot.program.usage.flash, BOOT_BUDGET.flash
+            ),
+            None => "no bootloader".into(),
+        };
         println!(
-            "  {:<14} flash {:>6} B of {:>6} B ({:5.1} %, {:>5} B free)   static RAM {:>5} B of {:>5} B ({:5.1} %)   bootloader {:>5} B of {:>5} B",
+            "  {:<15} flash {:>6} B of {:>6} B ({:5.1} %, {:>5} B free)   static RAM {:>5} B of {:>5} B ({:5.1} %)   {boot}",
             out.product.name,
             u.flash,
             b.flash,
@@ -191,8 +214,6 @@ pub fn print_budgets(outs: &[Output]) {
             u.ram,
             b.ram,
             pct(u.ram, b.ram),
-            out.boot.usage.flash,
-            BOOT_BUDGET.flash,
         );
     }
 }
@@ -201,37 +222,52 @@ pub fn print_budgets(outs: &[Output]) {
 pub fn print_report(out: &Output) {
     println!("{} ({}):", out.product.name, out.product.summary);
     println!("application:");
-    print_usage(&out.usage, &out.budget());
+    print_usage(&out.usage, &out.budget(), out.product);
+    let Some(boot) = &out.boot else {
+        println!("ELF:        {}", out.elf.display());
+        println!(
+            "BIN:        {} (the whole image, from {:#x}; no bootloader, no update file)",
+            out.bin.display(),
+            mcu::of(out.product.board.mcu()).map.flash.start
+        );
+        println!(
+            "flash:      {} (what `cargo xtask flash --product {}` writes)",
+            out.image.display(),
+            out.product.name
+        );
+        return;
+    };
     println!("bootloader ({}):", out.product.board.name);
-    print_usage(&out.boot.usage, &BOOT_BUDGET);
+    print_usage(&boot.program.usage, &BOOT_BUDGET, out.product);
     println!("ELF:        {}", out.elf.display());
-    println!("ELF:        {}", out.boot.elf.display());
+    println!("ELF:        {}", boot.program.elf.display());
     println!(
         "BIN:        {} (the application alone, from {APP_VECTORS:#x})",
         out.bin.display()
     );
     println!(
         "BIN:        {} (the bootloader, from 0)",
-        out.boot.bin.display()
+        boot.program.bin.display()
     );
+    let header = &boot.header;
     println!(
         "update:     {} (version {}, image {} B, CRC-32 {:#010x}, vendor {:#x} product {:#x}, board {:#x} rev {} needing {:#x})",
-        out.efw.display(),
-        out.header.version_str().unwrap_or("?"),
-        out.header.image_len,
-        out.header.image_crc,
-        out.header.vendor_id,
-        out.header.product_code,
-        out.header.board,
-        out.header.hardware_revision,
-        out.header.needs.0,
+        boot.efw.display(),
+        header.version_str().unwrap_or("?"),
+        header.image_len,
+        header.image_crc,
+        header.vendor_id,
+        header.product_code,
+        header.board,
+        header.hardware_revision,
+        header.needs.0,
     );
     println!(
         "flash:      {} (bootloader + application, what `cargo xtask flash --product {}` writes)",
         out.image.display(),
         out.product.name
     );
-    println!("CRP:        {}", out.crp);
+    println!("CRP:        {}", boot.crp);
 }
 
 /// Builds, converts, verifies one product (`args.product`, else the default); no printing
@@ -244,12 +280,13 @@ pub fn build(args: &Args) -> Result<Output> {
 
 /// The budget verdict of both programs of a product, printing the figures when over.
 pub fn check_budget(out: &Output) -> Result {
-    for (name, usage, budget) in [
-        ("application", &out.usage, &out.budget()),
-        ("bootloader", &out.boot.usage, &BOOT_BUDGET),
-    ] {
-        if let Err(e) = image::check_budget(usage, budget) {
-            print_usage(usage, budget);
+    let mut programs = vec![("application", &out.usage, out.budget())];
+    if let Some(boot) = &out.boot {
+        programs.push(("bootloader", &boot.program.usage, BOOT_BUDGET));
+    }
+    for (name, usage, budget) in programs {
+        if let Err(e) = image::check_budget(usage, &budget) {
+            print_usage(usage, &budget, out.product);
             return Err(format!("{} {name}: {e}", out.product.name));
         }
     }
@@ -326,16 +363,17 @@ impl Profile {
 pub fn link(product: &Product, profile: &Profile) -> Result<PathBuf> {
     setup::targets()?;
     setup::flip_link()?;
+    let bin = mcu::of(product.board.mcu()).bin;
     exec(features(
         profile
             .cargo()
-            .args(["build", "--release", "-p", "firmware", "--bin", BIN])
+            .args(["build", "--release", "-p", "firmware", "--bin", bin])
             .args(["--target", TARGET])
             .args(profile.config_args()),
         product,
     ))?;
     let dir = profile.release_dir();
-    copy(&dir.join(BIN), &dir.join(product.name))
+    copy(&dir.join(bin), &dir.join(product.name))
 }
 
 /// The product's feature alone; the images log nothing (`DEFMT_LOG=off`: the defmt frames
@@ -386,14 +424,18 @@ fn build_bootloader(product: &Product) -> Result<PathBuf> {
 pub fn build_unchecked(args: &Args) -> Result<Output> {
     let product = args.product()?;
     let app = link(product, &Profile::of(product))?;
-    build_bootloader(product)?;
+    if product.board.mcu().has_bootloader() {
+        build_bootloader(product)?;
+    }
     finish_unchecked(product, &app, args.allow_crp)
 }
 
 /// The post-link steps with `app_elf` as `product`'s application (the cargo runner passes
 /// one): the bootloader is built, everything else as [`build`].
 pub fn finish(product: &'static Product, app_elf: &Path, allow_crp: bool) -> Result<Output> {
-    build_bootloader(product)?;
+    if product.board.mcu().has_bootloader() {
+        build_bootloader(product)?;
+    }
     let out = finish_unchecked(product, app_elf, allow_crp)?;
     check_budget(&out)?;
     Ok(out)
@@ -433,8 +475,40 @@ fn program(elf: &Path, base: u64, checksum: bool) -> Result<(Program, Vec<u8>)> 
     Ok((program, bin))
 }
 
+/// The image of a board without a bootloader: the application from the flash's start,
+/// vectors first; the flash image is its BIN.
+fn finish_alone(product: &'static Product, app_elf: &Path) -> Result<Output> {
+    let map = mcu::of(product.board.mcu()).map;
+    let data = read(app_elf)?;
+    let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
+    let bin = image::elf_to_bin_in(&data, &sections, map.flash.start, &map.flash)
+        .map_err(|e| e.to_string())?;
+    if bin.len() < 8 {
+        return Err(format!(
+            "{}: no vector table in {}",
+            product.name,
+            app_elf.display()
+        ));
+    }
+    let bin_path = app_elf.with_extension("bin");
+    write(&bin_path, &bin)?;
+    let image_path = app_elf.with_file_name(format!("{}-flash-image.bin", product.name));
+    write(&image_path, &bin)?;
+    Ok(Output {
+        product,
+        elf: app_elf.to_path_buf(),
+        bin: bin_path,
+        usage: image::usage(&sections, map.flash.start),
+        boot: None,
+        image: image_path,
+    })
+}
+
 /// [`finish`] without the bootloader build and the budget verdict.
 fn finish_unchecked(product: &'static Product, app_elf: &Path, allow_crp: bool) -> Result<Output> {
+    let Some(target) = &product.update else {
+        return finish_alone(product, app_elf);
+    };
     let (boot, _) = program(&boot_elf_path(product), image::FLASH.start, true)?;
     let (app, app_bin) = program(app_elf, u64::from(APP_VECTORS), false)?;
 
@@ -450,7 +524,7 @@ fn finish_unchecked(product: &'static Product, app_elf: &Path, allow_crp: bool) 
         eprintln!();
     }
     let version = product.device.names.software_version;
-    let (efw, header) = image::update_file(&app_bin, &product.update, version)
+    let (efw, header) = image::update_file(&app_bin, target, version)
         .map_err(|e| format!("{} application: {e}", product.name))?;
     let efw_path = app_elf.with_extension("efw");
     write(&efw_path, &efw)?;
@@ -467,10 +541,12 @@ fn finish_unchecked(product: &'static Product, app_elf: &Path, allow_crp: bool) 
         elf: app.elf,
         bin: app.bin,
         usage: app.usage,
-        boot,
-        crp,
-        efw: efw_path,
-        header,
+        boot: Some(BootParts {
+            program: boot,
+            crp,
+            efw: efw_path,
+            header,
+        }),
         image: image_path,
     })
 }
@@ -479,8 +555,8 @@ fn pct(used: u64, of: u64) -> f64 {
     100.0 * used as f64 / of as f64
 }
 
-/// The flash/RAM figures of a program against its budget.
-pub fn print_usage(u: &Usage, budget: &Budget) {
+/// The flash/RAM figures of a program of `product` against its budget.
+pub fn print_usage(u: &Usage, budget: &Budget, product: &Product) {
     println!(
         "  flash:      {:>6} B of {:>6} B budget ({:5.1} %)  [.vector_table to the end of .data, gaps included]",
         u.flash,
@@ -493,10 +569,17 @@ pub fn print_usage(u: &Usage, budget: &Budget) {
         budget.ram,
         pct(u.ram, budget.ram)
     );
-    println!(
-        "  stack:      up to {} B (the rest of the local SRAM below the statics, flip-link; top 40 B reserved for IAP and the boot request)",
-        image::RAM.len - 40 - u.ram
-    );
+    if product.board.mcu().has_bootloader() {
+        println!(
+            "  stack:      up to {} B (the rest of the local SRAM below the statics, flip-link; top 40 B reserved for IAP and the boot request)",
+            image::RAM.len - 40 - u.ram
+        );
+    } else {
+        println!(
+            "  stack:      up to {} B (the rest of the SRAM below the statics, flip-link)",
+            mcu::of(product.board.mcu()).map.ram.len - u.ram
+        );
+    }
     if u.ahbsram > 0 {
         println!(
             "  AHB SRAM:   {:>6} B of {:>6} B (.ahbsram buffers, outside the static RAM budget)",

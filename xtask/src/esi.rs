@@ -143,7 +143,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = write_xml(
             &firmware::products::analog_io::device::DEVICE,
-            &firmware::products::analog_io::oversampling::OVERSAMPLING,
+            &firmware::products::analog_io::OVERSAMPLING,
             &dir,
         )
         .unwrap();
@@ -162,7 +162,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("xtask-sii-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let desc = &firmware::products::analog_io::device::DEVICE;
-        let os = &firmware::products::analog_io::oversampling::OVERSAMPLING;
+        let os = &firmware::products::analog_io::OVERSAMPLING;
         let path = write_sii(desc, os, &dir).unwrap();
         let bin = std::fs::read(&path).unwrap();
         let _ = std::fs::remove_dir_all(&dir);

@@ -15,7 +15,7 @@
 use crate::build::{self, TARGET};
 use crate::target_desc::{self, CHIP};
 use crate::util::{cargo, exec, have, root, Result};
-use crate::{image, setup};
+use crate::{mcu, setup};
 use flash_algo::ErrorCode;
 use std::fmt;
 use std::io::{BufRead, BufReader};
@@ -163,7 +163,15 @@ pub struct RunArgs {
 /// What both commands prepare before touching a probe.
 struct Prepared {
     image: build::Output,
-    description: PathBuf,
+    /// Our target description (the LPC1754); `None` where probe-rs knows the chip itself.
+    description: Option<PathBuf>,
+}
+
+impl Prepared {
+    /// The chip's tool facts.
+    fn mcu(&self) -> mcu::McuTools {
+        mcu::of(self.image.product.board.mcu())
+    }
 }
 
 pub fn run(args: &Args) -> Result {
@@ -220,7 +228,7 @@ pub fn run_and_monitor(args: &RunArgs) -> Result {
         args.allow_crp_lock,
     )?;
     let [download, _, reset] = probe_rs_flash_commands(&p, args.probe.as_ref(), false);
-    let mut attach = probe_rs("attach", &p.description, args.probe.as_ref());
+    let mut attach = probe_rs("attach", &p, args.probe.as_ref());
     attach.arg(&p.image.elf);
     if args.dry_run {
         return print_dry_run(&[download, reset, attach], args.probe.as_ref());
@@ -244,7 +252,11 @@ fn prepare(product: Option<&str>, elf: Option<&Path>, allow_crp_lock: bool) -> R
     };
     // The algorithm that may write a lock value only for an image that carries one (and was
     // allowed to by xtask build); every other image gets the refusing one.
-    let description = write_description(image.crp.protects())?;
+    let description = if mcu::of(image.product.board.mcu()).probe_rs_builtin {
+        None
+    } else {
+        Some(write_description(image.crp_protects())?)
+    };
     Ok(Prepared { image, description })
 }
 
@@ -304,14 +316,15 @@ fn build_algorithm(allow_crp_lock: bool) -> Result<PathBuf> {
         .join(ALGO_BIN))
 }
 
-/// `probe-rs <sub> --chip-description-path D --chip LPC1754 [--probe S]`.
-fn probe_rs(sub: &str, description: &Path, probe: Option<&ProbeSelector>) -> Command {
+/// `probe-rs <sub> [--chip-description-path D] --chip C [--probe S]`.
+fn probe_rs(sub: &str, p: &Prepared, probe: Option<&ProbeSelector>) -> Command {
     let mut cmd = Command::new("probe-rs");
     cmd.current_dir(root());
-    cmd.arg(sub)
-        .arg("--chip-description-path")
-        .arg(description)
-        .args(["--chip", CHIP]);
+    cmd.arg(sub);
+    if let Some(description) = &p.description {
+        cmd.arg("--chip-description-path").arg(description);
+    }
+    cmd.args(["--chip", p.mcu().probe_rs_chip]);
     if let Some(p) = probe {
         cmd.arg("--probe").arg(p.to_string());
     }
@@ -324,19 +337,23 @@ fn probe_rs_flash_commands(
     probe: Option<&ProbeSelector>,
     chip_erase: bool,
 ) -> [Command; 3] {
+    let base = match p.mcu().map.flash.start {
+        0 => "0".to_string(),
+        start => format!("{start:#x}"),
+    };
     let bin_args = |cmd: &mut Command| {
-        cmd.args(["--binary-format", "bin", "--base-address", "0"])
+        cmd.args(["--binary-format", "bin", "--base-address", &base])
             .arg(&p.image.image);
     };
-    let mut download = probe_rs("download", &p.description, probe);
+    let mut download = probe_rs("download", p, probe);
     if chip_erase {
         download.arg("--chip-erase");
     }
     download.arg("--verify");
     bin_args(&mut download);
-    let mut verify = probe_rs("verify", &p.description, probe);
+    let mut verify = probe_rs("verify", p, probe);
     bin_args(&mut verify);
-    let reset = probe_rs("reset", &p.description, probe);
+    let reset = probe_rs("reset", p, probe);
     [download, verify, reset]
 }
 
@@ -348,13 +365,14 @@ fn openocd_command(p: &Prepared, probe: Option<&ProbeSelector>, interface: &str)
     if let Some(serial) = probe.and_then(|p| p.serial.as_deref()) {
         cmd.args(["-c", &format!("adapter serial {serial}")]);
     }
-    cmd.args(["-f", "target/lpc17xx.cfg"]);
+    let mcu = p.mcu();
+    cmd.args(["-f", mcu.openocd_target]);
     cmd.args([
         "-c",
         &format!(
             "program {{{}}} {:#010x} verify reset exit",
             p.image.image.display(),
-            image::FLASH.start
+            mcu.map.flash.start
         ),
     ]);
     cmd
@@ -574,23 +592,25 @@ mod tests {
                 elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io"),
                 bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.bin"),
                 usage: Usage::default(),
-                boot: build::Program {
-                    elf: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/analog-io"),
-                    bin: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/analog-io.bin"),
-                    usage: Usage::default(),
-                },
-                crp: Crp::None(u32::MAX),
-                efw: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.efw"),
-                header: firmware::platform::boot::header::HeaderRepr::for_image(
-                    &[],
-                    &firmware::products::analog_io::identity::UPDATE_TARGET,
-                    "0.1.0",
-                ),
+                boot: Some(build::BootParts {
+                    program: build::Program {
+                        elf: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/analog-io"),
+                        bin: PathBuf::from("/w/target/thumbv7m-none-eabi/bootloader/analog-io.bin"),
+                        usage: Usage::default(),
+                    },
+                    crp: Crp::None(u32::MAX),
+                    efw: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io.efw"),
+                    header: firmware::platform::boot::header::HeaderRepr::for_image(
+                        &[],
+                        &firmware::products::analog_io::identity::UPDATE_TARGET,
+                        "0.1.0",
+                    ),
+                }),
                 image: PathBuf::from(
                     "/w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin",
                 ),
             },
-            description: PathBuf::from("/w/target/probe-rs/LPC1754.yaml"),
+            description: Some(PathBuf::from("/w/target/probe-rs/LPC1754.yaml")),
         }
     }
 
@@ -653,6 +673,43 @@ mod tests {
             quoted(&d),
             "probe-rs download --chip-description-path /w/target/probe-rs/LPC1754.yaml --chip LPC1754 --verify --binary-format bin --base-address 0 /w/target/thumbv7m-none-eabi/release/analog-io-flash-image.bin"
         );
+    }
+
+    /// A board probe-rs knows (the STM32F103): no description of ours, the image at the
+    /// start of its flash.
+    #[test]
+    fn probe_rs_commands_for_a_built_in_chip() {
+        let product = firmware::products::find("analog-io-stm32").unwrap();
+        let image =
+            PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io-stm32-flash-image.bin");
+        let p = Prepared {
+            image: build::Output {
+                product,
+                elf: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io-stm32"),
+                bin: PathBuf::from("/w/target/thumbv7m-none-eabi/release/analog-io-stm32.bin"),
+                usage: Usage::default(),
+                boot: None,
+                image: image.clone(),
+            },
+            description: None,
+        };
+        let [d, v, r] = probe_rs_flash_commands(&p, None, false);
+        let bin = format!(
+            "--binary-format bin --base-address 0x8000000 {}",
+            image.display()
+        );
+        assert_eq!(
+            quoted(&d),
+            format!("probe-rs download --chip STM32F103VC --verify {bin}")
+        );
+        assert_eq!(
+            quoted(&v),
+            format!("probe-rs verify --chip STM32F103VC {bin}")
+        );
+        assert_eq!(quoted(&r), "probe-rs reset --chip STM32F103VC");
+        let c = openocd_command(&p, None, "interface/stlink.cfg");
+        assert!(quoted(&c).contains("-f target/stm32f1x.cfg"));
+        assert!(quoted(&c).contains(" 0x08000000 verify reset exit"));
     }
 
     #[test]

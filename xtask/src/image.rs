@@ -42,6 +42,37 @@ pub const AHBSRAM: Region = Region {
     len: 16 * 1024,
 };
 
+/// Where a chip's flash and static RAM are, as the image's sections are sorted into them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryMap {
+    /// The flash.
+    pub flash: Region,
+    /// The SRAM the statics and the stack live in.
+    pub ram: Region,
+    /// A second SRAM for big buffers (the LPC1754's AHB SRAM), if any.
+    pub ahbsram: Option<Region>,
+}
+
+/// The LPC1754's.
+pub const LPC1754_MAP: MemoryMap = MemoryMap {
+    flash: FLASH,
+    ram: RAM,
+    ahbsram: Some(AHBSRAM),
+};
+
+/// The STM32F103VC's (RM0008 §3.3): 256 KB flash at 0x0800_0000, 48 KB SRAM.
+pub const STM32F103VC_MAP: MemoryMap = MemoryMap {
+    flash: Region {
+        start: 0x0800_0000,
+        len: 256 * 1024,
+    },
+    ram: Region {
+        start: 0x2000_0000,
+        len: 48 * 1024,
+    },
+    ahbsram: None,
+};
+
 /// The budget of the bootloader: its region (`firmware::platform::boot::layout::BOOTLOADER`); static RAM as the application's (the two
 /// never run at the same time).
 pub const BOOT_BUDGET: Budget = Budget {
@@ -338,6 +369,11 @@ pub fn check_budget(u: &Usage, b: &Budget) -> Result<(), ImageError> {
 /// The sections of an ELF32 little-endian image, with load addresses from the program
 /// headers and a place in the memory map.
 pub fn sections(data: &[u8]) -> Result<Vec<SectionInfo>, ImageError> {
+    sections_in(data, &LPC1754_MAP)
+}
+
+/// [`sections`] of an image for the chip with memory map `map`.
+pub fn sections_in(data: &[u8], map: &MemoryMap) -> Result<Vec<SectionInfo>, ImageError> {
     let e = |err: object::read::Error| ImageError::Elf(err.to_string());
     let header = elf::FileHeader32::<LE>::parse(data).map_err(e)?;
     let endian = header.endian().map_err(e)?;
@@ -368,15 +404,15 @@ pub fn sections(data: &[u8]) -> Result<Vec<SectionInfo>, ImageError> {
                 .map(|p| u64::from(p.p_paddr(endian)) + offset - u64::from(p.p_offset(endian)))
                 .or(Some(addr))
         };
-        let place = if AHBSRAM.contains(addr) {
+        let place = if map.ahbsram.is_some_and(|r| r.contains(addr)) {
             Place::AhbSram
-        } else if RAM.contains(addr) {
+        } else if map.ram.contains(addr) {
             if nobits {
                 Place::Ram
             } else {
                 Place::FlashAndRam
             }
-        } else if FLASH.contains(addr) && !nobits {
+        } else if map.flash.contains(addr) && !nobits {
             Place::Flash
         } else {
             Place::None
@@ -401,12 +437,22 @@ pub fn sections(data: &[u8]) -> Result<Vec<SectionInfo>, ImageError> {
 /// every section with a load address, at its load address, gaps filled with 0xFF (the erased
 /// flash value).
 pub fn elf_to_bin(data: &[u8], sections: &[SectionInfo], base: u64) -> Result<Vec<u8>, ImageError> {
+    elf_to_bin_in(data, sections, base, &FLASH)
+}
+
+/// [`elf_to_bin`] for a chip whose flash is `flash`.
+pub fn elf_to_bin_in(
+    data: &[u8],
+    sections: &[SectionInfo],
+    base: u64,
+    flash: &Region,
+) -> Result<Vec<u8>, ImageError> {
     let mut bin: Vec<u8> = Vec::new();
     for s in sections {
         let (Some(lma), Some(off)) = (s.load_addr, s.file_offset) else {
             continue;
         };
-        if !FLASH.contains(lma) || lma < base || lma + s.size > FLASH.start + FLASH.len {
+        if !flash.contains(lma) || lma < base || lma + s.size > flash.start + flash.len {
             return Err(ImageError::OutsideFlash {
                 section: s.name.clone(),
                 addr: lma,

@@ -9,6 +9,7 @@ mod esi;
 mod flash;
 mod fuzz;
 mod image;
+mod mcu;
 mod peer;
 mod setup;
 mod sim;

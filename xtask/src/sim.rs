@@ -23,6 +23,14 @@ pub struct Args {
 
 pub fn run(args: &Args) -> Result {
     let product = args.sim.product()?;
+    if product.board.mcu() != firmware::platform::board::Mcu::Lpc1754 {
+        return Err(format!(
+            "{}: the virtual board and the co-simulator model the LPC1754 board (the ET1100 on \
+             SPI) only; the image for \"{}\" is not simulated yet (docs/book/stm32.md, what \
+             comes next)",
+            product.name, product.board.name
+        ));
+    }
     if args.image {
         return run_image(product);
     }

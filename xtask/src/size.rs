@@ -1,10 +1,14 @@
 //! `cargo xtask size`: the build's flash/RAM figures and where they go, per crate and per
 //! symbol, from the ELF symbol table (demangled paths grouped by their first segment).
+//! With `--by-function`, the code's bytes also per owning function with the DWARF's inlined
+//! frames: with LTO most code is inlined into a few task bodies, whose symbols alone do not
+//! say what in them is big.
 
+use crate::bench::by_function::{self, Dwarf, Symbols};
 use crate::build::{self, print_usage};
 use crate::image::{self, Place, SectionInfo};
 use crate::util::Result;
-use object::{Object, ObjectSection, ObjectSymbol, SymbolKind};
+use object::{Object, ObjectSection, ObjectSymbol, SectionKind, SymbolKind};
 use std::collections::BTreeMap;
 
 #[derive(clap::Args, Debug, Clone)]
@@ -18,6 +22,11 @@ pub struct Args {
     /// The product whose image to look at (default: the default product).
     #[arg(long, value_name = "NAME")]
     pub product: Option<String>,
+    /// Also the code's bytes per owning function and per crate, inlined code counted to the
+    /// innermost workspace function it was inlined from (as `bench --by-function` counts
+    /// instructions).
+    #[arg(long)]
+    pub by_function: bool,
 }
 
 /// One symbol with its crate and memory.
@@ -148,7 +157,8 @@ pub fn run(args: &Args) -> Result {
     })?;
     println!("product: {} ({})", out.product.name, out.product.summary);
     let data = std::fs::read(&out.elf).map_err(|e| format!("cannot read the ELF: {e}"))?;
-    let sections = image::sections(&data).map_err(|e| e.to_string())?;
+    let map = crate::mcu::of(out.product.board.mcu()).map;
+    let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
     println!("sections:");
     for s in sections.iter().filter(|s| s.place != Place::None) {
         let lma = s
@@ -159,9 +169,11 @@ pub fn run(args: &Args) -> Result {
         println!("  {:<16} {:#010x} {:>7} B{lma}", s.name, s.addr, s.size);
     }
     println!("application:");
-    print_usage(&out.usage, &out.budget());
-    println!("bootloader:");
-    print_usage(&out.boot.usage, &image::BOOT_BUDGET);
+    print_usage(&out.usage, &out.budget(), out.product);
+    if let Some(boot) = &out.boot {
+        println!("bootloader:");
+        print_usage(&boot.program.usage, &image::BOOT_BUDGET, out.product);
+    }
 
     let syms = symbols(&data, &sections)?;
     let named_flash: u64 = syms
@@ -194,8 +206,79 @@ pub fn run(args: &Args) -> Result {
         }
         println!("  {:>7} {place:<5} {name}", s.size);
     }
+    if args.by_function {
+        print_code_by_function(&out.elf, &data, args.top)?;
+    }
     // The verdict last, so the breakdown above is printed even when over budget.
     build::check_budget(&out)
+}
+
+/// The executable sections' address ranges (`start..end`).
+fn code_ranges(data: &[u8]) -> Result<Vec<(u64, u64)>> {
+    let file = object::File::parse(data).map_err(|e| format!("cannot read the ELF: {e}"))?;
+    Ok(file
+        .sections()
+        .filter(|s| s.kind() == SectionKind::Text && s.size() > 0)
+        .map(|s| (s.address(), s.address() + s.size()))
+        .collect())
+}
+
+/// Bytes of `ranges` per owner ([`by_function::owner`]), looked up every halfword (a Thumb
+/// instruction is one or two): the owners' bytes add up to the ranges' sizes. Largest first.
+pub fn code_owners(
+    ranges: &[(u64, u64)],
+    symbols: &dyn Symbols,
+    project: &[String],
+) -> Vec<(String, u64)> {
+    let mut per: BTreeMap<String, u64> = BTreeMap::new();
+    for &(start, end) in ranges {
+        let mut pc = start;
+        while pc < end {
+            let step = 2.min(end - pc);
+            *per.entry(by_function::owner(pc, &symbols.frames(pc), project))
+                .or_insert(0) += step;
+            pc += step;
+        }
+    }
+    let mut v: Vec<(String, u64)> = per.into_iter().collect();
+    v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    v
+}
+
+fn print_code_by_function(elf: &std::path::Path, data: &[u8], top: usize) -> Result {
+    let project = by_function::workspace_crates()?;
+    let dwarf = Dwarf::load(elf)?;
+    let owners = code_owners(&code_ranges(data)?, &dwarf, &project);
+    let total: u64 = owners.iter().map(|(_, n)| n).sum();
+    let mut crates: BTreeMap<String, u64> = BTreeMap::new();
+    for (f, n) in &owners {
+        // The outliner's functions and the C/asm symbols have no path.
+        let krate = match f.starts_with("OUTLINED_FUNCTION_") {
+            true => "[outlined]".to_string(),
+            false => crate_of(f, f.contains("::")),
+        };
+        *crates.entry(krate).or_insert(0) += n;
+    }
+    let mut crates: Vec<_> = crates.into_iter().collect();
+    crates.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    println!();
+    println!(
+        "code per crate, inlined code counted to the function it was inlined from ({total} B):"
+    );
+    for (k, n) in &crates {
+        println!("  {k:<28} {n:>8}");
+    }
+    println!();
+    println!("largest {top} functions, inlined code counted likewise:");
+    for (f, n) in owners.iter().take(top) {
+        let mut name = f.clone();
+        if name.len() > 100 {
+            name.truncate(97);
+            name.push_str("...");
+        }
+        println!("  {n:>7} {name}");
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -223,6 +306,43 @@ mod tests {
         );
         assert_eq!(crate_of("core::fmt::write", true), "core");
         assert_eq!(crate_of("memcpy", false), "[unmangled]");
+    }
+
+    /// Frames by address range, innermost first.
+    struct Fake(Vec<(u64, u64, Vec<&'static str>)>);
+
+    impl Symbols for Fake {
+        fn frames(&self, pc: u64) -> Vec<String> {
+            self.0
+                .iter()
+                .find(|(s, e, _)| (*s..*e).contains(&pc))
+                .map(|(_, _, f)| f.iter().map(|s| s.to_string()).collect())
+                .unwrap_or_default()
+        }
+    }
+
+    #[test]
+    fn code_counts_to_the_inlining_workspace_function() {
+        let symbols = Fake(vec![
+            (
+                0x100,
+                0x108,
+                vec!["core::option::Option<T>::map", "app::task"],
+            ),
+            (0x108, 0x110, vec!["lib::step", "app::task"]),
+            (0x110, 0x113, vec!["compiler_builtins::memcpy"]),
+        ]);
+        let project = ["app".to_string(), "lib".to_string()];
+        let owners = code_owners(&[(0x100, 0x113)], &symbols, &project);
+        assert_eq!(
+            owners,
+            vec![
+                ("app::task".to_string(), 8),
+                ("lib::step".to_string(), 8),
+                ("compiler_builtins::memcpy".to_string(), 3),
+            ]
+        );
+        assert_eq!(owners.iter().map(|(_, n)| n).sum::<u64>(), 0x13);
     }
 
     #[test]

@@ -188,14 +188,15 @@ pub(crate) fn valid() -> DeviceDescription {
             max_cycle_ns: 100_000_000,
         },
         pdi: PdiConfig {
-            pdi_type: PDI_SPI_SLAVE,
+            interface: PdiInterface::Spi {
+                mode: 3,
+                sel_active_high: false,
+                miso_late_sample: false,
+            },
             enhanced_link_detect: true,
             dc_sync_unit: true,
             dc_latch_unit: true,
-            spi_mode: 3,
             irq: PinDriver::PushPullActiveLow,
-            sel_active_high: false,
-            miso_late_sample: false,
             sync0: SyncPin {
                 driver: PinDriver::PushPullActiveHigh,
                 output: true,
@@ -240,6 +241,26 @@ fn pdi_words_match_the_board_values() {
     high_irq.irq = PinDriver::PushPullActiveHigh;
     assert_eq!(high_irq.word1(), 0x060B);
     assert_eq!(d.eeprom.size_word(), 15);
+}
+
+#[test]
+fn pdi_words_of_the_async_uc_interface() {
+    // 0x0140 = 0x08; 0x0150: BUSY b1:0, IRQ b3:2, BHE polarity b4, RD polarity b7.
+    let mut pdi = valid().pdi;
+    pdi.interface = PdiInterface::AsyncUc16 {
+        busy: PinDriver::PushPullActiveLow,
+        bhe_active_high: false,
+        rd_active_high: false,
+    };
+    assert_eq!(pdi.word0(), 0x0E08);
+    assert_eq!(pdi.word1(), 0x0600);
+    pdi.interface = PdiInterface::AsyncUc16 {
+        busy: PinDriver::OpenSourceActiveHigh,
+        bhe_active_high: true,
+        rd_active_high: true,
+    };
+    pdi.irq = PinDriver::OpenDrainActiveLow;
+    assert_eq!(pdi.word1() & 0xFF, 0b1001_0111);
 }
 
 #[test]

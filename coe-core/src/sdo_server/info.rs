@@ -431,4 +431,29 @@ mod tests {
         assert_eq!(fragment_count(10, 0), None);
         assert_eq!(fragment_count(usize::MAX, 1), None);
     }
+
+    /// The u16 path keeps exactly the window the byte path keeps, wherever the window
+    /// starts and ends (on a value, inside one, past the stream).
+    #[test]
+    fn u16_window_is_the_byte_window() {
+        let values: [u16; 67] = core::array::from_fn(|i| 0x1000 + i as u16 * 0x0101);
+        for skip in 0..140 {
+            for len in 0..140 {
+                let mut fast = [0xa5u8; 140];
+                let mut slow = [0xa5u8; 140];
+                let mut f = FragmentWriter::new(skip, &mut fast[..len]);
+                let mut s = FragmentWriter::new(skip, &mut slow[..len]);
+                for v in values {
+                    f.push_u16(v);
+                    s.push(&v.to_le_bytes());
+                }
+                assert_eq!(
+                    (f.position(), f.written()),
+                    (s.position(), s.written()),
+                    "skip {skip}, len {len}"
+                );
+                assert_eq!(fast, slow, "skip {skip}, len {len}");
+            }
+        }
+    }
 }

@@ -29,9 +29,9 @@ const _: () = assert!(SCAN_CONFIG.is_valid());
 const _: () = assert!(SCAN_CONFIG.last_channel() as usize + 1 == CHANNELS);
 
 /// Frames that carry the CFG at start-up (the second one restarts the scan at IN0).
-pub(crate) const CFG_FRAMES: u32 = 2;
+pub const CFG_FRAMES: u32 = 2;
 /// The first frame that holds a scan result (IN0).
-pub(crate) const FIRST_RESULT: u32 = 3;
+pub const FIRST_RESULT: u32 = 3;
 
 /// The AD7689 frame pipeline (hardware-facts 6): the CFG sent in frame N governs the
 /// conversion whose data arrive in frame N + 2; the second CFG write restarts the scan, so

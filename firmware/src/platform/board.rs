@@ -1,14 +1,15 @@
-//! The boards: what the hardware is, as data. One design today, the LPC1754 + ET1100 board
-//! of the thesis with an AD7689 and an AD5663, in two assemblies (with and without the CAN
-//! transceiver on CAN1); each product names the board it is built for
-//! (`crate::products`).
+//! The boards: what the hardware is, as data. Two designs: the LPC1754 + ET1100 (SPI PDI)
+//! board of the thesis with an AD7689 and an AD5663, in two assemblies (with and without the
+//! CAN transceiver on CAN1), and the STM32F103VC + ET1100 (FSMC, µC PDI) board with the same
+//! analog front end ([`STM32_FSMC`], `crate::platform::stm32f1`); each product names the
+//! board it is built for (`crate::products`).
 //!
 //! A board says who makes it, which design and revision it is and what is fitted
 //! ([`Board`]); the bootloader built for a board accepts the update files of every product
 //! that runs on it (`crate::platform::boot::header`). The analog front end and the ESC's
 //! wiring are the design's, the same in both assemblies.
 
-use coe_core::device::{PdiConfig, PinDriver, SyncPin, PDI_SPI_SLAVE};
+use coe_core::device::{PdiConfig, PdiInterface, PinDriver, SyncPin};
 
 /// A board as the images and the bootloader know it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,6 +24,44 @@ pub struct Board {
     pub revision: u32,
     /// The parts fitted that a product may need ([`Options`]).
     pub options: Options,
+}
+
+impl Board {
+    /// The microcontroller: which image binary, memory map and probe target. It follows
+    /// from the design (a design is one MCU, memory map and wiring); a design of a new MCU
+    /// adds its line here, every other is the LPC1754's.
+    pub const fn mcu(&self) -> Mcu {
+        match self.design {
+            STM32F103_ANALOG => Mcu::Stm32f103vc,
+            _ => Mcu::Lpc1754,
+        }
+    }
+}
+
+/// The microcontroller of a board, as the build and flash tools need it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mcu {
+    /// NXP LPC1754 (Cortex-M3, 100 MHz, 128 KB flash): the image is the bootloader plus the
+    /// application in its slot (`crate::platform::boot::layout`), updated over FoE.
+    Lpc1754,
+    /// ST STM32F103VC (Cortex-M3, 72 MHz, 256 KB flash, 48 KB SRAM, LQFP100): the
+    /// application alone from the start of the flash; no bootloader, no FoE.
+    Stm32f103vc,
+}
+
+impl Mcu {
+    /// Flash an application image may take at most.
+    pub const fn app_flash_max(self) -> u32 {
+        match self {
+            Mcu::Lpc1754 => crate::platform::boot::layout::APP_BUDGET,
+            Mcu::Stm32f103vc => 256 * 1024,
+        }
+    }
+
+    /// Whether the board's images have the bootloader (and so firmware updates over FoE).
+    pub const fn has_bootloader(self) -> bool {
+        matches!(self, Mcu::Lpc1754)
+    }
 }
 
 /// Assembly options of a board: parts a design may or may not carry. A product needs some
@@ -70,6 +109,19 @@ pub const THESIS_CAN: Board = Board {
     ..THESIS
 };
 
+/// The design code of the STM32F103 + ET1100 (FSMC) analog board.
+pub const STM32F103_ANALOG: u32 = 0x0000_F103;
+
+/// Seed 004's board: STM32F103VC + ET1100 on the FSMC (16-bit µC PDI, multiplexed with an
+/// address latch) + AD5663 + AD7689, revision A, no CAN transceiver.
+pub const STM32_FSMC: Board = Board {
+    name: "STM32F103VC + ET1100 (FSMC) analog board rev A",
+    vendor_id: VENDOR_ID,
+    design: STM32F103_ANALOG,
+    revision: 1,
+    options: Options::NONE,
+};
+
 /// Analog inputs (AD7689 channels).
 pub const AI_CHANNELS: usize = 8;
 /// Analog outputs (AD5663 channels).
@@ -87,14 +139,15 @@ pub const FULL_SCALE_UV: u32 = REFERENCE_UV * FRONT_END_GAIN;
 /// interrupt on P0.22), SYNC0 push-pull active high into the CAP1.0 timer capture, 1 us
 /// SYNC pulses (hardware-facts 10.C: SII words 0x0E05 / 0x0603 / 0x0064).
 pub const PDI: PdiConfig = PdiConfig {
-    pdi_type: PDI_SPI_SLAVE,
+    interface: PdiInterface::Spi {
+        mode: 3,
+        sel_active_high: false,
+        miso_late_sample: false,
+    },
     enhanced_link_detect: true,
     dc_sync_unit: true,
     dc_latch_unit: true,
-    spi_mode: 3,
     irq: PinDriver::PushPullActiveLow,
-    sel_active_high: false,
-    miso_late_sample: false,
     sync0: SyncPin {
         driver: PinDriver::PushPullActiveHigh,
         output: true,
@@ -115,6 +168,13 @@ pub const EEPROM_BYTES: u32 = 2048;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_design_has_its_mcu() {
+        assert_eq!(THESIS.mcu(), Mcu::Lpc1754);
+        assert_eq!(THESIS_CAN.mcu(), Mcu::Lpc1754);
+        assert_eq!(STM32_FSMC.mcu(), Mcu::Stm32f103vc);
+    }
 
     #[test]
     fn the_can_assembly_covers_what_the_plain_one_has() {

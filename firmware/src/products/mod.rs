@@ -8,6 +8,7 @@
 //! |------------------|-----------------------------|------------------------------------------|
 //! | [`analog_io`]    | thesis board, no CAN        | EtherCAT slave + FoE, analog I/O         |
 //! | [`analog_io_can`] | thesis board with CAN transceiver | the same plus the CANopen node on CAN1 |
+//! | [`analog_io_stm32`] | STM32F103 + ET1100 (FSMC) board | EtherCAT slave (no FoE), analog I/O |
 //!
 //! Adding a product: a folder with its `mod.rs` giving `PRODUCT` (a [`Product`]), its line
 //! in `products!` below, and the cargo feature of its name in `firmware/Cargo.toml`
@@ -31,8 +32,9 @@ pub struct Product {
     pub summary: &'static str,
     /// The board it is built for: its image's bootloader is that board's.
     pub board: &'static Board,
-    /// What its update files are built for (identity, board, the board options it needs).
-    pub update: Target,
+    /// What its update files are built for (identity, board, the board options it needs);
+    /// `None` for a product without firmware updates (its board has no bootloader).
+    pub update: Option<Target>,
     /// The device description the SII image and the ESI file are generated from.
     pub device: &'static DeviceDescription,
     /// The oversampling part of the description (replicated PDOs listed once in the ESI
@@ -103,6 +105,8 @@ products! {
     analog_io = "analog-io",
     /// The same with CANopen on CAN1, for the board with a CAN transceiver.
     analog_io_can = "analog-io-can",
+    /// The analog module on the STM32F103 + ET1100 (FSMC) board: CoE, no FoE.
+    analog_io_stm32 = "analog-io-stm32",
 }
 
 /// The CAN gateway (an EtherCAT slave that is a CANopen master on CAN1, issue 28): its
@@ -215,6 +219,7 @@ pub(crate) use identity_objects;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::platform::board::Mcu;
     use std::collections::BTreeSet;
 
     #[test]
@@ -238,13 +243,33 @@ mod tests {
             .collect();
         assert_eq!(codes.len(), PRODUCTS.len(), "product codes");
         for p in PRODUCTS {
-            assert_eq!(p.update.product_code, p.device.identity.product_code);
-            assert_eq!(p.update.vendor_id, p.device.identity.vendor_id);
-            assert_eq!(p.update.vendor_id, p.board.vendor_id);
-            assert_eq!(p.update.board, p.board.design);
-            assert_eq!(p.update.hardware_revision, p.board.revision);
-            assert!(p.board.options.covers(p.update.needs), "{}", p.name);
-            assert!(p.budget.flash <= crate::platform::boot::layout::APP_BUDGET);
+            assert_eq!(
+                p.update.is_some(),
+                p.board.mcu().has_bootloader(),
+                "{}",
+                p.name
+            );
+            if let Some(update) = p.update {
+                assert_eq!(update.product_code, p.device.identity.product_code);
+                assert_eq!(update.vendor_id, p.device.identity.vendor_id);
+                assert_eq!(update.vendor_id, p.board.vendor_id);
+                assert_eq!(update.board, p.board.design);
+                assert_eq!(update.hardware_revision, p.board.revision);
+                assert!(p.board.options.covers(update.needs), "{}", p.name);
+            }
+            // FoE in the mailbox exactly where there is a bootloader to take the files.
+            assert_eq!(
+                p.device.mailbox.protocols.0 & coe_core::device::MailboxProtocols::FOE != 0,
+                p.board.mcu().has_bootloader(),
+                "{}: FoE and the bootloader go together",
+                p.name
+            );
+            let board_pdi = match p.board.mcu() {
+                Mcu::Lpc1754 => crate::platform::board::PDI,
+                Mcu::Stm32f103vc => crate::platform::stm32f1::esc_pdi::PDI,
+            };
+            assert_eq!(p.device.pdi, board_pdi, "{}: the board's PDI", p.name);
+            assert!(p.budget.flash <= p.board.mcu().app_flash_max());
             assert_eq!(
                 p.can.is_some(),
                 p.device.od.find(0x1017).is_some(),

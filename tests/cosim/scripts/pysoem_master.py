@@ -72,6 +72,21 @@ def wait_state(master, slave, state, timeout_us=STATE_US):
     return slave.state == state
 
 
+def acknowledge(slave, state, timeout_us=STATE_US):
+    """Acknowledges an error in `state` (state + ACK) and waits until the error flag is
+    clear. SOEM's state_check compares the state without the error flag, so it returns
+    before the module has taken the acknowledge; a state request written then would
+    replace it in AL control."""
+    slave.state = state + pysoem.STATE_ACK
+    slave.write_state()
+    deadline = time.monotonic() + timeout_us / 1e6
+    while time.monotonic() < deadline:
+        slave.state_check(state, 50_000)
+        if slave.state == state:
+            return True
+    return False
+
+
 class Cyclic(threading.Thread):
     """The master's cyclic task: one process-data exchange every cycle, with DC in step with
     SYNC0: the frames pass the module half a cycle before each SYNC0 edge (SOEM's ec_sync
@@ -224,9 +239,7 @@ def watchdog(master, slave, cycle_ns):
     state, code = slave.state, slave.al_status
     tripped = state == pysoem.SAFEOP_STATE + pysoem.STATE_ERROR and code == SM_WATCHDOG
     # Acknowledge the error (SAFE-OP + ACK), as a master does.
-    slave.state = pysoem.SAFEOP_STATE + pysoem.STATE_ACK
-    slave.write_state()
-    acked = slave.state_check(pysoem.SAFEOP_STATE, STATE_US) == pysoem.SAFEOP_STATE
+    acked = acknowledge(slave, pysoem.SAFEOP_STATE)
     say(
         step="watchdog",
         ok=ok and tripped and acked,
@@ -296,7 +309,7 @@ def main():
         ok = run_op(master, slave, cycles, cycle_ns, monitor=not args.op_only)
         if args.op_only:
             wait_state(master, slave, pysoem.INIT_STATE)
-            say(step="init", state=slave.state)
+            say(step="init", state=slave.state, al_status_code=slave.al_status)
             return ok
         ok = watchdog(master, slave, cycle_ns) and ok
         # SDO Information last: SOEM asks for every subindex up to the highest, the gaps too
@@ -305,7 +318,7 @@ def main():
         ok = wait_state(master, slave, pysoem.PREOP_STATE) and ok
         say(step="sdo_info", objects=sdo_info(slave))
         wait_state(master, slave, pysoem.INIT_STATE)
-        say(step="init", state=slave.state)
+        say(step="init", state=slave.state, al_status_code=slave.al_status)
         return ok
     finally:
         master.close()

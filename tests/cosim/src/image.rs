@@ -250,10 +250,10 @@ impl Image {
         let slot = APP_SLOT.start as usize;
         let block = self.flash.get(slot..slot + HEADER_BLOCK as usize)?;
         let header = HeaderRepr::parse(&Header::new_unchecked(block)).ok()?;
-        firmware::products::PRODUCTS
-            .iter()
-            .copied()
-            .find(|p| p.update.product_code == header.product_code)
+        firmware::products::PRODUCTS.iter().copied().find(|p| {
+            p.update
+                .is_some_and(|u| u.product_code == header.product_code)
+        })
     }
 
     /// Word `i` of the flash.

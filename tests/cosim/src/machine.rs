@@ -7,8 +7,9 @@
 //! is low and P0.15/P0.17/P0.18 carry SCK/MISO/MOSI (function 3); SSP0 frames reach the
 //! AD5663 only on P1.20/P1.24 (function 3) while SYNC (P2.2) is low; SSP1 frames reach the
 //! AD7689 only on P0.7/P0.8/P0.9 (function 2) while CNV is low; CNV is MAT2.0 only on P0.6
-//! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3; CAN1 reaches the board's CAN
-//! bus only on P0.0/P0.1 (function 1) at the bus's bit rate. Anything else moves no data
+//! function 3; SYNC0 reaches CAP1.0 only on P1.18 function 3; LDAC (P2.3) follows the GPIO
+//! in function 0 and PWM1.4 in function 1 (each PWM edge at its own time); CAN1 reaches the
+//! board's CAN bus only on P0.0/P0.1 (function 1) at the bus's bit rate. Anything else moves no data
 //! and is reported, as is any access to a peripheral whose PCONP bit is off.
 
 use crate::ahb_sram::AhbSram;
@@ -19,6 +20,7 @@ use crate::periph::can::Can;
 use crate::periph::gpdma::{After, Gpdma, Transfer};
 use crate::periph::gpio::{Gpio, GpioInt};
 use crate::periph::pincon::PinConnect;
+use crate::periph::pwm::Pwm;
 use crate::periph::spi::Spi;
 use crate::periph::ssp::Ssp;
 use crate::periph::syscon::{Clocked, Syscon, PCONP_RESET};
@@ -70,8 +72,12 @@ pub mod pins {
     pub const DAC_DIN: Pin = (1, 24);
     /// AD5663 SYNC (GPIO).
     pub const DAC_SYNC: Pin = (2, 2);
-    /// AD5663 LDAC (GPIO).
+    /// AD5663 LDAC: GPIO (function 0) or PWM1.4 (function 1, the oversampling outputs).
     pub const DAC_LDAC: Pin = (2, 3);
+    /// The PINSEL function of [`DAC_LDAC`] that is PWM1.4.
+    pub const LDAC_PWM_FUNC: u8 = 1;
+    /// The PWM1 output on [`DAC_LDAC`].
+    pub const LDAC_PWM_OUTPUT: usize = 4;
     /// AD7689 CNV = MAT2.0 (function 3).
     pub const ADC_CNV: Pin = (0, 6);
     /// AD7689 SCK / SDO / DIN on SSP1 (function 2).
@@ -111,6 +117,8 @@ pub enum Region {
     Gpdma,
     /// CAN1, 0x4004_4000.
     Can1,
+    /// PWM1, 0x4001_8000.
+    Pwm1,
     /// The CAN acceptance filter registers, 0x4003_C000.
     CanAf,
     /// 0xE000_E000.
@@ -137,6 +145,7 @@ impl Region {
             0x2009_C000 => Region::Gpio,
             0x5000_4000 => Region::Gpdma,
             0x4004_4000 => Region::Can1,
+            0x4001_8000 => Region::Pwm1,
             0x4003_C000 => Region::CanAf,
             0xE000_E000 => Region::Scs,
             other => Region::Unmodelled(other),
@@ -153,6 +162,7 @@ impl Region {
             Region::Gpio | Region::GpioInt => Clocked::Gpio,
             Region::Gpdma => Clocked::Gpdma,
             Region::Can1 => Clocked::Can1,
+            Region::Pwm1 => Clocked::Pwm1,
             _ => return None,
         })
     }
@@ -243,6 +253,8 @@ pub struct Machine {
     gpdma: Gpdma,
     wdt: Wdt,
     can1: Can,
+    /// PWM1 (LDAC in the oversampling output path).
+    pub pwm1: Pwm,
     /// The bus's count of frames CAN1's port sent, as far as CAN1 has been told.
     can_sent_seen: u64,
     esc_session: Option<SpiSession>,
@@ -295,6 +307,7 @@ impl Machine {
             gpdma: Gpdma::new(),
             wdt: Wdt::new(false),
             can1: Can::new(),
+            pwm1: Pwm::new(),
             can_sent_seen: 0,
             esc_session: None,
             dac_frame: None,
@@ -336,6 +349,7 @@ impl Machine {
         self.wdt = Wdt::new(watchdog);
         // Frames the controller queued before the reset count as gone.
         self.can1 = Can::new();
+        self.pwm1 = Pwm::new();
         self.can_sent_seen = self.can_frames_left();
         self.stop = None;
         self.check_preempt = false;
@@ -463,6 +477,7 @@ impl Machine {
             self.timers[1].next_event(),
             self.timers[2].next_event(),
             self.timers[3].next_event(),
+            self.pwm1.next_event(),
             self.wdt.next_event(),
             self.scs.systick.next_wrap().map(|c| cycle_ns(c, self)),
             self.io.can.bus.borrow().next_event_ns(),
@@ -510,6 +525,8 @@ impl Machine {
             let t = self.tick_for(Region::Timer(n));
             self.timers[n].on_event(t);
         }
+        let t = self.tick_for(Region::Pwm1);
+        self.pwm1.on_event(t);
         let t = self.tick_for(Region::Ssp0);
         self.ssp0.on_event(t);
         let t = self.tick_for(Region::Ssp1);
@@ -529,6 +546,7 @@ impl Machine {
                 break;
             }
         }
+        self.pwm_ldac();
         self.update_irq_lines();
         self.reschedule();
     }
@@ -546,6 +564,7 @@ impl Machine {
             (irq::EINT3, self.gpioint.irq()),
             (irq::DMA, self.gpdma.irq()),
             (irq::CAN, self.can1.irq()),
+            (irq::PWM1, self.pwm1.irq()),
         ];
         for (n, level) in lines {
             self.scs.set_line(n, level);
@@ -714,7 +733,12 @@ impl Machine {
         let levels = [
             self.gpio_out(pins::ESC_SEL).unwrap_or(true),
             self.gpio_out(pins::DAC_SYNC).unwrap_or(true),
-            self.gpio_out(pins::DAC_LDAC).unwrap_or(true),
+            if self.func(pins::DAC_LDAC) == pins::LDAC_PWM_FUNC {
+                // PWM1.4 drives the pin: its edges come with their times (`pwm_ldac`).
+                self.outputs_last[2]
+            } else {
+                self.gpio_out(pins::DAC_LDAC).unwrap_or(true)
+            },
         ];
         let now = self.hw_ns();
         self.io.clock.set_ns(now);
@@ -742,15 +766,44 @@ impl Machine {
             }
         }
         if ldac != ldac0 {
-            if !ldac {
-                self.traffic.ldac_pulses += 1;
-                let _ = self.io.ldac.set_low();
-            } else {
-                let _ = self.io.ldac.set_high();
-            }
+            self.ldac_to(ldac);
         }
         self.outputs_last = levels;
         self.refresh_inputs();
+    }
+
+    /// LDAC to `high` at the board's current time.
+    fn ldac_to(&mut self, high: bool) {
+        if !high {
+            self.traffic.ldac_pulses += 1;
+            let _ = self.io.ldac.set_low();
+        } else {
+            let _ = self.io.ldac.set_high();
+        }
+        self.outputs_last[2] = high;
+    }
+
+    /// PWM1.4's edges to LDAC, each at its own time, while P2.3 is PWM1.4 and PCR drives
+    /// it (an undriven output leaves the pin high, as at reset).
+    fn pwm_ldac(&mut self) {
+        let edges = std::mem::take(&mut self.pwm1.edges);
+        if self.func(pins::DAC_LDAC) != pins::LDAC_PWM_FUNC {
+            return;
+        }
+        if self.pwm1.output(pins::LDAC_PWM_OUTPUT).is_some() {
+            for e in edges {
+                if usize::from(e.output) == pins::LDAC_PWM_OUTPUT && e.high != self.outputs_last[2]
+                {
+                    self.io.clock.set_ns(e.time_ns);
+                    self.ldac_to(e.high);
+                }
+            }
+        }
+        let level = self.pwm1.output(pins::LDAC_PWM_OUTPUT).unwrap_or(true);
+        if level != self.outputs_last[2] {
+            self.io.clock.set_ns(self.hw_ns());
+            self.ldac_to(level);
+        }
     }
 
     /// A SYNC0 rising edge from the ESC at the current time.
@@ -1044,6 +1097,7 @@ impl Machine {
             Region::Gpio => &mut self.gpio,
             Region::Gpdma => &mut self.gpdma,
             Region::Can1 => &mut self.can1,
+            Region::Pwm1 => &mut self.pwm1,
             Region::Scs | Region::CanAf | Region::Unmodelled(_) => return None,
         })
     }
@@ -1202,5 +1256,107 @@ impl Machine {
         }
         self.bus_write_region(base, offset & !3, v);
         self.settle();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use virtual_board::rig::board::{BoardConfig, VirtualBoard as Board};
+
+    /// A chip with blank flash on a board (no CPU: the tests drive the bus and the time).
+    fn machine() -> (Board, Machine) {
+        let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
+        let image = Image {
+            flash: vec![0xFF; 0x8_0000],
+            flash_used: 0,
+            rtt: None,
+            elf: Vec::new(),
+            functions: Vec::new(),
+            static_ram: 0,
+            flash_bytes: 0,
+            app_vectors: 0,
+            stack_floor: crate::cpu::SRAM.0,
+        };
+        let m = Machine::new(board.io(), Rc::new(image));
+        (board, m)
+    }
+
+    const PINSEL4: u32 = 0x4002_C010;
+    const PCONP: u32 = 0x400F_C0C4;
+    const PCLKSEL0: u32 = 0x400F_C1A8;
+    const PWM1: u32 = 0x4001_8000;
+
+    /// PWM1 as the oversampling outputs run it: period 100 ticks, PWM1.4 single edge, low
+    /// from MR4 = 80 to the period's end, MR4 interrupt; P2.3 in function `func`.
+    fn ldac_pwm(m: &mut Machine, func: u32) {
+        m.cpu_write(PCONP, 4, PCONP_RESET | 1 << 6);
+        m.cpu_write(PCLKSEL0, 4, 1 << 12);
+        m.cpu_write(PINSEL4, 4, func << 6);
+        m.cpu_write(PWM1 + 0x04, 4, 2);
+        m.cpu_write(PWM1 + 0x18, 4, 99);
+        m.cpu_write(PWM1 + 0x40, 4, 80);
+        m.cpu_write(PWM1 + 0x14, 4, 1 << 1 | 1 << 12);
+        m.cpu_write(PWM1 + 0x4C, 4, 1 << 12);
+        m.cpu_write(PWM1 + 0x50, 4, 0x11);
+        m.cpu_write(PWM1 + 0x04, 4, 1 | 8);
+    }
+
+    fn run_to(m: &mut Machine, t_ns: u64) {
+        while m.next_event_ns() <= t_ns {
+            let e = m.next_event_ns();
+            m.sleep_until(e);
+            m.service_due();
+        }
+        m.sleep_until(t_ns);
+    }
+
+    #[test]
+    fn pwm1_4_drives_ldac_on_p2_3_in_function_1_each_edge_at_its_time() {
+        let (board, mut m) = machine();
+        ldac_pwm(&mut m, 1);
+        let start = m.now_ns();
+        let tick = 1_000_000_000 / m.syscon.pclk_hz(Clocked::Pwm1);
+        run_to(&mut m, start + 50 * 100 * tick);
+        let dac = board.dac().borrow();
+        let all: Vec<u64> = dac
+            .ldac_edges
+            .iter()
+            .filter(|e| e.falling)
+            .map(|e| e.time_ns)
+            .collect();
+        // PWM1.4 is low until the first cycle starts: LDAC falls once when PCR drives the
+        // pin (before the first MR0 reset), then once per period.
+        assert!(all[0] < start + 100 * tick, "{all:?}");
+        let falls = &all[1..];
+        assert!(falls.len() >= 48, "{} falling edges", falls.len());
+        // One fall per period, each at MR4 of its cycle: on a grid of 100 ticks.
+        for t in falls {
+            assert_eq!((t - falls[0]) % (100 * tick), 0, "{t}");
+        }
+        for w in falls.windows(2) {
+            assert_eq!(w[1] - w[0], 100 * tick);
+        }
+        // Low for the last 20 ticks of each cycle.
+        let rise = dac
+            .ldac_edges
+            .iter()
+            .find(|e| !e.falling && e.time_ns > falls[0])
+            .unwrap();
+        assert_eq!(rise.time_ns - falls[0], 20 * tick);
+        assert_eq!(m.traffic.ldac_pulses, all.len() as u64);
+        assert!(m.pwm1.irq(), "MR4 raises PWM1's interrupt");
+        assert!(m.reports.is_empty(), "{:?}", m.reports);
+    }
+
+    #[test]
+    fn pwm1_edges_do_not_reach_ldac_while_p2_3_is_gpio() {
+        let (board, mut m) = machine();
+        ldac_pwm(&mut m, 0);
+        let start = m.now_ns();
+        run_to(&mut m, start + 1_000_000);
+        assert!(m.pwm1.matches[4] > 0, "PWM1 runs");
+        assert!(board.dac().borrow().ldac_edges.is_empty());
+        assert_eq!(m.traffic.ldac_pulses, 0);
     }
 }

@@ -80,17 +80,18 @@ enum Command {
 fn oversampling(cycles: u64) -> Result<(), String> {
     use lpc1754_cosim::oversampling::{figures, run, Config, BENCH_CONFIGS};
     let image = load_image()?;
-    for (cycle_ns, sample_pdos) in BENCH_CONFIGS {
+    for (cycle_ns, sample_pdos, update_pdos) in BENCH_CONFIGS {
         let config = Config {
             cycle_ns,
             cycles,
             sample_pdos,
             sine_hz: 1_234.5,
+            update_pdos,
         };
         match run(&image, config) {
             Ok(r) => println!("{}", figures(&r)),
             Err(e) => println!(
-                "cycle {:>5} us, {sample_pdos} sample PDOs: not run: {}",
+                "cycle {:>5} us, {sample_pdos} sample PDOs, {update_pdos} update PDOs: not run: {}",
                 cycle_ns / 1_000,
                 e.lines().next().unwrap_or("")
             ),

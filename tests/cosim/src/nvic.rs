@@ -30,6 +30,8 @@ pub mod irq {
     pub const WDT: u32 = 0;
     /// Timer 0..3.
     pub const TIMER0: u32 = 1;
+    /// PWM1.
+    pub const PWM1: u32 = 9;
     /// SPI.
     pub const SPI: u32 = 13;
     /// SSP0.

@@ -25,6 +25,10 @@ pub const PERIOD_NS: u64 = 4_000;
 const STATUS_PDO: u16 = 0x1A10;
 const TIME_PDO: u16 = 0x1A11;
 const SAMPLE_PDO: u16 = 0x1A20;
+/// The first output update PDO (5 updates of AO1, AO2 each).
+const UPDATE_PDO: u16 = 0x1620;
+/// Updates per update PDO.
+pub const UPDATES_PER_PDO: usize = 5;
 /// Cycles in OP before the blocks count (the stream starts at SAFE-OP; the first blocks
 /// in OP are kept from the warm-up on).
 const WARM_UP_CYCLES: u64 = 20;
@@ -49,7 +53,26 @@ pub struct Config {
     pub sample_pdos: u8,
     /// Frequency of the sine on AI1 (Hz).
     pub sine_hz: f64,
+    /// Output update PDOs assigned in 0x1C12 (5 updates each; 0: today's 0x1600).
+    pub update_pdos: u8,
 }
+
+impl Config {
+    /// n, the output updates per cycle.
+    pub fn updates(&self) -> usize {
+        usize::from(self.update_pdos) * UPDATES_PER_PDO
+    }
+}
+
+/// The pair the master writes for update `k` of the block of cycle `i` (both channels
+/// change at every update; A climbs by [`UPDATE_STEP`] from update to update).
+pub fn update_pair(i: u64, n: usize, k: usize) -> (u16, u16) {
+    let a = ((i * n as u64 + k as u64) * u64::from(UPDATE_STEP)) as u16;
+    (a, !a)
+}
+
+/// How much channel A's code climbs per update in [`update_pair`].
+pub const UPDATE_STEP: u16 = 97;
 
 /// One block as the master received it.
 #[derive(Debug, Clone, Default)]
@@ -80,6 +103,14 @@ pub struct OsRun {
     /// The ESC's DC system time minus the board's virtual time (ns): the ADC model's
     /// inputs are functions of virtual time.
     pub dc_minus_virtual_ns: i64,
+    /// Virtual time of a SYNC0 edge (the grid's origin).
+    pub sync0_origin_ns: u64,
+    /// Virtual time where the counted cycles start.
+    pub start_ns: u64,
+    /// LDAC falling edges in the counted cycles (virtual ns).
+    pub ldac_falls: Vec<u64>,
+    /// Channel A's DAC register loads in the counted cycles (virtual ns, code).
+    pub dac_a: Vec<(u64, u16)>,
     /// Facts at the start of the counted cycles and at the end.
     pub before: Facts,
     /// At the end.
@@ -146,6 +177,7 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
     let mut input_bytes = 0;
     let mut before = None;
     let mut start = 0;
+    let mut sync0_origin = 0;
     step_to(&board, 2_000_000);
     let cycle_ns = config.cycle_ns;
     let master = async {
@@ -169,6 +201,22 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
             sd.sdo_write(0x1C13, 0, pdos.len() as u8)
                 .await
                 .map_err(|e| format!("0x1C13:00 = {}: {e}", pdos.len()))?;
+            if config.update_pdos > 0 {
+                let rx: Vec<u16> = (0..u16::from(config.update_pdos))
+                    .map(|u| UPDATE_PDO + u)
+                    .collect();
+                sd.sdo_write(0x1C12, 0, 0u8)
+                    .await
+                    .map_err(|e| format!("0x1C12:00 = 0: {e}"))?;
+                for (sub, pdo) in (1u8..).zip(&rx) {
+                    sd.sdo_write(0x1C12, sub, *pdo)
+                        .await
+                        .map_err(|e| format!("0x1C12:{sub} = {pdo:#06x}: {e}"))?;
+                }
+                sd.sdo_write(0x1C12, 0, rx.len() as u8)
+                    .await
+                    .map_err(|e| format!("0x1C12:00 = {}: {e}", rx.len()))?;
+            }
         }
         let mut group = group;
         for mut sd in group.iter_mut(&md) {
@@ -200,6 +248,7 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
             .await
             .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
         sync0_started(&board);
+        sync0_origin = next_sync0_virtual(&board);
         let group = group
             .into_op(&md)
             .await
@@ -210,6 +259,16 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
                 start = board.borrow().now_ns();
             }
             let t0 = board.borrow().now_ns();
+            if config.update_pdos > 0 {
+                let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+                let mut out = sd.outputs_raw_mut();
+                let n = config.updates();
+                for (k, b) in out.chunks_exact_mut(4).take(n).enumerate() {
+                    let (a, bb) = update_pair(i, n, k);
+                    b[..2].copy_from_slice(&a.to_le_bytes());
+                    b[2..].copy_from_slice(&bb.to_le_bytes());
+                }
+            }
             let resp = group
                 .tx_rx_dc(&md)
                 .await
@@ -226,8 +285,16 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
                 input_bytes = img.len();
                 blocks.push(parse_block(&img)?);
             }
+            // The frames: at the SYNC0 edges (shift T/2) for the input blocks alone; half a
+            // cycle after them with output blocks, whose block must be in before the last
+            // update interval of the cycle.
             let phase = resp.extra.dc_system_time % cycle_ns;
-            step_to(&board, t0 + (cycle_ns - phase) + cycle_ns / 2);
+            let frame_phase = if config.update_pdos > 0 {
+                0
+            } else {
+                cycle_ns / 2
+            };
+            step_to(&board, t0 + (cycle_ns - phase) + frame_phase);
         }
         Ok::<(), String>(())
     };
@@ -242,7 +309,25 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
     if let Some(f) = &after.fault {
         return Err(format!("the image faulted: {f}"));
     }
-    let span_ns = board.borrow().now_ns() - start;
+    let end = board.borrow().now_ns();
+    let span_ns = end - start;
+    let (ldac_falls, dac_a) = {
+        let b = board.borrow();
+        let dac = b.dac().borrow();
+        let falls = dac
+            .ldac_edges
+            .iter()
+            .filter(|e| e.falling && (start..end).contains(&e.time_ns))
+            .map(|e| e.time_ns)
+            .collect();
+        let a = dac
+            .updates
+            .iter()
+            .filter(|u| u.channel == 0 && (start..end).contains(&u.time_ns))
+            .map(|u| (u.time_ns, u.code))
+            .collect();
+        (falls, a)
+    };
     let dc_minus_virtual_ns = {
         let b = board.borrow();
         let sys = b.esc().borrow().dc_system_time();
@@ -254,9 +339,64 @@ pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
         input_bytes,
         span_ns,
         dc_minus_virtual_ns,
+        sync0_origin_ns: sync0_origin,
+        start_ns: start,
+        ldac_falls,
+        dac_a,
         before: before.ok_or("no counted cycle")?,
         after,
     })
+}
+
+/// The virtual time of the DC unit's next SYNC0 pulse (0x0990).
+fn next_sync0_virtual(board: &Board) -> u64 {
+    let b = board.borrow();
+    let esc = b.esc().borrow();
+    let mut t = [0u8; 8];
+    esc.peek(virtual_board::models::esc::regs::DC_START_TIME, &mut t);
+    let next = u64::from_le_bytes(t);
+    b.now_ns() + next.saturating_sub(esc.dc_system_time())
+}
+
+/// The output blocks' verdict.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct OutputCheck {
+    /// LDAC falling edges per second.
+    pub updates_per_s: f64,
+    /// Largest distance of an LDAC fall from the grid SYNC0 + k T/n (ns).
+    pub edge_error_max_ns: u64,
+    /// Channel A loads that did not climb by one step from the load before (an update
+    /// played twice, skipped or out of order).
+    pub sequence_breaks: u64,
+    /// Channel A loads.
+    pub loads: u64,
+}
+
+/// The output updates of `run`: every LDAC edge on the grid, every update played once and
+/// in order.
+pub fn check_outputs(run: &OsRun) -> OutputCheck {
+    let n = run.config.updates().max(1) as u64;
+    let period = run.config.cycle_ns / n;
+    let edge_error_max_ns = run
+        .ldac_falls
+        .iter()
+        .map(|t| {
+            let d = (*t as i128 - run.sync0_origin_ns as i128).rem_euclid(period as i128);
+            d.min(period as i128 - d) as u64
+        })
+        .max()
+        .unwrap_or(u64::MAX);
+    let sequence_breaks = run
+        .dac_a
+        .windows(2)
+        .filter(|w| w[1].1 != w[0].1.wrapping_add(UPDATE_STEP))
+        .count() as u64;
+    OutputCheck {
+        updates_per_s: run.ldac_falls.len() as f64 / (run.span_ns as f64 * 1e-9),
+        edge_error_max_ns,
+        sequence_breaks,
+        loads: run.dac_a.len() as u64,
+    }
 }
 
 /// A block from the input image (status, time, samples).
@@ -392,9 +532,18 @@ fn solve3(mut m: [[f64; 3]; 3], mut v: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|i| if m[i][i] != 0.0 { v[i] / m[i][i] } else { 0.0 })
 }
 
-/// The configurations `cargo xtask bench` measures: the fewest sample PDOs that hold a
-/// cycle's scans at 1 ms, 250 us and 100 us.
-pub const BENCH_CONFIGS: [(u64, u8); 3] = [(1_000_000, 8), (250_000, 2), (100_000, 1)];
+/// The configurations `cargo xtask bench` measures (cycle, sample PDOs, update PDOs): the
+/// fewest sample PDOs that hold a cycle's scans at 1 ms, 250 us and 100 us, alone and with
+/// output blocks: 20 kHz per channel at 1 ms and 250 us, and the largest factor each cycle
+/// admits beside the inputs (1 ms: 25 updates, 25 kHz; 250 us: 5; 100 us: none, x1).
+pub const BENCH_CONFIGS: [(u64, u8, u8); 6] = [
+    (1_000_000, 8, 0),
+    (1_000_000, 8, 4),
+    (1_000_000, 8, 5),
+    (250_000, 2, 0),
+    (250_000, 2, 1),
+    (100_000, 1, 0),
+];
 
 /// One line of figures of a run: samples per second (total and per channel), lost and
 /// duplicated, flagged blocks, PDI input bytes per cycle against the valid payload, CPU
@@ -406,10 +555,27 @@ pub fn figures(run: &OsRun) -> String {
     let busy = |f: &Facts| f.cycles.saturating_sub(f.sleep_cycles);
     let all = run.after.cycles.saturating_sub(run.before.cycles).max(1);
     let load = busy(&run.after).saturating_sub(busy(&run.before)) as f64 / all as f64;
+    let outputs = if run.config.update_pdos > 0 {
+        let o = check_outputs(run);
+        let n = run.config.updates();
+        format!(
+            ", {n} updates/cycle: {:.0} DAC updates/s per channel, LDAC edges within {} ns \
+             of the DC grid, {} sequence breaks in {} updates, output image {} B/cycle \
+             (read twice: {} B of PDI)",
+            o.updates_per_s,
+            o.edge_error_max_ns,
+            o.sequence_breaks,
+            o.loads,
+            4 * n,
+            8 * n
+        )
+    } else {
+        String::new()
+    };
     format!(
         "cycle {:>5} us, {} sample PDOs: {:>7.0} samples/s ({:.0} per channel), lost {}, \
          duplicated {}, blocks flagged {}, scans/block {}..{}, input image {} B/cycle \
-         ({:.0} B of samples), CPU load {:.1} %",
+         ({:.0} B of samples), CPU load {:.1} %{outputs}",
         run.config.cycle_ns / 1_000,
         run.config.sample_pdos,
         c.samples_per_s,
@@ -453,11 +619,16 @@ mod tests {
                 cycles: 0,
                 sample_pdos: 8,
                 sine_hz: 1.0,
+                update_pdos: 0,
             },
             blocks,
             input_bytes: 0,
             span_ns: 1_000_000,
             dc_minus_virtual_ns: 0,
+            sync0_origin_ns: 0,
+            start_ns: 0,
+            ldac_falls: Vec::new(),
+            dac_a: Vec::new(),
             before: Facts::default(),
             after: Facts::default(),
         }

@@ -97,7 +97,7 @@ fn pysoem_drives_the_image_over_a_veth_pair() {
         assert_eq!(got["name"], obj.name, "{:#06x} in {objects}", obj.index);
     }
     assert_eq!(objects.as_object().map(|m| m.len()), Some(DEVICE.od.len()));
-    assert_eq!(step(&o.lines, "init")["state"], 1);
+    assert_eq!(step(&o.lines, "init")["state"], 1, "{:?}", o.lines);
     tshark::assert_clean(&o.pcap);
 }
 
@@ -145,6 +145,6 @@ fn pysoem_drives_soes_over_a_veth_pair() {
     let pd = step(&o.lines, "process_data");
     assert_eq!(pd["good_wkc"], CYCLES);
     assert_eq!(pd["state"], 8, "still in OP after the exchanges");
-    assert_eq!(step(&o.lines, "init")["state"], 1);
+    assert_eq!(step(&o.lines, "init")["state"], 1, "{:?}", o.lines);
     tshark::assert_clean(&o.pcap);
 }

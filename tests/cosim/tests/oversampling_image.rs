@@ -24,6 +24,7 @@ fn ten_seconds_at_1_ms_every_conversion_once_and_the_sine_rebuilt() {
         cycles: 10_000,
         sample_pdos: 8,
         sine_hz: 1_234.5,
+        update_pdos: 0,
     };
     let r = run(&image, config).unwrap();
     let c = check_stream(&r);

@@ -114,8 +114,10 @@ fn pinsel_routes_the_esc_spi_elsewhere() {
 #[test]
 fn ssp1_power_bit_left_off() {
     let mut image = load_image().unwrap();
-    // hw::clocks::enable_peripherals' PCONP bits: TIMER1, SPI, SSP1, CAN1, GPIO, SSP0, TIMER2.
-    let bits: u32 = (1 << 2) | (1 << 8) | (1 << 10) | (1 << 13) | (1 << 15) | (1 << 21) | (1 << 22);
+    // hw::clocks::enable_peripherals' PCONP bits: TIMER1, PWM1, SPI, SSP1, CAN1, GPIO, SSP0,
+    // TIMER2.
+    let bits: u32 =
+        (1 << 2) | (1 << 6) | (1 << 8) | (1 << 10) | (1 << 13) | (1 << 15) | (1 << 21) | (1 << 22);
     patch_constant(&mut image, bits, bits & !(1 << 10)).expect("the PCONP constant in the image");
     let options = Options {
         pconp_at_reset: Some(PCONP_RESET & !(1 << 10)),

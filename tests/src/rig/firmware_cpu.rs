@@ -51,7 +51,7 @@ use firmware::io::analog::AnalogApplication;
 use firmware::platform::adc_scan::SCAN_CONFIG;
 use firmware::products::{analog_io, analog_io_can, Product};
 use firmware::stacks::canopen::task::{self as can_task, CanController, CanHost, CanInbox};
-use firmware::stacks::ethercat::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS, MAILBOX_STEPS};
+use firmware::stacks::ethercat::pdi_task::{Done, PdiTask, Wake, EEPROM_WAIT_MS};
 use firmware::stacks::ethercat::{AppConfig, Application, SlaveApp};
 
 /// A product as the board runs it: which one, its CANopen node-ID where it has CAN, and the
@@ -217,13 +217,7 @@ impl<A: HostedApplication> Tasks for PdiTask<A> {
         // The mailbox task (below the PDI task) runs its steps before the harness's next
         // event: the host-compiled firmware takes no time.
         if core::mem::take(&mut done.serve_mailbox) {
-            for _ in 0..MAILBOX_STEPS {
-                let step = PdiTask::mailbox_step(self, esc, stage, now_ns);
-                done.apply_outputs |= step.apply_outputs;
-                if !step.more {
-                    break;
-                }
-            }
+            done.apply_outputs |= PdiTask::serve_mailbox(self, esc, stage, now_ns);
         }
         done
     }

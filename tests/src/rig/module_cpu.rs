@@ -193,9 +193,10 @@ impl ModuleCpu {
         // The application of the product the installed image is (the board keeps running
         // the last one when the harness does not run that product).
         if let Ok(header) = &s.application {
-            let installed = PRODUCTS
-                .iter()
-                .find(|p| p.update.product_code == header.product_code);
+            let installed = PRODUCTS.iter().find(|p| {
+                p.update
+                    .is_some_and(|u| u.product_code == header.product_code)
+            });
             if let Some(device) = installed.and_then(|p| self.device.running(p).ok()) {
                 self.device = device;
             }

@@ -16,13 +16,15 @@ use crate::models::esc::regs;
 use crate::models::spi::SpiRecord;
 use crate::rig::board::{BoardConfig, VirtualBoard};
 use crate::tools::sim::Target;
+use firmware::products::analog_io::device::DEVICE;
 
 /// Mailbox layout the scripted master configures (the device's SII values).
 const MBX_OUT: u16 = 0x1000;
 const MBX_IN: u16 = 0x1080;
 const MBX_LEN: u16 = 128;
-const PD_OUT: u16 = 0x1100;
-const PD_IN: u16 = 0x1180;
+/// The process-data buffers, where the device's SII puts them.
+const PD_OUT: u16 = DEVICE.sync_managers[2].start;
+const PD_IN: u16 = DEVICE.sync_managers[3].start;
 
 /// An object longer than the mailbox data area (the module description string of
 /// `firmware::products::analog_io::od`), uploaded in segments.

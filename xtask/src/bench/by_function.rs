@@ -90,7 +90,7 @@ pub fn owner(pc: u64, frames: &[String], project: &[String]) -> String {
 }
 
 /// The workspace's crate names as paths spell them (`coe_core`), from `cargo metadata`.
-fn workspace_crates() -> Result<Vec<String>> {
+pub(crate) fn workspace_crates() -> Result<Vec<String>> {
     let out = cargo()
         .args(["metadata", "--no-deps", "--format-version", "1"])
         .stderr(std::process::Stdio::inherit())
@@ -243,14 +243,14 @@ pub fn split(
 
 /// The program's DWARF (inlined frames) with its symbol table for code without line
 /// information.
-struct Dwarf {
+pub(crate) struct Dwarf {
     context: addr2line::Context<Reader>,
     /// (start, end, demangled name) of the function symbols, Thumb bit cleared.
     symbols: Vec<(u64, u64, String)>,
 }
 
 impl Dwarf {
-    fn load(elf: &Path) -> Result<Self> {
+    pub(crate) fn load(elf: &Path) -> Result<Self> {
         use object::{Object, ObjectSymbol, SymbolKind};
         let data = std::fs::read(elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
         let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;

@@ -18,7 +18,7 @@
 //!    SOEM (root only).
 
 mod advertised;
-mod by_function;
+pub(crate) mod by_function;
 mod cm3;
 mod frames;
 mod image_rows;
@@ -155,7 +155,7 @@ pub fn run(args: &Args) -> Result {
     let image = image_rows::rows(&on_image);
     eprintln!("[bench] frames on a network interface (sim --image --iface, as root)");
     let frames = frames::rows(args.quick);
-    eprintln!("[bench] input oversampling on the image (analog-io)");
+    eprintln!("[bench] input and output oversampling on the image (analog-io)");
     let oversampled = oversampling::lines(args.quick)?;
 
     let mut rows = Vec::new();
@@ -189,7 +189,7 @@ pub fn run(args: &Args) -> Result {
     ));
     notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
-    println!("\nInput oversampling on the image (lpc1754-cosim oversampling, docs/book/oversampling.md):");
+    println!("\nOversampling on the image, inputs and outputs (lpc1754-cosim oversampling, docs/book/oversampling.md):");
     for line in &oversampled {
         println!("- {line}");
     }

@@ -97,8 +97,13 @@ fn measure(setting: &Setting, bus: &bus_cost::BusReport) -> Result<Measured> {
         };
         let data =
             std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
-        let sections = image::sections(&data).map_err(|e| e.to_string())?;
-        flash.push(Some(image::usage(&sections, u64::from(APP_VECTORS)).flash));
+        let map = crate::mcu::of(product.board.mcu()).map;
+        let sections = image::sections_in(&data, &map).map_err(|e| e.to_string())?;
+        let base = match product.board.mcu().has_bootloader() {
+            true => u64::from(APP_VECTORS),
+            false => map.flash.start,
+        };
+        flash.push(Some(image::usage(&sections, base).flash));
     }
     let cpu = cm3::measure(1, &setting.profile())?;
     Ok(Measured {

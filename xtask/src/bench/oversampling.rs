@@ -1,6 +1,6 @@
-//! The input oversampling group (docs/book/oversampling.md): the analog-io image on the
-//! co-simulator with the block PDOs at 1 ms, 250 us and 100 us
-//! (`lpc1754-cosim oversampling`), one line of figures each.
+//! The oversampling group (docs/book/oversampling.md): the analog-io image on the
+//! co-simulator with the input block PDOs at 1 ms, 250 us and 100 us, alone and with output
+//! update PDOs (`lpc1754-cosim oversampling`), one line of figures each.
 
 use crate::build;
 use crate::util::{cargo, Result};

@@ -58,10 +58,14 @@ impl SyncProducer {
     pub fn due(&mut self, now_us: u64) -> bool {
         match self.next_us {
             Some(t) if now_us >= t => {
-                let period = u64::from(self.period_us);
-                // A call more than a period late skips the SYNCs it missed.
-                let behind = (now_us - t) / period.max(1);
-                self.next_us = Some(t + (behind + 1) * period);
+                let period = self.period_us.max(1);
+                // A call more than a period late skips the SYNCs it missed (32-bit
+                // arithmetic: no 64-bit division on the MCU); more than 71 minutes late,
+                // the schedule starts again from now.
+                self.next_us = Some(match u32::try_from(now_us - t) {
+                    Ok(late) => t + u64::from(late - late % period) + u64::from(period),
+                    Err(_) => now_us + u64::from(period),
+                });
                 true
             }
             _ => false,
@@ -111,6 +115,13 @@ mod tests {
         assert_eq!(s.next_us(), Some(2_500), "the period is kept");
         assert!(s.due(5_600), "three periods late");
         assert_eq!(s.next_us(), Some(6_500));
+        let hours_late = 6_500 + 2 * 3_600_000_000;
+        assert!(s.due(hours_late), "past the 32-bit lateness");
+        assert_eq!(
+            s.next_us(),
+            Some(hours_late + 1000),
+            "the schedule starts again"
+        );
         assert!(!s.cycle_event(), "multiplier 0");
         let f = s.frame().unwrap();
         assert_eq!((f.id(), f.data()), (0x80, &[][..]));

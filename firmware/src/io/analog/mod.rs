@@ -8,15 +8,19 @@
 //! | [`process_data`] | PDO mapping and assignment, the images, the fast copy per cycle    |
 //! | [`outputs`]      | outputs staged for the SYNC0 (DAC) task, latched there; the fault reaction |
 //! | [`dac`]          | the AD5663 as the DAC task drives it                               |
+//! | [`dac_pair`]     | the codes of both outputs in one word                              |
 //! | [`sampler`]      | the samples between the ADC path and the process data              |
 //! | [`adc_dma`]      | the PDI task's side of the GPDMA ring of scans                     |
 //! | [`oversampling`] | input oversampling: the sample blocks cut from the ring at DC times |
+//! | [`output_blocks`] | output oversampling: update blocks, their admission, the hand-over to the update interrupt, the LDAC grid's lock |
 //! | [`scaling`]      | codes <-> process values <-> volts                                 |
 //! | [`settings`]     | the manufacturer settings object (AI filter)                        |
 
 pub mod adc_dma;
 pub mod dac;
+pub mod dac_pair;
 pub mod objects;
+pub mod output_blocks;
 pub mod outputs;
 pub mod oversampling;
 pub mod process_data;

@@ -17,9 +17,13 @@
 //! 0 (0x06090030, CiA 301).
 
 use super::adc_dma::RING_WORDS;
+#[cfg(any(feature = "analog-io", not(target_os = "none")))]
+use super::output_blocks::{self, Grid, MAX_UPDATES};
+#[cfg(any(feature = "analog-io", not(target_os = "none")))]
+use super::outputs::DacPair;
 use super::outputs::{AnalogOutputs, ErrorMode, OutputStage};
 use super::oversampling::{self, Stream};
-use super::process_data::{ProcessData, SlotValues, MAX_IMAGE};
+use super::process_data::{ProcessData, SlotValues, MAX_OUTPUT_IMAGE};
 use super::sampler::{PublishMode, Sampler};
 use super::settings::SETTINGS_INDEX;
 use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
@@ -48,6 +52,10 @@ pub struct AnalogIo<F> {
     pub sync: SyncMonitor<F>,
     /// The input oversampling blocks.
     pub stream: Stream,
+    /// Output oversampling: the LDAC grid admitted at PREOP -> SAFEOP (only in a build with
+    /// it, so the others keep their layout).
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    block_grid: Grid,
     ao_written: Option<[i16; AO_CHANNELS]>,
 }
 
@@ -62,6 +70,8 @@ impl<F: Figures> AnalogIo<F> {
             diag: Diagnostics::new(),
             sync: SyncMonitor::new(),
             stream: Stream::new(),
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            block_grid: Grid::OFF,
             ao_written: None,
         }
     }
@@ -120,6 +130,26 @@ impl<F: Figures> AnalogIo<F> {
     /// The dictionary.
     pub fn od(&self) -> &'static ObjectDictionary {
         self.od
+    }
+
+    /// Output oversampling: the block of the output image to the update interrupt, for the
+    /// next SYNC0 edge (the grid starts with the first block). Out of line: the plain path
+    /// of `take_outputs` stays as it was.
+    #[inline(never)]
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    fn publish_block(&mut self, stage: &OutputStage) {
+        if stage.block_grid() != self.block_grid {
+            stage.set_block_grid(self.block_grid);
+        }
+        let mut pairs = [DacPair::default(); MAX_UPDATES];
+        let n = output_blocks::decode(self.pd.output_updates(), &mut pairs);
+        if let (Some(block), Some(last)) = (pairs.get(..n), n.checked_sub(1)) {
+            let next = stage.sync0_counts().edges.wrapping_add(1);
+            stage.blocks.publish(block, next);
+            if let Some(p) = pairs.get(last) {
+                self.outputs.set_block_values(*p);
+            }
+        }
     }
 
     /// AO values written by SDO since the last call (to be staged by the caller).
@@ -275,10 +305,10 @@ impl<F: Figures> ObjectAccess for AnalogIo<F> {
 impl<F: Figures> Application for AnalogIo<F> {
     type Stage = OutputStage;
     type Figures = F;
-    type OutputBuffer = [u8; MAX_IMAGE];
+    type OutputBuffer = [u8; MAX_OUTPUT_IMAGE];
 
-    fn output_buffer() -> [u8; MAX_IMAGE] {
-        [0; MAX_IMAGE]
+    fn output_buffer() -> [u8; MAX_OUTPUT_IMAGE] {
+        [0; MAX_OUTPUT_IMAGE]
     }
 
     fn od(&self) -> &'static ObjectDictionary {
@@ -349,7 +379,14 @@ impl<F: Figures> Application for AnalogIo<F> {
         }
         let blocks = *self.pd.input_blocks();
         let cycle = dc.map(|d| d.cycle_ns);
-        oversampling::admit(&blocks, self.pd.input_len(), self.pd.output_len(), cycle)?;
+        let (inputs, outputs) = (self.pd.input_len(), self.pd.output_len());
+        oversampling::admit(&blocks, inputs, outputs, cycle)?;
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        {
+            let updates = *self.pd.output_blocks_in_effect();
+            self.block_grid =
+                output_blocks::admit(&updates, inputs, outputs, cycle)?.unwrap_or(Grid::OFF);
+        }
         if let Some(d) = dc {
             self.stream
                 .set_dc_reference(d.cycle_ns, d.next_sync0_dc, d.previous_edge_lo);
@@ -370,6 +407,11 @@ impl<F: Figures> Application for AnalogIo<F> {
     // One caller, on the SM2 path of every cycle.
     #[inline(always)]
     fn take_outputs(&mut self, stage: &OutputStage) -> Effects {
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        if self.block_grid != Grid::OFF {
+            self.publish_block(stage);
+            return Effects::default();
+        }
         match self.pd.unpack_ao(self.outputs.values(), AlState::Op) {
             Ok(ao) => {
                 let mut effects = Effects::default();

@@ -35,7 +35,11 @@
 //! present output), and stages it for immediate application. [`AnalogOutputs`] then refuses
 //! to stage anything until fresh process data arrive in OP.
 
-use super::scaling::{ao_in_range, ao_to_dac_code, fault_value_to_dac_code};
+pub use super::dac_pair::DacPair;
+use super::output_blocks::Grid;
+#[cfg(any(feature = "analog-io", not(target_os = "none")))]
+use super::output_blocks::UpdateRing;
+use super::scaling::{ao_in_range, dac_code_to_ao, fault_value_to_dac_code};
 use crate::platform::board::AO_CHANNELS as CHANNELS;
 use crate::stacks::ethercat::application::CycleStage;
 use crate::stacks::ethercat::sync::Sync0Counts;
@@ -43,47 +47,6 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 // A DAC pair is the AD5663's two channels.
 const _: () = assert!(CHANNELS == 2, "the outputs are the AD5663's two channels");
-
-/// The AD5663 codes of both channels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct DacPair {
-    /// Channel A (0x6411:01).
-    pub a: u16,
-    /// Channel B (0x6411:02).
-    pub b: u16,
-}
-
-impl DacPair {
-    /// A pair of codes.
-    pub const fn new(a: u16, b: u16) -> Self {
-        Self { a, b }
-    }
-
-    /// The pair for two 0x6411 values (see [`crate::io::analog::scaling`]).
-    pub const fn from_ao(ao: [i16; CHANNELS]) -> Self {
-        Self::new(ao_to_dac_code(ao[0]), ao_to_dac_code(ao[1]))
-    }
-
-    /// Both codes in one word: A in the low half, B in the high half.
-    pub const fn pack(self) -> u32 {
-        self.a as u32 | (self.b as u32) << 16
-    }
-
-    /// The inverse of [`DacPair::pack`].
-    pub const fn unpack(word: u32) -> Self {
-        Self::new(word as u16, (word >> 16) as u16)
-    }
-
-    /// The code of channel `i` (0 = A, 1 = B).
-    pub const fn channel(&self, i: usize) -> Option<u16> {
-        match i {
-            0 => Some(self.a),
-            1 => Some(self.b),
-            _ => None,
-        }
-    }
-}
 
 /// CiA 401 AO error mode (0x6443) per channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -178,6 +141,13 @@ pub struct OutputStage {
     sync0_edges: AtomicU32,
     sync0_time_lo: AtomicU32,
     dc_mode: AtomicBool,
+    /// Output oversampling: the LDAC grid ([`Grid::pack`]; [`Grid::OFF`]: one pair per
+    /// cycle). Only in a build with it, so the others keep their layout.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    block_grid: AtomicU32,
+    /// Output oversampling: the blocks for the update interrupt.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub blocks: UpdateRing,
 }
 
 impl OutputStage {
@@ -191,7 +161,37 @@ impl OutputStage {
             sync0_edges: AtomicU32::new(0),
             sync0_time_lo: AtomicU32::new(0),
             dc_mode: AtomicBool::new(false),
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            block_grid: AtomicU32::new(0),
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            blocks: UpdateRing::new(),
         }
+    }
+
+    /// PDI side: output oversampling on `grid` ([`Grid::OFF`]: one pair per cycle as
+    /// before). The SYNC0 task starts or stops the grid at its next edge.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub fn set_block_grid(&self, grid: Grid) {
+        self.blocks.stop();
+        self.block_grid.store(grid.pack(), Ordering::Release);
+    }
+
+    /// The LDAC grid asked for.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub fn block_grid(&self) -> Grid {
+        Grid::unpack(self.block_grid.load(Ordering::Acquire))
+    }
+
+    /// The LDAC grid asked for: none in a build without output oversampling.
+    #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+    pub fn block_grid(&self) -> Grid {
+        Grid::OFF
+    }
+
+    /// Update interrupt: `pair` was written for the next LDAC edge (the pair a fault with
+    /// "keep" holds).
+    pub fn record_applied(&self, pair: DacPair) {
+        self.applied.store(pair.pack(), Ordering::Release);
     }
 
     fn publish(&self, kind: StageKind) {
@@ -215,6 +215,9 @@ impl OutputStage {
     /// computed from the applied pair and `config`, and returns it. The DAC task must be
     /// asked to apply it at once ([`DacLatch::apply_now`]).
     pub fn enter_fault(&self, config: &FaultConfig) -> DacPair {
+        // No block update may follow the fault pair.
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        self.blocks.stop();
         self.cancel();
         let pair = config.fault_pair(self.applied());
         self.pair.store(pair.pack(), Ordering::Release);
@@ -234,6 +237,11 @@ impl OutputStage {
 
     /// PDI side: SYNC0 edges latch the outputs only in DC mode (set at PREOP -> SAFEOP).
     pub fn set_dc_mode(&self, dc: bool) {
+        // Leaving SAFEOP for PREOP/INIT: the LDAC grid stops with the blocks.
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        if !dc {
+            self.set_block_grid(Grid::OFF);
+        }
         self.dc_mode.store(dc, Ordering::Release);
     }
 
@@ -353,6 +361,18 @@ impl DacLatch {
     /// that find none are counted), else nothing. Needs no time, so it comes first.
     pub fn latch_at_sync0(&mut self, stage: &OutputStage) -> DacAction {
         if !stage.dc_mode() {
+            return DacAction::Keep;
+        }
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        if stage.block_grid() != Grid::OFF {
+            // The update interrupt plays the blocks; a fault pair is applied at once.
+            let next = stage.sync0_edges.load(Ordering::Relaxed).wrapping_add(1);
+            if !stage.blocks.has_block_for(next) {
+                let n = stage.without_outputs.load(Ordering::Relaxed);
+                stage
+                    .without_outputs
+                    .store(n.wrapping_add(1), Ordering::Relaxed);
+            }
             return DacAction::Keep;
         }
         match self.fresh(stage) {
@@ -491,6 +511,13 @@ impl AnalogOutputs {
             newly_out_of_range,
             out_of_range: bad,
         }
+    }
+
+    /// Output oversampling: the last update of a block published in OP (0x6411 reads it;
+    /// the update interrupt applies the block).
+    pub fn set_block_values(&mut self, pair: DacPair) {
+        self.values = [dac_code_to_ao(pair.a), dac_code_to_ao(pair.b)];
+        self.enabled = true;
     }
 
     /// The fault reaction (watchdog, leaving OP): disables the outputs until fresh data

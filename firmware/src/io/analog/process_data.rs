@@ -16,6 +16,7 @@
 //!   its length not the size of the assigned RxPDOs (TxPDOs), or enabled/disabled against
 //!   the image: 0x001D InvalidOutputConfiguration (0x001E InvalidInputConfiguration).
 
+use super::output_blocks::{self, OutputBlocks};
 use super::oversampling::{self, InputBlocks};
 use super::scaling::adc_code_to_ai;
 use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
@@ -48,6 +49,19 @@ pub const TX_ASSIGN: usize = if oversampling::BUILT {
     TX_PDOS + 2 + oversampling::SAMPLE_PDOS
 } else {
     TX_PDOS
+};
+/// Largest output image: the plain PDOs and the oversampling ones (when built in).
+pub const MAX_OUTPUT_IMAGE: usize = if output_blocks::BUILT {
+    MAX_IMAGE + output_blocks::MAX_BYTES
+} else {
+    MAX_IMAGE
+};
+/// PDOs 0x1C12 can hold: the plain RxPDOs, the block counter, the update PDOs (when built
+/// in).
+pub const RX_ASSIGN: usize = if output_blocks::BUILT {
+    RX_PDOS + 1 + output_blocks::UPDATE_PDOS
+} else {
+    RX_PDOS
 };
 /// Largest number of mapped objects per direction.
 pub const MAX_FIELDS: usize = 16;
@@ -192,12 +206,12 @@ pub struct SlotValues<'a> {
 pub struct ProcessData {
     rx: [Mapping; RX_PDOS],
     tx: [Mapping; TX_PDOS],
-    rx_assign: PdoAssignment<RX_PDOS>,
+    rx_assign: PdoAssignment<RX_ASSIGN>,
     tx_assign: PdoAssignment<TX_ASSIGN>,
     defaults: (
         [Mapping; RX_PDOS],
         [Mapping; TX_PDOS],
-        PdoAssignment<RX_PDOS>,
+        PdoAssignment<RX_ASSIGN>,
         PdoAssignment<TX_ASSIGN>,
     ),
     rx_layout: ImageLayout<MAX_FIELDS>,
@@ -206,9 +220,16 @@ pub struct ProcessData {
     tx_fast: Option<FastImage>,
     /// The oversampling PDOs of the TxPDO layout in effect (after the plain ones).
     tx_blocks: InputBlocks,
+    /// The oversampling PDOs of the RxPDO layout in effect (after the plain ones; only in a
+    /// build with output oversampling, so the others keep their layout).
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    rx_blocks: OutputBlocks,
     /// Whether 0x1C13 takes the oversampling PDOs (a product whose dictionary has them).
     blocks_offered: bool,
-    outputs: [u8; MAX_IMAGE],
+    /// Whether 0x1C12 takes the output oversampling PDOs.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    output_blocks_offered: bool,
+    outputs: [u8; MAX_OUTPUT_IMAGE],
     inputs: [u8; MAX_INPUT_IMAGE],
 }
 
@@ -252,8 +273,12 @@ impl ProcessData {
             rx_fast: None,
             tx_fast: None,
             tx_blocks: InputBlocks::NONE,
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            rx_blocks: OutputBlocks::NONE,
             blocks_offered: false,
-            outputs: [0; MAX_IMAGE],
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            output_blocks_offered: false,
+            outputs: [0; MAX_OUTPUT_IMAGE],
             inputs: [0; MAX_INPUT_IMAGE],
         }
     }
@@ -262,6 +287,8 @@ impl ProcessData {
     pub fn reset(&mut self) {
         let (rx, tx, ra, ta) = self.defaults;
         let blocks_offered = self.blocks();
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        let output_blocks_offered = self.output_blocks();
         *self = Self {
             rx,
             tx,
@@ -273,8 +300,12 @@ impl ProcessData {
             rx_fast: None,
             tx_fast: None,
             tx_blocks: InputBlocks::NONE,
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            rx_blocks: OutputBlocks::NONE,
             blocks_offered,
-            outputs: [0; MAX_IMAGE],
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            output_blocks_offered,
+            outputs: [0; MAX_OUTPUT_IMAGE],
             inputs: [0; MAX_INPUT_IMAGE],
         };
     }
@@ -290,9 +321,52 @@ impl ProcessData {
         self
     }
 
+    /// Whether 0x1C12 takes the output oversampling PDOs (never in a build without them).
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    fn output_blocks(&self) -> bool {
+        self.output_blocks_offered
+    }
+
+    /// Whether 0x1C12 takes the output oversampling PDOs (never in a build without them).
+    #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+    fn output_blocks(&self) -> bool {
+        false
+    }
+
+    /// The same, with the output oversampling PDOs (`super::output_blocks`) offered in
+    /// 0x1C12 (a build without them ignores it).
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub fn with_output_blocks(mut self) -> Self {
+        self.output_blocks_offered = true;
+        self
+    }
+
+    /// The same: nothing to offer in a build without output oversampling.
+    #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+    pub fn with_output_blocks(self) -> Self {
+        self
+    }
+
     /// Size in bytes of the assigned RxPDOs (SM2 length).
     pub fn output_len(&self) -> usize {
-        (self.rx_assign.bit_len(&self.rx) as usize).div_ceil(8)
+        let plain = (self.rx_assign.bit_len(&self.rx) as usize).div_ceil(8);
+        if !self.output_blocks() {
+            return plain;
+        }
+        let blocks = OutputBlocks::split(self.rx_assign.pdos()).map_or(0, |(_, b)| b.byte_len());
+        plain + blocks
+    }
+
+    /// The output oversampling PDOs of the RxPDO layout in effect.
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    pub fn output_blocks_in_effect(&self) -> &OutputBlocks {
+        &self.rx_blocks
+    }
+
+    /// The output oversampling PDOs of the RxPDO layout in effect: none in this build.
+    #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+    pub fn output_blocks_in_effect(&self) -> &OutputBlocks {
+        &OutputBlocks::NONE
     }
 
     /// Size in bytes of the assigned TxPDOs (SM3 length).
@@ -365,7 +439,27 @@ impl ProcessData {
             return Err(SdoAbortCode::DeviceState);
         }
         match index {
-            0x1C12 => self.rx_assign.write_sub(sub, data, &self.rx, MAX_BITS),
+            0x1C12 if !self.output_blocks() => {
+                self.rx_assign.write_sub(sub, data, &self.rx, MAX_BITS)
+            }
+            0x1C12 => {
+                let rx = &self.rx;
+                let plain_bits = |pdo| rx.iter().find(|m| m.index() == pdo).map(|m| m.bit_len());
+                self.rx_assign.write_sub_with(
+                    sub,
+                    data,
+                    |pdo| plain_bits(pdo).or(OutputBlocks::pdo_bits(pdo)),
+                    |pdos| {
+                        let (plain, _) = OutputBlocks::split(pdos)?;
+                        let bits = pdos.iter().take(plain).filter_map(|p| plain_bits(*p));
+                        if bits.sum::<u32>() > MAX_BITS {
+                            return Err(SdoAbortCode::PdoLengthExceeded);
+                        }
+                        Ok(())
+                    },
+                    (MAX_OUTPUT_IMAGE * 8) as u32,
+                )
+            }
             0x1C13 if !self.blocks() => self.tx_assign.write_sub(sub, data, &self.tx, MAX_BITS),
             0x1C13 => {
                 let tx = &self.tx;
@@ -426,7 +520,21 @@ impl ProcessData {
         expect3: &SyncManagerDesc,
     ) -> Result<(), AlStatusCode> {
         let valid = |maps: &[Mapping]| maps.iter().all(|m| m.validate(od, MAX_BITS).is_ok());
-        if !valid(&self.rx) || self.rx_assign.validate(&self.rx, MAX_BITS).is_err() {
+        // The plain RxPDOs come first, the oversampling ones after them (`OutputBlocks`).
+        let (rx_plain_n, rx_blocks) = match self.output_blocks() {
+            true => OutputBlocks::split(self.rx_assign.pdos())
+                .map_err(|_| AlStatusCode::InvalidOutputMapping)?,
+            false => (self.rx_assign.pdos().len(), OutputBlocks::NONE),
+        };
+        let rx_prefix;
+        let rx_plain = if self.output_blocks() {
+            let pdos = self.rx_assign.pdos().get(..rx_plain_n).unwrap_or(&[]);
+            rx_prefix = PdoAssignment::<RX_ASSIGN>::with_pdos(0x1C12, pdos);
+            &rx_prefix
+        } else {
+            &self.rx_assign
+        };
+        if !valid(&self.rx) || rx_plain.validate(&self.rx, MAX_BITS).is_err() {
             return Err(AlStatusCode::InvalidOutputMapping);
         }
         // The plain TxPDOs come first, the oversampling ones after them (`InputBlocks`).
@@ -446,7 +554,7 @@ impl ProcessData {
         if !valid(&self.tx) || tx_plain.validate(&self.tx, MAX_BITS).is_err() {
             return Err(AlStatusCode::InvalidInputMapping);
         }
-        let rx_layout = ImageLayout::build(&self.rx_assign, &self.rx)
+        let rx_layout = ImageLayout::build(rx_plain, &self.rx)
             .map_err(|_| AlStatusCode::InvalidOutputMapping)?;
         let tx_layout = ImageLayout::build(tx_plain, &self.tx)
             .map_err(|_| AlStatusCode::InvalidInputMapping)?;
@@ -456,7 +564,7 @@ impl ProcessData {
         if tx_layout.byte_len() > MAX_IMAGE {
             return Err(AlStatusCode::InvalidInputMapping);
         }
-        if !sm_matches(sm2, expect2, rx_layout.byte_len()) {
+        if !sm_matches(sm2, expect2, rx_layout.byte_len() + rx_blocks.byte_len()) {
             return Err(AlStatusCode::InvalidOutputConfiguration);
         }
         let mut len = tx_layout.byte_len();
@@ -472,6 +580,10 @@ impl ProcessData {
         self.tx_layout = tx_layout;
         if self.blocks() {
             self.tx_blocks = tx_blocks;
+        }
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        {
+            self.rx_blocks = rx_blocks;
         }
         self.inputs = [0; MAX_INPUT_IMAGE];
         Ok(())
@@ -569,10 +681,26 @@ impl ProcessData {
         &self.tx_layout
     }
 
-    /// The output image buffer (SM2 content) to read into.
+    /// The output image buffer (SM2 content) to read into: the plain PDOs, then the
+    /// oversampling part.
     pub fn output_image_mut(&mut self) -> &mut [u8] {
-        let n = self.rx_layout.byte_len().min(MAX_IMAGE);
+        let n =
+            self.rx_layout.byte_len().min(MAX_IMAGE) + self.output_blocks_in_effect().byte_len();
         self.outputs.get_mut(..n).unwrap_or(&mut [])
+    }
+
+    /// The update part of the output image (after the plain PDOs and the block counter).
+    pub fn output_updates(&self) -> &[u8] {
+        let b = self.output_blocks_in_effect();
+        let start = self.rx_layout.byte_len().min(MAX_IMAGE)
+            + if b.counter {
+                output_blocks::COUNTER_BYTES
+            } else {
+                0
+            };
+        self.outputs
+            .get(start..start + output_blocks::UPDATE_BYTES * b.updates())
+            .unwrap_or(&[])
     }
 
     /// Unpacks the output image into `sink` (`ObjectAccess::write` per mapped object).

@@ -18,7 +18,7 @@
 //! | AD5663 (no SDO)         | P1.23 | 3 MISO0   | unused input of SSP0                           |
 //! | AD5663 DIN              | P1.24 | 3 MOSI0   |                                                |
 //! | AD5663 SYNC             | P2.2  | 0 GPIO out| idle high (SSEL0 P1.21 is absent on LQFP80)    |
-//! | AD5663 LDAC             | P2.3  | 0 GPIO out| idle high, pulsed low at SYNC0                 |
+//! | AD5663 LDAC             | P2.3  | 0 GPIO out| idle high, pulsed low at SYNC0; 1 PWM1.4 with output oversampling (`hw::ldac_grid`) |
 //! | AD5663 CLR              | P2.6  | 0 GPIO out| held high                                      |
 //! | AD7689 CNV              | P0.6  | 3 MAT2.0  | Timer2 match output                            |
 //! | AD7689 SCK              | P0.7  | 2 SCK1    | SSP1, mode 0, 16.7 MHz, 16-bit frames          |
@@ -249,6 +249,8 @@ pub struct Board {
     pub adc: AdcHw,
     /// The MCU watchdog (feeder task).
     pub wdt: Watchdog,
+    /// PWM1 for the LDAC grid of output oversampling (SYNC0/DAC task).
+    pub pwm1: pac::PWM1,
     /// CAN1, not started (the CAN task's, in a product with a CANopen node).
     pub can: CanPort,
 }
@@ -303,6 +305,7 @@ pub fn init(dp: pac::Peripherals) -> (Board, Result<(), BoardError>) {
         dac,
         adc,
         wdt,
+        pwm1: dp.PWM1,
         can,
     };
     (board, clock_result.map_err(BoardError::Clock))

@@ -132,14 +132,21 @@ pub fn init(syscon: &pac::SYSCON) -> Result<(), ClockError> {
     // SAFETY (all raw writes below): documented register values of UM10360 chapter 4.
     syscon.flashcfg.write(|w| unsafe { w.bits(FLASHCFG_SAFE) });
 
-    // Peripheral clocks = CCLK / 1 for SPI, SSP0, SSP1, TIMER1, TIMER2, CAN1/CAN2/ACF
+    // Peripheral clocks = CCLK / 1 for SPI, SSP0, SSP1, TIMER1, TIMER2, PWM1, CAN1/CAN2/ACF
     // (PCLKSEL 01; the three CAN clocks must be equal, UM10360 4.7.3); set while PLL0 is
     // disconnected (UM10360 4.7.3 note / errata: PCLKSELx must not change with PLL0
     // connected). WDT keeps its own clock (IRC).
     let sel0 = syscon.pclksel0.read().bits();
     let sel0 = (sel0
-        & !((0b11 << 4) | (0b11 << 16) | (0b11 << 20) | (0b11 << 26) | (0b11 << 28) | (0b11 << 30)))
+        & !((0b11 << 4)
+            | (0b11 << 12)
+            | (0b11 << 16)
+            | (0b11 << 20)
+            | (0b11 << 26)
+            | (0b11 << 28)
+            | (0b11 << 30)))
         | (0b01 << 4) // TIMER1
+        | (0b01 << 12) // PWM1 (LDAC grid, same ticks as TIMER1)
         | (0b01 << 16) // SPI
         | (0b01 << 20) // SSP1
         | (0b01 << 26) // CAN1
@@ -225,11 +232,11 @@ pub fn current(syscon: &pac::SYSCON) -> Clocks {
     }
 }
 
-/// Powers the peripherals the firmware uses (PCONP): TIMER1 b2, SPI b8, SSP1 b10, CAN1
-/// b13, GPIO b15, SSP0 b21, TIMER2 b22. The rest keep their reset state.
+/// Powers the peripherals the firmware uses (PCONP): TIMER1 b2, PWM1 b6, SPI b8, SSP1 b10,
+/// CAN1 b13, GPIO b15, SSP0 b21, TIMER2 b22. The rest keep their reset state.
 pub fn enable_peripherals(syscon: &pac::SYSCON) {
     const BITS: u32 =
-        (1 << 2) | (1 << 8) | (1 << 10) | (1 << 13) | (1 << 15) | (1 << 21) | (1 << 22);
+        (1 << 2) | (1 << 6) | (1 << 8) | (1 << 10) | (1 << 13) | (1 << 15) | (1 << 21) | (1 << 22);
     // SAFETY: PCONP power bits; setting them only powers blocks up.
     syscon
         .pconp

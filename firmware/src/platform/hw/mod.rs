@@ -18,6 +18,7 @@
 //! | [`can`]      | CAN1 (P0.0/P0.1) for the CANopen node: bit timing, bypass filter, 3 TX buffers |
 //! | [`esc`]      | the ET1100: the `et1100` driver on the legacy-SPI device              |
 //! | [`dac`]      | the AD5663 (`ad5663` driver via `firmware::io::analog::dac`) and its LDAC pin |
+//! | [`ldac_grid`] | output oversampling: LDAC from PWM1.4, the update interrupts on Timer1 MR1 |
 //! | [`cs_device`] | bus + GPIO chip select as `SpiDevice` (ET1100, AD5663)              |
 //! | [`mem`]      | buffers in the AHB SRAM (`.ahbsram`)                                  |
 
@@ -35,6 +36,8 @@ pub mod delay;
 pub mod esc;
 pub mod gpio;
 pub mod gpio_irq;
+#[cfg(feature = "analog-io")]
+pub mod ldac_grid;
 #[cfg(feature = "adc-irq")]
 pub mod mem;
 pub mod spi;

@@ -27,8 +27,10 @@ use lpc17xx_pac as pac;
 pub const TICK_NS: u64 = 1_000_000_000 / super::PCLK_HZ as u64;
 
 const IR_MR0: u32 = 1 << 0;
-#[cfg(feature = "adc-irq")]
 const IR_MR1: u32 = 1 << 1;
+/// MCR: MR0 interrupt (the wrap), MR1 interrupt (the DAC update after each LDAC edge).
+const MCR_MR0I: u32 = 1 << 0;
+const MCR_MR1I: u32 = 1 << 3;
 const IR_CR0: u32 = 1 << 4;
 const TCR_ENABLE: u32 = 1;
 const TCR_RESET: u32 = 2;
@@ -57,6 +59,9 @@ pub fn now_ns() -> u64 {
 pub enum Timer1Event {
     /// A SYNC0 rising edge; its time is read with [`Sync0Capture::capture_ns`].
     Sync0(Sync0Edge),
+    /// Output oversampling: Timer1's MR1 marks the moment after an LDAC edge to write the
+    /// next update ([`Sync0Capture::schedule_update`]).
+    Update,
     /// No capture: the handler was pended by software (or only the wrap ticked).
     Pended,
 }
@@ -81,7 +86,7 @@ impl Sync0Capture {
         t.pr.write(|w| unsafe { w.bits(0) });
         t.ctcr.write(|w| unsafe { w.bits(0) });
         t.mr[0].write(|w| unsafe { w.bits(u32::MAX) });
-        t.mcr.write(|w| unsafe { w.bits(1) }); // MR0I
+        t.mcr.write(|w| unsafe { w.bits(MCR_MR0I) });
         t.ccr.write(|w| unsafe { w.bits(0b101) });
         t.ir.write(|w| unsafe { w.bits(0x3F) });
         t.tcr.write(|w| unsafe { w.bits(TCR_ENABLE) });
@@ -101,6 +106,11 @@ impl Sync0Capture {
         if ir & IR_CR0 != 0 {
             return Timer1Event::Sync0(Sync0Edge { ir });
         }
+        if firmware::io::analog::output_blocks::BUILT && ir & IR_MR1 != 0 {
+            // SAFETY: IR is write-1-to-clear. A wrap flagged with it interrupts again.
+            self.t.ir.write(|w| unsafe { w.bits(IR_MR1) });
+            return Timer1Event::Update;
+        }
         self.count_wrap(ir);
         Timer1Event::Pended
     }
@@ -114,6 +124,26 @@ impl Sync0Capture {
         // A capture just before the wrap belongs to the old high word.
         let ticks = timebase::extend_capture(hi, captured, edge.ir & IR_MR0 != 0);
         ticks * TICK_NS
+    }
+
+    /// Timer1's TC (10 ns ticks, wrapping).
+    pub fn ticks(&self) -> u32 {
+        self.t.tc.read().bits()
+    }
+
+    /// Output oversampling: the next update interrupt ([`Timer1Event::Update`]) when TC
+    /// reaches `at_ticks` (the low 32 bits of the time base in ticks).
+    pub fn schedule_update(&mut self, at_ticks: u32) {
+        // SAFETY: MR1 is a plain match value; MCR keeps MR0I and adds MR1I.
+        self.t.mr[1].write(|w| unsafe { w.bits(at_ticks) });
+        self.t.mcr.write(|w| unsafe { w.bits(MCR_MR0I | MCR_MR1I) });
+    }
+
+    /// Output oversampling off: no update interrupts.
+    pub fn stop_updates(&mut self) {
+        // SAFETY: as above; a pending MR1 flag is cleared with it.
+        self.t.mcr.write(|w| unsafe { w.bits(MCR_MR0I) });
+        self.t.ir.write(|w| unsafe { w.bits(IR_MR1) });
     }
 
     /// Counts the wrap if `ir` flags one; returns the high word after it.

@@ -164,7 +164,7 @@ pub const fn bcr1(busy: PinDriver) -> u32 {
 }
 
 /// The board's BCR1.
-pub const BCR1: u32 = bcr1(esc_pdi::PDI.busy);
+pub const BCR1: u32 = bcr1(esc_pdi::BUSY);
 /// The board's BTR1.
 pub const BTR1: u32 = TIMING.btr();
 

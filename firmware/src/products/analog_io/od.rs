@@ -17,10 +17,12 @@
 
 use super::identity::{IDENTITY, NAMES};
 use super::layout::SYNC_MANAGERS;
-use super::oversampling;
+use super::{output_oversampling, oversampling};
 use crate::io::analog::oversampling::SAMPLE_PDOS;
 use super::sync::FIGURES;
-use crate::io::analog::process_data::{PDO_ENTRIES, RX_PDOS, TX_ASSIGN, TX_PDOS};
+use crate::io::analog::process_data::{
+    PDO_ENTRIES, RX_ASSIGN as RX_ASSIGN_MAX, RX_PDOS, TX_ASSIGN, TX_PDOS,
+};
 use crate::io::analog::{
     AI_CHANNELS, AI_FILTER_AVERAGE, AI_FILTER_LATEST, AO_CHANNELS, SETTINGS_INDEX,
 };
@@ -51,9 +53,7 @@ pub const MODULE_DESCRIPTION: &str = concat!(
     "EtherCAT analog I/O module: 8 analog inputs 0..10 V (AD7689, 16 bit, 1/4 divider, ",
     "2.5 V reference; 0x6401 = code >> 1, 0x7FFF = 10 V) and 2 analog outputs 0..10 V ",
     "(AD5663, x4 amplifier; 0x6411, 0x7FFF = 10 V, negative values clamp to 0 V). ",
-    "LPC1754 + ET1100 on SPI. CoE with SDO, SDO Information, complete access and ",
-    "configurable PDOs; free run, SM2-synchronous or DC SYNC0 (outputs latched at SYNC0). ",
-    "Fault values per output in 0x6443/0x6444. Firmware ",
+    "LPC1754 + ET1100 on SPI. Fault values per output in 0x6443/0x6444. Firmware ",
     env!("CARGO_PKG_VERSION"),
     "."
 );
@@ -188,6 +188,9 @@ static TX_ASSIGNMENT: [EntryDesc; TX_PDOS + 1] = assignment(&TX_ASSIGN_DEFAULT);
 /// This product's 0x1C13 holds the plain TxPDOs and the oversampling ones
 /// (`super::oversampling`); it replaces the plain one of [`ANALOG_OBJECTS`].
 static TX_ASSIGNMENT_OVERSAMPLING: [EntryDesc; TX_ASSIGN + 1] = assignment(&TX_ASSIGN_DEFAULT);
+/// This product's 0x1C12 holds the plain RxPDOs and the output oversampling ones
+/// (`super::output_oversampling`).
+static RX_ASSIGNMENT_OVERSAMPLING: [EntryDesc; RX_ASSIGN_MAX + 1] = assignment(&RX_ASSIGN_DEFAULT);
 
 /// `objects` with the object of `by`'s index replaced by `by`.
 const fn replaced<const N: usize>(objects: &[ObjectDesc; N], by: ObjectDesc) -> [ObjectDesc; N] {
@@ -355,15 +358,21 @@ pub const MODULE_DESCRIPTION_OBJECT: ObjectDesc = ObjectDesc::var(
 
 /// The module's object dictionary.
 pub static OD: ObjectDictionary = ObjectDictionary::new(&OBJECTS);
-static OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT + 5 + oversampling::OBJECT_COUNT] =
-    merge_objects(&[
+static OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT
+    + 5
+    + oversampling::OBJECT_COUNT
+    + output_oversampling::OBJECT_COUNT] = merge_objects(&[
+    &replaced(
         &replaced(
             &ANALOG_OBJECTS,
             ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGNMENT_OVERSAMPLING),
         ),
-        &PRODUCT_OBJECTS,
-        &oversampling::OBJECTS,
-    ]);
+        ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGNMENT_OVERSAMPLING),
+    ),
+    &PRODUCT_OBJECTS,
+    &oversampling::OBJECTS,
+    &output_oversampling::OBJECTS,
+]);
 
 /// 0x1000: CiA 401 (0x0191) with analog inputs (bit 18) and analog outputs (bit 19).
 pub const DEVICE_TYPE: u32 = 0x0191 | 1 << 18 | 1 << 19;
@@ -377,6 +386,7 @@ mod tests {
     use super::super::device::DEVICE;
     use super::*;
     use crate::stacks::ethercat::mailbox::{MAILBOX_SIZE, TRANSFER_BUFFER};
+    use crate::io::analog::output_blocks::OutputBlocks;
     use crate::io::analog::oversampling::InputBlocks;
     use coe_core::pdo::PdoDirection;
     use std::vec::Vec;
@@ -434,7 +444,11 @@ mod tests {
         // SDO initiate response (8 incl. the size) - an expedited or single-frame normal
         // upload cannot carry it.
         let single_frame = MAILBOX_SIZE - 6 - 2 - 8;
-        assert!(MODULE_DESCRIPTION.len() > 2 * single_frame);
+        // A segment: mailbox header, CoE header and the segment's command byte. The fault
+        // campaign loses the answer to the first segment and expects the transfer still
+        // open: at least two segments.
+        let segment = MAILBOX_SIZE - 6 - 2 - 1;
+        assert!(MODULE_DESCRIPTION.len() > single_frame + segment);
         assert!(MODULE_DESCRIPTION.len() <= TRANSFER_BUFFER);
         assert!(MODULE_DESCRIPTION.is_ascii());
         let (_, entry) = OD.entry(MODULE_DESCRIPTION_INDEX, 0).unwrap();
@@ -446,7 +460,11 @@ mod tests {
         // Every mapping object of the dictionary has a slot in the application, and only those.
         // (The fixed oversampling PDOs are the dictionary's own: their lengths below.)
         let plain = |o: &&ObjectDesc| !InputBlocks::is_block_pdo(o.index);
-        assert_eq!(DEVICE.pdo_objects(PdoDirection::Rx).count(), RX_PDOS);
+        let rx_plain = |o: &&ObjectDesc| !OutputBlocks::is_block_pdo(o.index);
+        assert_eq!(
+            DEVICE.pdo_objects(PdoDirection::Rx).filter(rx_plain).count(),
+            RX_PDOS
+        );
         assert_eq!(
             DEVICE.pdo_objects(PdoDirection::Tx).filter(plain).count(),
             TX_PDOS
@@ -467,8 +485,22 @@ mod tests {
             }
         }
         assert_eq!(blocks, 2 + crate::io::analog::oversampling::SAMPLE_PDOS);
+        let mut updates = 0;
+        for object in DEVICE.pdo_objects(PdoDirection::Rx) {
+            if let Some(bits) = OutputBlocks::pdo_bits(object.index) {
+                let mapped: u32 = DEVICE
+                    .pdo_entries(object.index)
+                    .map(|e| u32::from(e.bit_len))
+                    .sum();
+                assert_eq!(mapped, bits, "{:#06x}", object.index);
+                assert!(!pd.owns(object.index));
+                updates += 1;
+            }
+        }
+        assert_eq!(updates, 1 + crate::io::analog::output_blocks::UPDATE_PDOS);
         for object in DEVICE
             .pdo_objects(PdoDirection::Rx)
+            .filter(rx_plain)
             .chain(DEVICE.pdo_objects(PdoDirection::Tx).filter(plain))
         {
             assert!(pd.owns(object.index), "{:#06x}", object.index);

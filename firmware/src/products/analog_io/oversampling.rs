@@ -10,7 +10,7 @@ use crate::io::analog::oversampling::{
     STATUS_PDO, TIME_PDO,
 };
 use crate::io::analog::AI_CHANNELS;
-use coe_core::device::oversampling::{Oversampling, PdoReplicas};
+use coe_core::device::oversampling::PdoReplicas;
 use coe_core::od::{Access, DataType, EntryDefault, EntryDesc, ObjectDesc, Value};
 use coe_core::pdo::PdoEntry;
 
@@ -80,7 +80,7 @@ static SAMPLES: [EntryDesc; SLOTS_PER_PDO + 1] = {
 
 /// The entries of the fixed mapping objects: sub 0 and up to 32 read-only entries (each
 /// object's own defaults say how many and which).
-static MAPPING: [EntryDesc; SLOTS_PER_PDO + 1] = {
+pub(super) static MAPPING: [EntryDesc; SLOTS_PER_PDO + 1] = {
     let mut out = [EntryDesc::count(0); SLOTS_PER_PDO + 1];
     let mut i = 1;
     while i <= SLOTS_PER_PDO {
@@ -179,15 +179,12 @@ static SETTINGS: [EntryDesc; 5] = [
     EntryDesc::new(6, "Input block lead (ns)", U32, RO).with_default(Value::Uint(LEAD_NS as u64)),
 ];
 
-/// The sample PDOs as one replicated PDO (ETG.2000 `OSFac`..): the ESI and the SII list
-/// 0x1A20 once, with factors 1..8; the dictionary holds all eight.
-pub static OVERSAMPLING: Oversampling = Oversampling {
-    replicas: &[PdoReplicas {
-        base: SAMPLE_PDO,
-        default_factor: SAMPLE_PDOS as u8,
-        min_factor: 1,
-        max_factor: SAMPLE_PDOS as u8,
-        index_increment: 1,
-    }],
-    op_modes: &[],
+/// The sample PDOs as one replicated PDO (ETG.2000 `OSFac`..): listed once in the ESI and
+/// the SII with factors 1..8; the dictionary holds all eight.
+pub const REPLICAS: PdoReplicas = PdoReplicas {
+    base: SAMPLE_PDO,
+    default_factor: SAMPLE_PDOS as u8,
+    min_factor: 1,
+    max_factor: SAMPLE_PDOS as u8,
+    index_increment: 1,
 };

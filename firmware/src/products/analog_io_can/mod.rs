@@ -47,7 +47,7 @@ pub static PRODUCT: Product = Product {
     name: "analog-io-can",
     summary: "analog-io plus CANopen (CiA 301/401) on CAN1, the board with a CAN transceiver",
     board: &BOARD,
-    update: identity::UPDATE_TARGET,
+    update: Some(identity::UPDATE_TARGET),
     device: &device::DEVICE,
     oversampling: &Oversampling::NONE,
     can: Some(CanFacts {

@@ -33,6 +33,7 @@ use super::od::{
 use super::process_image::{self, Block, RxAssignment, TxAssignment};
 use super::stage::CycleMarks;
 use super::sync::GatewayFigures;
+use crate::stacks::canopen::micros as us;
 use crate::stacks::canopen::task::CanHost;
 use crate::stacks::canopen::window::CallKind;
 use crate::stacks::diagnostics::{Diagnostics, ERR_COMMUNICATION};
@@ -112,10 +113,6 @@ impl Default for Gateway {
     fn default() -> Self {
         Self::new()
     }
-}
-
-const fn us(ns: u64) -> u64 {
-    ns / 1000
 }
 
 /// A little-endian number of 1..=4 bytes.

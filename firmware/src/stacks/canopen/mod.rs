@@ -159,6 +159,6 @@ impl<const R: usize, const T: usize, const HB: usize, const Q: usize, const BUF:
 }
 
 /// Nanoseconds to microseconds (32-bit divisions only).
-fn micros(now_ns: u64) -> u64 {
+pub(crate) fn micros(now_ns: u64) -> u64 {
     crate::platform::div::div_u64_u32(now_ns, 1000)
 }

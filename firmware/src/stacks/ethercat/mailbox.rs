@@ -19,7 +19,9 @@
 //!   then queued Emergencies.
 //! - Repeat request: when SM1 activate b1 differs from PDI control b1, the last frame (the
 //!   server's backup) is written again (SM1 emptied first through PDI control b0 if it is
-//!   full) and PDI control b1 is set to the request's value.
+//!   full) and PDI control b1 is set to the request's value. If SM1 was read and a new
+//!   request waits in SM0, that request's reply answers the repeat instead: SOEM asks for a
+//!   repeat after an Emergency it has read and dropped.
 //! - INIT -> PREOP starts the mailbox ([`MailboxLink::start`]): a frame left in SM0 or SM1
 //!   from before INIT answers nothing and is dropped, the repeat acknowledge takes SM1's
 //!   repeat request bit (so a toggle state left by the master is not taken for a repeat
@@ -644,8 +646,17 @@ impl<S: MailboxServer, const MBX: usize, J: JobState> MailboxLink<S, MBX, J> {
                 let (sm0, sm1) = esc.read_sm_pair(0)?;
                 let check_repeat = how == Service::Registers { check_repeat: true };
                 if check_repeat && sm1.repeat_requested() {
-                    self.repeat(esc, &sm1)?;
-                    return Ok(());
+                    if sm1.mailbox_full() || !sm0.mailbox_full() {
+                        self.repeat(esc, &sm1)?;
+                        return Ok(());
+                    }
+                    // SM1 was read and a new request waits: the master has moved on, and
+                    // the frame it asks for again was one it did not ask for. SOEM drops an
+                    // Emergency it reads, reads SM1 again at once and takes the empty
+                    // mailbox for a lost frame; repeating that frame would start the same
+                    // race again. The new request's reply answers the repeat.
+                    esc.sm_pdi_control(1, sm1.requested_repeat_ack())?;
+                    self.repeats = self.repeats.wrapping_add(1);
                 }
                 self.registers = Some((sm0, sm1));
                 (sm0, sm1, sm1.mailbox_full(), sm0.mailbox_full())

@@ -250,6 +250,26 @@ impl<A: Application> PdiTask<A> {
         }
     }
 
+    /// Runs the mailbox task's steps at once, at most [`MAILBOX_STEPS`] of them as one
+    /// activation of the task does (host harnesses that do not model its priority). True
+    /// when a step asked for the staged outputs to be applied.
+    pub fn serve_mailbox<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &A::Stage,
+        now_ns: u64,
+    ) -> bool {
+        let mut apply_outputs = false;
+        for _ in 0..MAILBOX_STEPS {
+            let step = self.mailbox_step(esc, stage, now_ns);
+            apply_outputs |= step.apply_outputs;
+            if !step.more {
+                break;
+            }
+        }
+        apply_outputs
+    }
+
     /// What to do after a call. A failed ESC access may have cut off an outcome that a
     /// fault already staged: then the DAC task is asked anyway (outside DC mode, or when a
     /// fault pair waits). It applies only a pair it has not applied yet.

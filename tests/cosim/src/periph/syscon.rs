@@ -50,6 +50,8 @@ pub enum Clocked {
     Can1,
     /// CAN2 (not used; its PCLK must equal CAN1's).
     Can2,
+    /// PWM1 (the AD5663's LDAC in the oversampling output path).
+    Pwm1,
     /// The CAN acceptance filter (no power bit of its own; its PCLK must equal CAN1's).
     CanAcf,
 }
@@ -70,6 +72,7 @@ impl Clocked {
             Clocked::Gpdma => 29,
             Clocked::Can1 => 13,
             Clocked::Can2 => 14,
+            Clocked::Pwm1 => 6,
         })
     }
 
@@ -87,6 +90,7 @@ impl Clocked {
             Clocked::Can1 => (0, 26),
             Clocked::Can2 => (0, 28),
             Clocked::CanAcf => (0, 30),
+            Clocked::Pwm1 => (0, 12),
             Clocked::Gpio | Clocked::Gpdma => return None,
         })
     }
@@ -104,6 +108,7 @@ impl Clocked {
             Clocked::Can1 => "CAN1".into(),
             Clocked::Can2 => "CAN2".into(),
             Clocked::CanAcf => "CAN acceptance filter".into(),
+            Clocked::Pwm1 => "PWM1".into(),
         }
     }
 }

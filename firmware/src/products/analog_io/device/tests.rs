@@ -110,7 +110,7 @@ fn pdi_and_dc_match_the_board() {
 #[test]
 fn sii_image_fits_the_eeprom_and_carries_the_identity() {
     let mut image = [0xFFu8; 2048];
-    let os = &super::super::oversampling::OVERSAMPLING;
+    let os = &super::super::OVERSAMPLING;
     let len = coe_core::sii::generate_with(&DEVICE, os, &mut image).expect("SII image");
     assert!(len <= DEVICE.eeprom.size_bytes as usize);
     let word = |i: usize| u16::from_le_bytes([image[2 * i], image[2 * i + 1]]);

@@ -1,0 +1,66 @@
+//! OUTPUT OVERSAMPLING ON THE IMAGE (docs/book/oversampling.md): ethercrab assigns the
+//! update PDOs (0x1620..) in 0x1C12 over SDO in PRE-OP, with the whole input stream in
+//! 0x1C13, and runs DC SYNC0; the AD5663 model sees every update of every block exactly
+//! once and in order, both channels latched by LDAC falls that PWM1 puts on the grid
+//! SYNC0 + k T/n. Refusals: a factor the cycle cannot serve, at PRE-OP -> SAFE-OP.
+
+use lpc1754_cosim::oversampling::{check_outputs, run, Config};
+use lpc1754_cosim::run::load_image;
+
+fn config(cycle_ns: u64, sample_pdos: u8, update_pdos: u8, cycles: u64) -> Config {
+    Config {
+        cycle_ns,
+        cycles,
+        sample_pdos,
+        sine_hz: 1_234.5,
+        update_pdos,
+    }
+}
+
+/// 1 s at 1 ms, 20 updates per cycle (20 kHz per channel) beside the 250 kSPS input
+/// stream: every update once, in order, on the grid.
+#[test]
+fn one_second_at_1_ms_20_khz_every_update_once_on_the_grid() {
+    let image = load_image().expect("the release image");
+    let r = run(&image, config(1_000_000, 8, 4, 1_000)).unwrap();
+    let c = check_outputs(&r);
+    eprintln!("{c:?}");
+    assert_eq!(c.sequence_breaks, 0, "{c:?}");
+    assert!((c.updates_per_s - 20_000.0).abs() < 100.0, "{c:?}");
+    assert!(c.edge_error_max_ns <= 1_000, "{c:?}");
+    // 20 updates per cycle, one load of channel A each.
+    assert!(c.loads >= 19_900, "{c:?}");
+    assert!(r.after.reports.is_empty(), "{}", r.after.summary());
+}
+
+/// 250 us with 5 updates (20 kHz) beside two sample PDOs: on the grid; a block that comes
+/// late is not played (the outputs hold for that cycle: two breaks of the sequence, the
+/// hold and the jump), which happens a few times in 2 000 cycles at this load.
+#[test]
+fn at_250_us_5_updates_per_cycle() {
+    let image = load_image().expect("the release image");
+    let r = run(&image, config(250_000, 2, 1, 2_000)).unwrap();
+    let c = check_outputs(&r);
+    eprintln!("{c:?}");
+    assert!(c.sequence_breaks * 1_000 <= c.loads, "{c:?}");
+    assert!(c.loads >= 9_990, "{c:?}");
+    assert!((c.updates_per_s - 20_000.0).abs() < 100.0, "{c:?}");
+    assert!(c.edge_error_max_ns <= 1_000, "{c:?}");
+}
+
+/// A factor whose interval is not whole (1 ms / 15) and those the bus and the CPU cannot
+/// carry beside the inputs (40 and 50 updates at 1 ms) are refused at PRE-OP -> SAFE-OP
+/// with their codes.
+#[test]
+fn factors_the_cycle_cannot_serve_are_refused() {
+    let image = load_image().expect("the release image");
+    let e = run(&image, config(1_000_000, 8, 3, 10)).unwrap_err();
+    assert!(e.contains("AL status code 0x001d"), "{e}");
+    let e = run(&image, config(1_000_000, 8, 10, 10)).unwrap_err();
+    assert!(e.contains("AL status code 0x0035"), "{e}");
+    // 40 updates (25 us each) would need more than 80 % of the cycle beside the input
+    // stream: refused, where an estimate of 3 us per update had admitted it and starved the
+    // watchdog.
+    let e = run(&image, config(1_000_000, 8, 8, 10)).unwrap_err();
+    assert!(e.contains("AL status code 0x0035"), "{e}");
+}
