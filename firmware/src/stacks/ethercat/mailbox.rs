@@ -646,15 +646,10 @@ impl<S: MailboxServer, const MBX: usize, J: JobState> MailboxLink<S, MBX, J> {
                 let (sm0, sm1) = esc.read_sm_pair(0)?;
                 let check_repeat = how == Service::Registers { check_repeat: true };
                 if check_repeat && sm1.repeat_requested() {
-                    if sm1.mailbox_full() || !sm0.mailbox_full() {
+                    if !new_request_answers_repeat(&sm0, &sm1) {
                         self.repeat(esc, &sm1)?;
                         return Ok(());
                     }
-                    // SM1 was read and a new request waits: the master has moved on, and
-                    // the frame it asks for again was one it did not ask for. SOEM drops an
-                    // Emergency it reads, reads SM1 again at once and takes the empty
-                    // mailbox for a lost frame; repeating that frame would start the same
-                    // race again. The new request's reply answers the repeat.
                     esc.sm_pdi_control(1, sm1.requested_repeat_ack())?;
                     self.repeats = self.repeats.wrapping_add(1);
                 }
@@ -882,8 +877,12 @@ impl<S: MailboxServer, const MBX: usize, const CHUNK: usize>
                 let (sm0, sm1) = esc.read_sm_pair(0)?;
                 let check_repeat = how == Service::Registers { check_repeat: true };
                 if check_repeat && sm1.repeat_requested() {
-                    self.steps.sm = (sm0, sm1);
-                    return self.begin_repeat(esc, &sm1);
+                    if !new_request_answers_repeat(&sm0, &sm1) {
+                        self.steps.sm = (sm0, sm1);
+                        return self.begin_repeat(esc, &sm1);
+                    }
+                    esc.sm_pdi_control(1, sm1.requested_repeat_ack())?;
+                    self.repeats = self.repeats.wrapping_add(1);
                 }
                 self.registers = Some((sm0, sm1));
                 (sm0, sm1, sm1.mailbox_full(), sm0.mailbox_full())
@@ -934,6 +933,15 @@ impl<S: MailboxServer, const MBX: usize, const CHUNK: usize>
             None => Job::RepeatAck(then),
         })
     }
+}
+
+/// Whether a repeat request is answered by the reply to the request waiting in SM0 instead
+/// of the last frame again: SM1 was read and a new request waits, so the master has moved
+/// on, and the frame it asks for again was one it did not ask for. SOEM drops an Emergency
+/// it reads, reads SM1 again at once and takes the empty mailbox for a lost frame;
+/// repeating that frame would start the same race again.
+fn new_request_answers_repeat(sm0: &SyncManager, sm1: &SyncManager) -> bool {
+    !sm1.mailbox_full() && sm0.mailbox_full()
 }
 
 /// Reads a request from the SM0 buffer `req.len()` long at `start`: [`FIRST_READ`] bytes,
