@@ -940,6 +940,8 @@ impl<S: MailboxServer, const MBX: usize, const CHUNK: usize>
 /// on, and the frame it asks for again was one it did not ask for. SOEM drops an Emergency
 /// it reads, reads SM1 again at once and takes the empty mailbox for a lost frame;
 /// repeating that frame would start the same race again.
+// Inlined: the bootloader links `service` too and has no room for one more call.
+#[inline(always)]
 fn new_request_answers_repeat(sm0: &SyncManager, sm1: &SyncManager) -> bool {
     !sm1.mailbox_full() && sm0.mailbox_full()
 }
