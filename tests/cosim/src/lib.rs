@@ -22,6 +22,7 @@
 //! | [`bench`]    | the image's figures for `cargo xtask bench` (profile run, cycle sweep) |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 //! | [`peer`]     | other stacks on the same board (SOES): image, SII, figures, conformance |
+//! | [`traffic`]  | a real master's traffic in the DC runs: mailbox in OP, jitter, moving inputs |
 
 pub mod ahb_sram;
 pub mod bench;
@@ -39,3 +40,4 @@ pub mod profile;
 pub mod rtt;
 pub mod run;
 pub mod thumb;
+pub mod traffic;

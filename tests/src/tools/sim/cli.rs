@@ -107,7 +107,7 @@ the DAC model recorded it.
 
 Examples:
   cargo xtask sim
-  cargo xtask sim --cycle-us 100 --freq 1000 --seconds 0.05 --pcap sim.pcap
+  cargo xtask sim --cycle-us 1000 --freq 100 --seconds 0.05 --pcap sim.pcap
   cargo xtask sim --image --cycle-us 1000 --oversampling 20   # the loop-back with oversampling
   sudo ip link add vb0 type veth peer name vb1 && sudo ip link set vb0 up && sudo ip link set vb1 up
   sudo cargo xtask sim --iface vb1          # then point a master at vb0 (docs/book/getting-started-virtual.md)
