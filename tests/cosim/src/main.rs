@@ -56,7 +56,8 @@ enum Command {
         also_cycle_us: Option<u64>,
     },
     /// Oversampling on the image (docs/book/oversampling.md): the block PDOs at 1 ms,
-    /// 250 us and 100 us, then the 1 kHz loop-back with oversampling at 1 ms and 250 us
+    /// 500 us and the advertised minimum, then the 1 kHz loop-back with oversampling at 1 ms
+    /// and 500 us
     /// (docs/book/oversampling-loopback.md), one line of figures each.
     Oversampling {
         /// Cycles per configuration.

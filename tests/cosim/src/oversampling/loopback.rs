@@ -30,9 +30,9 @@ const INPUT_LEAD_NS: u64 = 40_000;
 pub const SCAN_NS: u64 = PERIOD_NS * CHANNELS as u64;
 
 /// The configurations the bench and `sim --oversampling` run (cycle, sample PDOs, update
-/// PDOs): every conversion in (8 sample PDOs at 1 ms, 2 at 250 us) and 20 kHz out (20 and
-/// 5 updates per cycle), the factors the output test runs without a break at 1 ms.
-pub const CONFIGS: [(u64, u8, u8); 2] = [(1_000_000, 8, 4), (250_000, 2, 1)];
+/// PDOs): every conversion in (8 sample PDOs at 1 ms, 4 at 500 us) and 20 kHz out (20 and
+/// 10 updates per cycle), the factors the output tests run without a break.
+pub const CONFIGS: [(u64, u8, u8); 2] = [(1_000_000, 8, 4), (500_000, 4, 2)];
 
 /// Sample slots per sample PDO.
 const SLOTS_PER_PDO: u64 = 32;
@@ -422,6 +422,7 @@ mod tests {
     #[test]
     fn the_sample_pdos_hold_every_conversion_of_a_cycle() {
         assert_eq!(sample_pdos_for(1_000_000), 8);
+        assert_eq!(sample_pdos_for(500_000), 4);
         assert_eq!(sample_pdos_for(250_000), 2);
         assert_eq!(sample_pdos_for(100_000), 1);
         assert!(CONFIGS.iter().all(|c| c.1 == sample_pdos_for(c.0)));
