@@ -250,6 +250,31 @@ impl Facts {
     }
 }
 
+/// The name of exception `n` on the STM32F103 (RM0008 table 63; the ones the image binds, the
+/// others by number).
+fn stm32_irq_name(irq: u32) -> Option<&'static str> {
+    use crate::stm32::irq;
+    Some(match irq {
+        irq::EXTI0 => "EXTI0",
+        irq::TIM3 => "TIM3",
+        irq::SPI1 => "SPI1",
+        irq::SPI2 => "SPI2",
+        irq::TIM8_CC => "TIM8_CC",
+        n if (irq::DMA1_CHANNEL1..irq::DMA1_CHANNEL1 + 7).contains(&n) => [
+            "DMA1_CH1", "DMA1_CH2", "DMA1_CH3", "DMA1_CH4", "DMA1_CH5", "DMA1_CH6", "DMA1_CH7",
+        ][(n - irq::DMA1_CHANNEL1) as usize],
+        _ => return None,
+    })
+}
+
+/// The name of exception `n` on `chip`.
+pub fn exception_name_on(chip: crate::chip::Chip, n: u32) -> String {
+    if chip == crate::chip::Chip::Stm32f103 && n >= exc::IRQ0 {
+        return stm32_irq_name(n - exc::IRQ0).map_or(format!("IRQ{}", n - exc::IRQ0), String::from);
+    }
+    exception_name(n)
+}
+
 /// The name of exception `n` on the LPC17xx.
 pub fn exception_name(n: u32) -> String {
     const IRQS: [&str; 35] = [
@@ -346,7 +371,7 @@ impl Cosim {
             .iter()
             .enumerate()
             .filter(|(n, e)| *n == THREAD as usize || e.count > 0)
-            .map(|(n, e)| (n as u32, exception_name(n as u32), e.clone()))
+            .map(|(n, e)| (n as u32, exception_name_on(m.chip, n as u32), e.clone()))
             .collect();
         let priorities = m
             .profile

@@ -14,6 +14,8 @@
 //! | [`nvic`]     | NVIC, SCB, SysTick: pending, active, priorities, masks                |
 //! | [`periph`]   | SYSCON, PINSEL, GPIO, SPI, SSP, timers, GPDMA, WDT from UM10360        |
 //! | [`ahb_sram`] | the GPDMA's SRAM, watched for samples lost before the CPU read them    |
+//! | [`chip`]     | which microcontroller: memory map, NVIC, time model                   |
+//! | [`stm32`]    | the STM32F103's peripherals after RM0008 (the second board)            |
 //! | [`machine`]  | the bus, time, events, and the board wiring of the pin map            |
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
 //! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
@@ -25,6 +27,7 @@
 
 pub mod ahb_sram;
 pub mod bench;
+pub mod chip;
 pub mod code;
 pub mod cosim;
 pub mod cpu;
@@ -38,4 +41,5 @@ pub mod periph;
 pub mod profile;
 pub mod rtt;
 pub mod run;
+pub mod stm32;
 pub mod thumb;

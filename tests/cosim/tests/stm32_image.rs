@@ -1,0 +1,75 @@
+//! SYSTEM TESTS ON THE STM32 IMAGE: the `analog-io-stm32` release ELF (`cargo xtask build
+//! --product analog-io-stm32`, beside the default product's) runs from reset on the
+//! co-simulated STM32F103 (`lpc1754_cosim::stm32`: RCC, FLASH_ACR, GPIO/AFIO, EXTI, TIM3/8,
+//! SPI1/2, DMA1, IWDG, DWT, and FSMC bank 1 on the ET1100 model's µC front end), and
+//! ethercrab (in process) drives it with the LPC1754 image tests' helpers: the identity and
+//! OP with process data to the DAC (`common::boot_to_op`), then DC SYNC0 cycles judged as
+//! `cargo xtask bench` judges them (`lpc1754_cosim::bench::dc_run`: every DAC pair latched at
+//! its SYNC0 edge, no AD7689 result lost, the AI values the ADC model's inputs).
+
+mod common;
+
+use firmware::platform::board::Mcu;
+use firmware::products::{Product, PRODUCTS};
+use lpc1754_cosim::chip::Chip;
+use lpc1754_cosim::run::load_image_of;
+
+fn stm32_product() -> &'static Product {
+    PRODUCTS
+        .iter()
+        .copied()
+        .find(|p| p.board.mcu() == Mcu::Stm32f103vc)
+        .expect("an STM32F103 product")
+}
+
+#[test]
+fn stm32_image_boots_shows_its_identity_and_reaches_op() {
+    let product = stm32_product();
+    assert_eq!(product.device.identity.product_code, 0xF103);
+    let image = load_image_of(product.name).expect("the product's release ELF");
+    assert_eq!(image.chip, Chip::Stm32f103, "linked for the STM32's flash");
+    let value = 0x2000;
+    let (dac, board) = common::boot_to_op(product, value);
+    assert_eq!(
+        dac,
+        firmware::io::analog::scaling::ao_to_dac_code(value),
+        "AO 1 on the DAC"
+    );
+    let b = board.borrow();
+    assert_eq!(
+        b.esc().borrow().spi_stats.transactions,
+        0,
+        "the ESC is on the FSMC, not on SPI"
+    );
+}
+
+/// INIT -> OP with DC SYNC0 at the product's advertised minimum cycle and 2 000 judged
+/// process-data cycles: AO pairs reach the DAC at their SYNC0 edges, AI values come from the
+/// ADC model's inputs, nothing lost; no fault, no reported problem.
+#[test]
+fn stm32_image_dc_op_with_dac_and_adc_checked() {
+    let product = stm32_product();
+    let image = load_image_of(product.name).expect("the product's release ELF");
+    let cycle_ns = u64::from(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS);
+    let run = lpc1754_cosim::bench::dc_run(&image, cycle_ns, 2_000, true).unwrap();
+    let c = &run.check;
+    assert!(
+        c.sustained(),
+        "{}: {c:?}\n{}",
+        c.verdict(),
+        run.after.summary()
+    );
+    assert_eq!(c.stale_inputs, 0, "AI values off the ADC inputs");
+    assert!(
+        c.sync0_to_ldac.min_ns > 0 && c.sync0_to_ldac.max_ns <= 2_000,
+        "LDAC after the edge (the capture interrupt), within 2 us: {:?}",
+        c.sync0_to_ldac
+    );
+    let facts = &run.after;
+    assert!(
+        facts.fault.is_none() && facts.reports.is_empty(),
+        "{}",
+        facts.summary()
+    );
+    println!("{}", facts.summary());
+}
