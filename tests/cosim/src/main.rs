@@ -10,7 +10,7 @@
 
 use clap::{Parser, Subcommand};
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
+use lpc1754_cosim::run::{image_path, image_target, load_image, load_image_of, CosimHandle};
 use std::process::ExitCode;
 use virtual_board::tools::sim;
 use virtual_board::tools::sim::cli::{self, SimArgs};
@@ -182,7 +182,7 @@ fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
                     sim::DEFAULT_NODE_ID
                 ));
             }
-            let image = load_image()?;
+            let image = load_image_of(args.product()?.name)?;
             let options = Options {
                 echo_log: log,
                 ..Default::default()

@@ -582,6 +582,12 @@ impl Machine {
             self.stm32_refresh_inputs();
         }
         let t = self.stm32_tick(block);
+        if block == Block::Rcc {
+            // A switch requested before its source was ready happens when it is.
+            let v = self.chip_mut().rcc.read(t, off);
+            self.stm32_rcc_changed();
+            return v;
+        }
         let c = self.chip_mut();
         match block {
             Block::Tim3 => c.tim3.read(t, off),
@@ -593,8 +599,23 @@ impl Machine {
             Block::Exti => c.exti.read(off),
             Block::Gpio(n) => c.gpio.read(n, off),
             Block::Dma1 => c.dma1.read(off),
-            Block::Rcc => c.rcc.read(t, off),
+            Block::Rcc => 0,
             Block::Flash => c.flash.read(off),
+        }
+    }
+
+    /// After an RCC access: its rule violations reported; a clock switch sets the CPU's
+    /// cycle time and checks the flash wait states.
+    fn stm32_rcc_changed(&mut self) {
+        let c = self.chip_mut();
+        let changed = c.rcc.take_clock_change();
+        let v: Vec<String> = c.rcc.violations.drain(..).collect();
+        for m in v {
+            self.report(format!("RCC: {m}"));
+        }
+        if changed {
+            self.update_cycle_time();
+            self.stm32_check_wait_states();
         }
     }
 
@@ -631,18 +652,7 @@ impl Machine {
             self.report(p);
         }
         match block {
-            Block::Rcc => {
-                let c = self.chip_mut();
-                let changed = c.rcc.take_clock_change();
-                let v: Vec<String> = c.rcc.violations.drain(..).collect();
-                for m in v {
-                    self.report(format!("RCC: {m}"));
-                }
-                if changed {
-                    self.update_cycle_time();
-                    self.stm32_check_wait_states();
-                }
-            }
+            Block::Rcc => self.stm32_rcc_changed(),
             Block::Flash => self.stm32_check_wait_states(),
             Block::Gpio(_) => self.stm32_outputs_changed(),
             Block::Afio | Block::Exti => self.stm32_refresh_inputs(),
@@ -850,5 +860,93 @@ impl Machine {
         }
         self.stm32_settle();
         self.reschedule();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chip::Chip;
+    use crate::image::Image;
+    use std::rc::Rc;
+    use virtual_board::rig::board::{BoardConfig, VirtualBoard as Board};
+
+    /// An STM32F103 with blank flash on a board (no CPU: the tests drive the bus).
+    fn machine() -> (Board, Machine) {
+        let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
+        let chip = Chip::Stm32f103;
+        let image = Image {
+            chip,
+            known_product: None,
+            flash: vec![0xFF; chip.flash().len as usize],
+            flash_used: 0,
+            rtt: None,
+            elf: Vec::new(),
+            functions: Vec::new(),
+            static_ram: 0,
+            flash_bytes: 0,
+            app_vectors: 0,
+            stack_floor: chip.sram().start,
+        };
+        let m = Machine::new(board.io(), Rc::new(image));
+        (board, m)
+    }
+
+    #[test]
+    fn an_address_no_model_decodes_stops_the_core() {
+        let (_board, mut m) = machine();
+        // USART2 (0x4000_4400) is not modelled.
+        m.cpu_read(0x4000_4400, 4);
+        assert!(
+            matches!(&m.stop, Some(Stop::Fault(f)) if f.contains("does not model")),
+            "{:?}",
+            m.stop
+        );
+        m.stop = None;
+        m.cpu_write(0xA000_0060, 4, 1);
+        assert!(matches!(&m.stop, Some(Stop::Fault(f)) if f.contains("NAND")));
+    }
+
+    #[test]
+    fn unclocked_peripherals_do_not_respond_and_a_disabled_bank_faults() {
+        let (_board, mut m) = machine();
+        // SPI1 before RCC_APB2ENR.SPI1EN.
+        m.cpu_write(base::SPI1, 2, 0x0344);
+        assert_eq!(m.cpu_read(base::SPI1, 2), 0);
+        assert!(
+            m.reports
+                .iter()
+                .any(|r| r.message.contains("Spi1 while RCC_APB2ENR bit 12 is 0")),
+            "{:?}",
+            m.reports
+        );
+        m.cpu_write(base::RCC + 0x18, 4, 1 << 12);
+        m.cpu_write(base::SPI1, 2, 0x0344);
+        assert_eq!(m.cpu_read(base::SPI1, 2), 0x0344);
+        // FSMC clocked, bank 1 disabled: a bus fault.
+        m.cpu_write(base::RCC + 0x14, 4, 1 << 8);
+        m.cpu_write(base::FSMC_REGS, 4, 0x30DA);
+        m.cpu_read(base::FSMC_BANK1.0 + 0x130, 2);
+        assert!(matches!(&m.stop, Some(Stop::Fault(f)) if f.contains("MBKEN")));
+    }
+
+    #[test]
+    fn the_clock_switch_sets_the_cpu_clock_and_too_few_wait_states_are_reported() {
+        let (_board, mut m) = machine();
+        assert_eq!(m.cclk_hz(), 8_000_000, "HSI");
+        m.cpu_write(base::RCC, 4, 0x83 | 1 << 16 | 1 << 24);
+        m.cpu_write(base::RCC + 0x04, 4, 0x001D_0402);
+        let t = m.now_ns() + crate::stm32::unconfirmed::HSE_STARTUP_NS + 1_000_000;
+        m.sleep_until(t);
+        assert_eq!(m.cpu_read(base::RCC + 0x04, 4) >> 2 & 3, 2, "SWS = PLL");
+        assert_eq!(m.cclk_hz(), 72_000_000);
+        // FLASH_ACR still at 0 wait states.
+        assert!(
+            m.reports
+                .iter()
+                .any(|r| r.message.contains("0 wait states at SYSCLK 72000000")),
+            "{:?}",
+            m.reports
+        );
     }
 }
