@@ -69,6 +69,14 @@ impl Chip {
         }
     }
 
+    /// The core clock the boards run (the LPC1754's PLL0 at 100 MHz, the STM32's HSE x 9).
+    pub fn clock_hz(self) -> u64 {
+        match self {
+            Chip::Lpc1754 => 100_000_000,
+            Chip::Stm32f103 => 72_000_000,
+        }
+    }
+
     /// The on-chip flash (the STM32's is also seen at 0 when it boots from the main flash,
     /// BOOT0 low: RM0008 3.4).
     pub fn flash(self) -> Span {

@@ -22,11 +22,13 @@
 //! | [`profile`]  | cycles and stack per exception, instructions per function             |
 //! | [`thumb`]    | Thumb instruction length and how each moves SP                        |
 //! | [`bench`]    | the image's figures for `cargo xtask bench` (profile run, cycle sweep) |
+//! | [`boards`]   | both boards' images swept the same way, side by side                   |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 //! | [`peer`]     | other stacks on the same board (SOES): image, SII, figures, conformance |
 
 pub mod ahb_sram;
 pub mod bench;
+pub mod boards;
 pub mod chip;
 pub mod code;
 pub mod cosim;

@@ -62,6 +62,13 @@ enum Command {
         #[arg(long, default_value_t = 1_000)]
         cycles: u64,
     },
+    /// Both boards' release images (the default product on the LPC1754, the STM32F103's
+    /// product) swept for the shortest sustained DC cycle, side by side (Markdown).
+    Boards {
+        /// The short form: fewer cycles per run, a coarser sweep.
+        #[arg(long)]
+        quick: bool,
+    },
     /// This project's image and a peer stack (SOES, `$SOES_IMAGE` or `cargo xtask peer
     /// soes`'s output) measured the same way, and the conformance checks of both.
     PeerBench {
@@ -128,6 +135,31 @@ fn bench(
         }
         None => print!("{}", lpc1754_cosim::bench::summary(&figures)),
     }
+    Ok(())
+}
+
+fn boards(quick: bool) -> Result<(), String> {
+    use firmware::platform::board::Mcu;
+    use firmware::products::{default, PRODUCTS};
+    let stm32 = PRODUCTS
+        .iter()
+        .find(|p| p.board.mcu() == Mcu::Stm32f103vc)
+        .ok_or("no STM32F103 product")?;
+    let mut progress = |line: &str| eprintln!("[boards] {line}");
+    let rows = [
+        ("LPC1754, ET1100 on SPI", default().name, load_image()?),
+        (
+            "STM32F103VC, ET1100 on FSMC",
+            stm32.name,
+            load_image_of(stm32.name)?,
+        ),
+    ]
+    .iter()
+    .map(|(board, product, image)| {
+        lpc1754_cosim::boards::measure(board, product, image, quick, &mut progress)
+    })
+    .collect::<Vec<_>>();
+    print!("{}", lpc1754_cosim::boards::table(&rows));
     Ok(())
 }
 
@@ -218,6 +250,7 @@ fn main() -> ExitCode {
             cycle_us,
             also_cycle_us,
         } => bench(quick, json.as_deref(), cycle_us, also_cycle_us),
+        Command::Boards { quick } => boards(quick),
         Command::PeerBench {
             quick,
             json,

@@ -148,21 +148,6 @@ fn the_unpatched_stm32_image_reports_nothing() {
     assert!(reports.is_empty(), "{reports:?}");
 }
 
-/// RCC_AHBENR without FSMCEN (hw::clocks' AHBENR: DMA1 and FSMC): the ESC's bank does not
-/// respond and the report names the enable bit.
-#[test]
-fn stm32_fsmc_clock_left_off() {
-    let mut image = stm32_image();
-    patch_constant(&mut image, 1 << 0 | 1 << 8, 1 << 0).expect("the AHBENR constant");
-    let reports = reports_after(image, Options::default(), 20_000_000);
-    assert!(
-        reports
-            .iter()
-            .any(|r| r.contains("FSMC bank 1 while RCC_AHBENR.FSMCEN is 0")),
-        "{reports:?}"
-    );
-}
-
 /// BCR1 without MUXEN (the board plan's 0x90D7): the latch never sees an address, so no
 /// access reaches the ET1100 and the report says why.
 #[test]

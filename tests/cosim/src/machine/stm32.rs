@@ -923,6 +923,12 @@ mod tests {
         m.cpu_write(base::RCC + 0x18, 4, 1 << 12);
         m.cpu_write(base::SPI1, 2, 0x0344);
         assert_eq!(m.cpu_read(base::SPI1, 2), 0x0344);
+        // The ESC's bank with the FSMC unclocked: no response, reported.
+        assert_eq!(m.cpu_read(base::FSMC_BANK1.0 + 0x130, 2), 0);
+        assert!(m
+            .reports
+            .iter()
+            .any(|r| r.message.contains("RCC_AHBENR.FSMCEN is 0")));
         // FSMC clocked, bank 1 disabled: a bus fault.
         m.cpu_write(base::RCC + 0x14, 4, 1 << 8);
         m.cpu_write(base::FSMC_REGS, 4, 0x30DA);

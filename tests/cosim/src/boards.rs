@@ -1,0 +1,111 @@
+//! Both boards measured the same way, side by side: the LPC1754 with the ET1100 on SPI and
+//! the STM32F103 with the ET1100 on the FSMC, each release image swept for the shortest DC
+//! cycle it sustains ([`crate::bench::sweep`]: the same master script, the same ESC, DAC and
+//! ADC models, the same "sustained" rule), with SYNC0 -> LDAC and the CPU load there.
+//!
+//! The STM32 figures rest on the ET1100's µC PDI timing, which no datasheet at hand gives
+//! (`et1100::unconfirmed::ucontroller`, the model's `BusTiming::NO_CLASH`), and on
+//! [`crate::stm32::unconfirmed`]'s time model.
+
+use crate::bench::{sweep, Plan};
+use crate::image::Image;
+use std::fmt::Write as _;
+use virtual_board::tools::image_figures::Sweep;
+
+/// One board's figures.
+pub struct BoardFigures {
+    /// The board, for the table.
+    pub board: String,
+    /// The product whose image ran.
+    pub product: String,
+    /// The CPU clock (Hz).
+    pub cclk_hz: u64,
+    /// The sweep.
+    pub sweep: Sweep,
+}
+
+/// Sweeps `image` (of `product` on `board`) as `cargo xtask bench` does (`quick`: its short
+/// form).
+pub fn measure(
+    board: &str,
+    product: &str,
+    image: &Image,
+    quick: bool,
+    progress: &mut dyn FnMut(&str),
+) -> BoardFigures {
+    let plan = Plan::new(quick);
+    let sweep = sweep(image, &plan, None, &mut |c| {
+        progress(&format!(
+            "{board}: cycle {:.1} us: {} (CPU load {:.1} %)",
+            c.cycle_ns as f64 / 1e3,
+            c.verdict(),
+            100.0 * c.cpu_load
+        ))
+    });
+    BoardFigures {
+        board: board.into(),
+        product: product.into(),
+        cclk_hz: image.chip.clock_hz(),
+        sweep,
+    }
+}
+
+/// The boards as a Markdown table: shortest sustained DC cycle, SYNC0 -> LDAC (mean, max)
+/// and CPU load at that cycle.
+pub fn table(boards: &[BoardFigures]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| board | product | CPU | shortest sustained DC cycle | SYNC0 -> LDAC mean / max | \
+         CPU load there |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for b in boards {
+        let (cycle, latency, load) = match b.sweep.shortest_sustained() {
+            Some(c) => (
+                format!(
+                    "{:.0} us (next shorter tried: {})",
+                    c.cycle_ns as f64 / 1e3,
+                    b.sweep.first_failing().map_or("none".into(), |f| format!(
+                        "{:.0} us, {}",
+                        f.cycle_ns as f64 / 1e3,
+                        f.verdict()
+                    ))
+                ),
+                format!(
+                    "{:.2} / {:.2} us",
+                    c.sync0_to_ldac.mean_ns / 1e3,
+                    c.sync0_to_ldac.max_ns as f64 / 1e3
+                ),
+                format!("{:.1} %", 100.0 * c.cpu_load),
+            ),
+            None => (
+                format!(
+                    "none sustained ({})",
+                    b.sweep
+                        .points
+                        .first()
+                        .map_or("no cycle tried".into(), |p| p.verdict())
+                ),
+                "-".into(),
+                "-".into(),
+            ),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} MHz | {cycle} | {latency} | {load} |",
+            b.board,
+            b.product,
+            b.cclk_hz / 1_000_000
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nSweep: {}. The STM32 row rests on UNCONFIRMED ET1100 µC PDI timing (BUSY 80 ns per \
+         access without a competing frame) and on the co-simulator's CPI 5/4 for both cores.",
+        boards
+            .first()
+            .map_or(String::new(), |b| b.sweep.method.clone())
+    );
+    s
+}
