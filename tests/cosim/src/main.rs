@@ -68,6 +68,9 @@ enum Command {
         /// The short form: fewer cycles per run, a coarser sweep.
         #[arg(long)]
         quick: bool,
+        /// The LPC1754 row from `bench --json`'s figures (its sweep) instead of a new sweep.
+        #[arg(long, value_name = "FILE")]
+        lpc_figures: Option<std::path::PathBuf>,
     },
     /// This project's image and a peer stack (SOES, `$SOES_IMAGE` or `cargo xtask peer
     /// soes`'s output) measured the same way, and the conformance checks of both.
@@ -138,28 +141,40 @@ fn bench(
     Ok(())
 }
 
-fn boards(quick: bool) -> Result<(), String> {
+fn boards(quick: bool, lpc_figures: Option<&std::path::Path>) -> Result<(), String> {
     use firmware::platform::board::Mcu;
     use firmware::products::{default, PRODUCTS};
+    use lpc1754_cosim::boards::{measure, table, BoardFigures};
     let stm32 = PRODUCTS
         .iter()
         .find(|p| p.board.mcu() == Mcu::Stm32f103vc)
         .ok_or("no STM32F103 product")?;
     let mut progress = |line: &str| eprintln!("[boards] {line}");
-    let rows = [
-        ("LPC1754, ET1100 on SPI", default().name, load_image()?),
-        (
-            "STM32F103VC, ET1100 on FSMC",
-            stm32.name,
-            load_image_of(stm32.name)?,
-        ),
-    ]
-    .iter()
-    .map(|(board, product, image)| {
-        lpc1754_cosim::boards::measure(board, product, image, quick, &mut progress)
-    })
-    .collect::<Vec<_>>();
-    print!("{}", lpc1754_cosim::boards::table(&rows));
+    const LPC: &str = "LPC1754, ET1100 on SPI";
+    let lpc = match lpc_figures {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let f: virtual_board::tools::image_figures::ImageFigures = serde_json::from_str(&text)
+                .map_err(|e| format!("{}: not `bench --json`'s figures: {e}", path.display()))?;
+            BoardFigures {
+                board: LPC.into(),
+                product: default().name.into(),
+                cclk_hz: f.cclk_hz,
+                sweep: f.sweep,
+            }
+        }
+        None => measure(LPC, default().name, &load_image()?, quick, &mut progress),
+    };
+    let image = load_image_of(stm32.name)?;
+    let stm32 = measure(
+        "STM32F103VC, ET1100 on FSMC",
+        stm32.name,
+        &image,
+        quick,
+        &mut progress,
+    );
+    print!("{}", table(&[lpc, stm32]));
     Ok(())
 }
 
@@ -250,7 +265,7 @@ fn main() -> ExitCode {
             cycle_us,
             also_cycle_us,
         } => bench(quick, json.as_deref(), cycle_us, also_cycle_us),
-        Command::Boards { quick } => boards(quick),
+        Command::Boards { quick, lpc_figures } => boards(quick, lpc_figures.as_deref()),
         Command::PeerBench {
             quick,
             json,

@@ -18,8 +18,10 @@
 //!    SOEM (root only).
 
 mod advertised;
+mod boards;
 pub(crate) mod by_function;
 mod cm3;
+mod cosim_cmd;
 mod frames;
 mod image_rows;
 mod model;
@@ -157,6 +159,8 @@ pub fn run(args: &Args) -> Result {
     let frames = frames::rows(args.quick);
     eprintln!("[bench] input and output oversampling on the image (analog-io)");
     let oversampled = oversampling::lines(args.quick)?;
+    eprintln!("[bench] both boards side by side (the STM32F103 image swept as in 7/7)");
+    let boards = boards::lines(args.quick, &image_rows::json_path())?;
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
@@ -192,6 +196,10 @@ pub fn run(args: &Args) -> Result {
     println!("\nOversampling on the image, inputs and outputs (lpc1754-cosim oversampling, docs/book/oversampling.md):");
     for line in &oversampled {
         println!("- {line}");
+    }
+    println!("\nBoth boards, the same sweep (lpc1754-cosim boards, docs/book/stm32-cosim.md):");
+    for line in &boards {
+        println!("{line}");
     }
     for f in figures {
         println!("figure: {}", f.display());

@@ -3,7 +3,7 @@
 //! update PDOs (`lpc1754-cosim oversampling`), one line of figures each.
 
 use crate::build;
-use crate::util::{cargo, Result};
+use crate::util::Result;
 
 /// Cycles per configuration (the short form: fewer).
 const CYCLES: u64 = 1_000;
@@ -14,20 +14,5 @@ pub fn lines(quick: bool) -> Result<Vec<String>> {
     let product = build::product("analog-io")?;
     let out = build::build(&build::Args::of(product))?;
     let cycles = if quick { CYCLES_QUICK } else { CYCLES };
-    let output = cargo()
-        .args(["run", "--quiet", "-p", "lpc1754-cosim", "--"])
-        .args(["oversampling", "--cycles", &cycles.to_string()])
-        .env("LPC1754_IMAGE", &out.elf)
-        .output()
-        .map_err(|e| format!("lpc1754-cosim oversampling: {e}"))?;
-    if !output.status.success() {
-        return Err(format!(
-            "lpc1754-cosim oversampling failed: {}",
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
-    Ok(String::from_utf8_lossy(&output.stdout)
-        .lines()
-        .map(str::to_string)
-        .collect())
+    super::cosim_cmd::lines(&["oversampling", "--cycles", &cycles.to_string()], &out.elf)
 }
