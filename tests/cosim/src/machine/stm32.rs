@@ -757,6 +757,15 @@ impl Machine {
             return 0;
         }
         let offset = (addr - base::FSMC_BANK1.0) as u16;
+        let v = self.stm32_bank_cycles(offset, size, write);
+        // An access may release or raise the ESC's IRQ (AL event reads, SM buffers): EXTI
+        // sees each level it takes.
+        self.stm32_refresh_inputs();
+        v
+    }
+
+    /// The bus cycles of one CPU access of `size` bytes at ESC address `offset`.
+    fn stm32_bank_cycles(&mut self, offset: u16, size: usize, write: Option<u32>) -> u32 {
         match (size, write) {
             (1, None) => {
                 // A byte read is a halfword read on a 16-bit bank (both NBL low).
