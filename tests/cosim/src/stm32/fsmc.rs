@@ -131,7 +131,7 @@ impl Fsmc {
         match offset {
             0x00..=0x1C => {
                 let n = (offset / 8) as usize;
-                if offset % 8 == 0 {
+                if offset.is_multiple_of(8) {
                     self.bcr[n]
                 } else {
                     self.btr[n]
@@ -147,7 +147,7 @@ impl Fsmc {
         match offset {
             0x00..=0x1C => {
                 let n = (offset / 8) as usize;
-                if offset % 8 == 0 {
+                if offset.is_multiple_of(8) {
                     self.bcr[n] = value & 0x000F_FFFF;
                 } else {
                     self.btr[n] = value & 0x3FFF_FFFF;
