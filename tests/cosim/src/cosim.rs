@@ -64,6 +64,11 @@ pub struct Facts {
     pub samples: SampleWatch,
     /// AD7689 frames lost to a full SSP1 RX FIFO.
     pub ssp1_overruns: u64,
+    /// FSMC bus cycles to the ET1100 (the STM32F103) and the time they took (ns, BUSY
+    /// included).
+    pub fsmc_cycles: u64,
+    /// See [`Facts::fsmc_cycles`].
+    pub fsmc_ns: u64,
     /// SYNC0 edges captured by CAP1.0 whose capture the CPU never read before the next one.
     pub sync0_unserved: u64,
     /// Problems the models reported.
@@ -225,6 +230,15 @@ impl Facts {
             t.can_sent,
             t.can_received
         );
+        if self.fsmc_cycles > 0 {
+            let _ = writeln!(
+                s,
+                "image: ET1100 on FSMC bank 1: {} bus cycles, {:.1} us of bus time ({:.0} ns each)",
+                self.fsmc_cycles,
+                self.fsmc_ns as f64 / 1e3,
+                self.fsmc_ns as f64 / self.fsmc_cycles as f64
+            );
+        }
         let w = &self.samples;
         let _ = writeln!(
             s,
@@ -415,6 +429,8 @@ impl Cosim {
             traffic: m.traffic.clone(),
             samples: m.ahb_sram.watch.clone(),
             ssp1_overruns: m.ssp1_overruns(),
+            fsmc_cycles: m.stm32.as_ref().map_or(0, |p| p.fsmc_accesses),
+            fsmc_ns: m.stm32.as_ref().map_or(0, |p| p.fsmc_ns),
             sync0_unserved: m.sync0_unserved(),
             reports: m.reports.clone(),
             fault: self.core.fault.clone(),

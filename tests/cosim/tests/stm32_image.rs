@@ -72,4 +72,14 @@ fn stm32_image_dc_op_with_dac_and_adc_checked() {
         facts.summary()
     );
     println!("{}", facts.summary());
+    // The ESC on the FSMC: per judged cycle the PDI task's bus cycles (SM2 event, outputs,
+    // inputs) and their time.
+    let before = run
+        .before
+        .as_ref()
+        .expect("facts at the first judged cycle");
+    let per_cycle = (facts.fsmc_cycles - before.fsmc_cycles) as f64 / c.edges as f64;
+    let ns_per_cycle = (facts.fsmc_ns - before.fsmc_ns) as f64 / c.edges as f64;
+    println!("FSMC per DC cycle: {per_cycle:.1} bus cycles, {ns_per_cycle:.0} ns");
+    assert!(per_cycle >= 10.0, "{per_cycle} FSMC cycles per DC cycle");
 }
