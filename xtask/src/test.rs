@@ -22,9 +22,10 @@ const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// ethercrab and the virtual board, SOEM (pysoem) and the image (and SOES) on the
 /// co-simulator, SOEM updating the module's firmware on the virtual board and on the image,
 /// and the CAN product's image after refused files, each on a veth pair.
-const ROOT_TESTS: [&str; 6] = [
+const ROOT_TESTS: [&str; 7] = [
     "ethercrab_drives_the_board_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
+    "pysoem_drives_the_stm32_image_over_a_veth_pair",
     "pysoem_drives_soes_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
     "pysoem_updates_the_image_over_a_veth_pair",

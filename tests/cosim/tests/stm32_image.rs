@@ -13,6 +13,9 @@ use firmware::platform::board::Mcu;
 use firmware::products::{Product, PRODUCTS};
 use lpc1754_cosim::chip::Chip;
 use lpc1754_cosim::run::load_image_of;
+use std::path::PathBuf;
+use virtual_board::tools::iface::pysoem_missing;
+use virtual_board::tools::sim::tshark;
 
 fn stm32_product() -> &'static Product {
     PRODUCTS
@@ -82,4 +85,59 @@ fn stm32_image_dc_op_with_dac_and_adc_checked() {
     let ns_per_cycle = (facts.fsmc_ns - before.fsmc_ns) as f64 / c.edges as f64;
     println!("FSMC per DC cycle: {per_cycle:.1} bus cycles, {ns_per_cycle:.0} ns");
     assert!(per_cycle >= 10.0, "{per_cycle} FSMC cycles per DC cycle");
+}
+
+/// SOEM (pysoem, `scripts/pysoem_master.py`, in its own process) drives the STM32 image
+/// served on a veth pair, as `iface_pysoem.rs` drives the LPC1754's: the SII, SDO identity,
+/// DC, the mapping, SAFE-OP, OP with 2 000 exchanges in step with SYNC0, the cycle monitor,
+/// the SM watchdog (0x001B), SDO Information, INIT; the capture decodes cleanly.
+#[test]
+#[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]
+fn pysoem_drives_the_stm32_image_over_a_veth_pair() {
+    if let Some(why) = pysoem_missing() {
+        panic!("this test cannot run here: {why}");
+    }
+    const CYCLES: u32 = 2000;
+    let product = stm32_product();
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_master.py");
+    let runs = vec![vec![CYCLES.to_string().into()]];
+    let o = std::thread::spawn(move || {
+        common::run_script_against_image_of(
+            product.name,
+            script,
+            runs,
+            "iface-pysoem-stm32.pcap",
+            120.0,
+        )
+    })
+    .join()
+    .expect("namespace thread")
+    .unwrap();
+    let step = |name| common::step(&o.lines, name);
+    assert!(
+        o.script_ok,
+        "pysoem failed: {:?}\n{}\n{}",
+        o.lines, o.stderr, o.facts
+    );
+    assert!(o.clean, "{}", o.facts);
+    assert_eq!(step("sii")["name"], product.device.names.group_type);
+    let identity: Vec<u64> = serde_json::from_value(step("sdo")["identity"].clone()).unwrap();
+    assert_eq!(identity[1], 0xF103, "the product code over SDO");
+    let map = step("config_map");
+    assert_eq!(
+        (map["outputs"].as_u64(), map["inputs"].as_u64()),
+        (Some(4), Some(16))
+    );
+    assert_eq!(step("safeop")["sync_mode"], 2, "DC SYNC0 mode");
+    let pd = step("process_data");
+    assert_eq!(pd["good_wkc"], CYCLES);
+    assert_eq!(pd["state"], 8, "still in OP after the exchanges");
+    assert_eq!(step("sync_monitor")["sync_error"], 0);
+    let wd = step("watchdog");
+    assert_eq!(
+        (wd["state"].as_u64(), wd["al_status_code"].as_u64()),
+        (Some(0x14), Some(0x1B))
+    );
+    assert_eq!(step("init")["state"], 1, "{:?}", o.lines);
+    tshark::assert_clean(&o.pcap);
 }

@@ -314,3 +314,11 @@ pub fn boot_to_op(product: &'static Product, value: i16) -> (u16, Board) {
     };
     (dac, board)
 }
+
+/// The line of a master script's step `name` (the scripts print one JSON object per step).
+pub fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
+    lines
+        .iter()
+        .find(|l| l["step"] == name)
+        .unwrap_or_else(|| panic!("no step {name} in {lines:?}"))
+}
