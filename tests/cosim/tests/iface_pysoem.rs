@@ -17,7 +17,6 @@ use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::peer::soes;
-use serde_json::Value;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
