@@ -7,10 +7,26 @@
 //! (`et1100::unconfirmed::ucontroller`, the model's `BusTiming::NO_CLASH`), and on
 //! [`crate::stm32::unconfirmed`]'s time model.
 
-use crate::bench::{sweep, Plan};
+use crate::bench::{sweep_program, Plan, Program};
+use crate::cosim::Options;
 use crate::image::Image;
+use crate::run::{image_target, CosimHandle};
 use std::fmt::Write as _;
+use virtual_board::models::esc::parallel::BusTiming;
 use virtual_board::tools::image_figures::Sweep;
+use virtual_board::tools::sim::Target;
+
+/// The release image with every ESC access clashing with a frame (the long end of the
+/// UNCONFIRMED BUSY range, `BusTiming::FRAME_CLASH`).
+fn frame_clash_target(image: Image, options: Options) -> Result<(Target, CosimHandle), String> {
+    image_target(
+        image,
+        Options {
+            esc_bus_timing: Some(BusTiming::FRAME_CLASH),
+            ..options
+        },
+    )
+}
 
 /// One board's figures.
 pub struct BoardFigures {
@@ -25,16 +41,21 @@ pub struct BoardFigures {
 }
 
 /// Sweeps `image` (of `product` on `board`) as `cargo xtask bench` does (`quick`: its short
-/// form).
+/// form); `frame_clash`: with the ESC's longest BUSY on every access (the FSMC board).
 pub fn measure(
     board: &str,
     product: &str,
     image: &Image,
     quick: bool,
+    frame_clash: bool,
     progress: &mut dyn FnMut(&str),
 ) -> BoardFigures {
     let plan = Plan::new(quick);
-    let sweep = sweep(image, &plan, None, &mut |c| {
+    let mut program = Program::release(image);
+    if frame_clash {
+        program.target = frame_clash_target;
+    }
+    let sweep = sweep_program(&program, &plan, None, &mut |c| {
         progress(&format!(
             "{board}: cycle {:.1} us: {} (CPU load {:.1} %)",
             c.cycle_ns as f64 / 1e3,
@@ -101,8 +122,9 @@ pub fn table(boards: &[BoardFigures]) -> String {
     }
     let _ = writeln!(
         s,
-        "\nSweep: {}. The STM32 row rests on UNCONFIRMED ET1100 µC PDI timing (BUSY 80 ns per \
-         access without a competing frame) and on the co-simulator's CPI 5/4 for both cores.",
+        "\nSweep: {}. The STM32 rows rest on UNCONFIRMED ET1100 µC PDI timing (BUSY 80 ns per \
+         access without a competing frame, 260 ns with one on every access) and on the \
+         co-simulator's CPI 5/4 for both cores.",
         boards
             .first()
             .map_or(String::new(), |b| b.sweep.method.clone())

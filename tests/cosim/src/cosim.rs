@@ -29,6 +29,9 @@ pub struct Options {
     /// From this virtual time on, interrupts stay disabled for ever (PRIMASK = 1 forced):
     /// a stuck critical section, for the watchdog test.
     pub lock_up_at_ns: Option<u64>,
+    /// The ET1100's BUSY times on its µC PDI (the STM32F103's FSMC) instead of the model's
+    /// `BusTiming::NO_CLASH` (both ends of the UNCONFIRMED range can be run).
+    pub esc_bus_timing: Option<virtual_board::models::esc::parallel::BusTiming>,
 }
 
 /// What the co-simulation shows about the image (the "image facts").
@@ -330,6 +333,9 @@ impl Cosim {
         if let Some(p) = options.pconp_at_reset {
             machine.pconp_at_reset = p;
             machine.reset(ResetCause::SysResetReq);
+        }
+        if let (Some(t), Some(p)) = (options.esc_bus_timing, machine.stm32.as_mut()) {
+            p.esc_port.timing = t;
         }
         let machine = Rc::new(RefCell::new(machine));
         let core = Core::new(image.clone(), machine).map_err(ImageError::Elf)?;

@@ -164,17 +164,34 @@ fn boards(quick: bool, lpc_figures: Option<&std::path::Path>) -> Result<(), Stri
                 sweep: f.sweep,
             }
         }
-        None => measure(LPC, default().name, &load_image()?, quick, &mut progress),
+        None => measure(
+            LPC,
+            default().name,
+            &load_image()?,
+            quick,
+            false,
+            &mut progress,
+        ),
     };
     let image = load_image_of(stm32.name)?;
-    let stm32 = measure(
-        "STM32F103VC, ET1100 on FSMC",
-        stm32.name,
-        &image,
-        quick,
-        &mut progress,
-    );
-    print!("{}", table(&[lpc, stm32]));
+    let mut rows = vec![lpc];
+    for (board, clash) in [
+        ("STM32F103VC, ET1100 on FSMC, BUSY 80 ns", false),
+        (
+            "STM32F103VC, ET1100 on FSMC, BUSY 260 ns (every access clashing)",
+            true,
+        ),
+    ] {
+        rows.push(measure(
+            board,
+            stm32.name,
+            &image,
+            quick,
+            clash,
+            &mut progress,
+        ));
+    }
+    print!("{}", table(&rows));
     Ok(())
 }
 
