@@ -11,6 +11,9 @@
 //! in function 0 and PWM1.4 in function 1 (each PWM edge at its own time); CAN1 reaches the
 //! board's CAN bus only on P0.0/P0.1 (function 1) at the bus's bit rate. Anything else moves no data
 //! and is reported, as is any access to a peripheral whose PCONP bit is off.
+//!
+//! On the STM32F103 ([`Machine::stm32`]) the time, events, NVIC and profile are these, and
+//! the bus, the peripherals and the board wiring are [`stm32`]'s.
 
 pub mod stm32;
 
