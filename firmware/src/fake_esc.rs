@@ -36,6 +36,8 @@ pub struct FakeEsc {
     pub reads: usize,
     /// PDI reads touching the SyncManager registers (0x0800..0x0880).
     pub sm_register_reads: usize,
+    /// Bytes of the longest PDI access (read or write) to process RAM (0x1000..).
+    pub longest_ram_access: usize,
     /// Bits flipped on the way, as the SPI can: `(address, byte offset, XOR mask, reads)`
     /// for the next `reads` reads starting at the address, the mask rotated by one bit from
     /// read to read (the MCU gets them wrong, each differently; the register file keeps the
@@ -65,6 +67,7 @@ impl FakeEsc {
             writes: 0,
             reads: 0,
             sm_register_reads: 0,
+            longest_ram_access: 0,
             corrupt_next_read: None,
             corrupt_next_write: None,
         };
@@ -315,6 +318,9 @@ impl FakeEsc {
         let a = usize::from(addr);
         if len == 0 || a + len > 0x1_0000 {
             return Err(Error::OutOfRange);
+        }
+        if a >= at(Register::ProcessRam) {
+            self.longest_ram_access = self.longest_ram_access.max(len);
         }
         if a + len > SIZE {
             return Err(Error::Bus(BusError));

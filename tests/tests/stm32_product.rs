@@ -57,20 +57,31 @@ impl Module {
         }
     }
 
-    /// The PDI task: the IRQ handler while the line is asserted, then the background poll.
+    /// The PDI task: the IRQ handler while the line is asserted, then the background poll;
+    /// then the mailbox task below it.
     fn serve(&mut self) {
         self.now += 1_000_000;
+        let mut mailbox = false;
         for _ in 0..8 {
             if !self.esc.borrow().irq() {
                 break;
             }
-            self.app
+            let out = self
+                .app
                 .on_pdi_irq(&mut self.driver, &self.stage, self.now)
                 .expect("no bus error");
+            mailbox |= out.serve_mailbox;
         }
-        self.app
+        let out = self
+            .app
             .poll(&mut self.driver, &self.stage, self.now)
             .expect("no bus error");
+        // The mailbox task, below the PDI task, when either asked for it.
+        if mailbox || out.serve_mailbox {
+            self.app
+                .serve_mailbox(&mut self.driver, &self.stage, self.now)
+                .expect("no bus error");
+        }
     }
 
     fn config_sm(&self, n: usize, len: u16) {

@@ -349,7 +349,7 @@ capture_tests!(
 /// completes; the outputs then rightly wait for the edge after.
 /// Returns the capture, saved as `pcap`.
 fn scenario_dc_outputs_at_sync0_and_watchdog(pcap: &str) -> PathBuf {
-    const CYCLE: u64 = 100_000;
+    const CYCLE: u64 = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS as u64;
     let board = firmware_board();
     let storage = Box::new(PduStorage::new());
     let (md, tx, rx) = master(&storage);

@@ -14,6 +14,7 @@ use crate::cosim::{Facts, Options};
 use crate::image::Image;
 use crate::profile::THREAD;
 use crate::run::{image_target, CosimHandle};
+use crate::traffic::{moving_inputs, sdo_traffic, Jitter, SdoCounts, Traffic};
 use coe_core::canopen::{cob, CanFrame, NmtCommand};
 use ethercrab::subdevice_group::DcConfiguration;
 use ethercrab::{DcSync, MainDevice, MainDeviceConfig, PduStorage};
@@ -21,6 +22,7 @@ use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::od::MODULE_DESCRIPTION_INDEX;
 use firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS;
 use firmware::products::analog_io_can::can::DEFAULT_NODE_ID as CAN_NODE;
+use std::cell::Cell;
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Duration;
@@ -351,7 +353,7 @@ pub fn dc_run_with_can(
 }
 
 /// [`dc_run_with_can`] for any [`Program`] (mailbox traffic and CAN load are the release
-/// image's).
+/// image's), with the ideal master.
 pub fn dc_run_program(
     program: &Program,
     cycle_ns: u64,
@@ -359,13 +361,37 @@ pub fn dc_run_program(
     mailbox: bool,
     can_load: Option<CanLoad>,
 ) -> Result<DcRun, String> {
+    dc_run_traffic(
+        program,
+        cycle_ns,
+        cycles,
+        mailbox,
+        can_load,
+        &Traffic::IDEAL,
+    )
+}
+
+/// [`dc_run_program`] under `traffic` (a real master's: [`Traffic::REAL_MASTER`]): SDO
+/// traffic in OP, frame jitter, moving inputs, each judged ([`DcCheck`]).
+pub fn dc_run_traffic(
+    program: &Program,
+    cycle_ns: u64,
+    cycles: u64,
+    mailbox: bool,
+    can_load: Option<CanLoad>,
+    traffic: &Traffic,
+) -> Result<DcRun, String> {
     let (target, handle) = (program.target)(program.image.clone(), Options::default())?;
     let board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
     {
         let adc = board.borrow().adc().clone();
         let mut adc = adc.borrow_mut();
+        let moving = moving_inputs();
         for (i, v) in INPUTS_V.iter().enumerate() {
-            adc.inputs[i] = Signal::Constant(*v);
+            adc.inputs[i] = match traffic.moving_inputs {
+                true => moving[i].clone(),
+                false => Signal::Constant(*v),
+            };
         }
     }
     let facts = || {
@@ -390,6 +416,10 @@ pub fn dc_run_program(
     let mut before: Option<Facts> = None;
     let mut start = 0u64;
     let mut adc_violations = 0;
+    let mut jitter = Jitter::new(traffic.jitter_ns);
+    let stop_sdo = Cell::new(false);
+    let sdo_counts = Cell::new(SdoCounts::default());
+    let mut last_inputs: Option<Vec<u8>> = None;
     step_to(&board, program.boot_ns);
     let master = async {
         phases.enter(0, "boot and INIT -> PRE-OP");
@@ -450,62 +480,89 @@ pub fn dc_run_program(
             .await
             .map_err(|e| refused("SAFE-OP -> OP", e))?;
         phases.enter(board.borrow().now_ns(), "OP with process data");
-        for i in 0..WARM_UP_CYCLES + cycles + TAIL_CYCLES {
-            if i == WARM_UP_CYCLES {
-                before = Some(facts()?);
-                start = board.borrow().now_ns();
-                adc_violations = board.borrow().adc().borrow().cycle_violations;
+        let sdo = async {
+            if !traffic.mailbox_in_op {
+                return Ok(());
             }
-            let (a, b) = pair(i);
-            {
-                let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
-                let mut o = sd.outputs_raw_mut();
-                o[0..2].copy_from_slice(&a.to_le_bytes());
-                o[2..4].copy_from_slice(&b.to_le_bytes());
-            }
-            let t0 = board.borrow().now_ns();
-            let resp = match group.tx_rx_dc(&md).await {
-                Ok(r) => r,
-                Err(e) => return Err(format!("cycle {i}: {e}")),
-            };
-            if !resp.all_op() {
-                let (status, code) = al_status(&board);
-                return Err(format!(
-                    "the slave left OP at cycle {i} (AL status {status:#06x}, AL status code \
-                     {code:#06x})"
-                ));
-            }
-            sent.push((t0, a, b));
-            if let Some((load, can)) = &can {
-                if i % load.sync_every == 0 {
-                    can.sync();
-                    can_seen.syncs += 1;
+            let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+            sdo_traffic(&sd, &stop_sdo, &sdo_counts).await
+        };
+        let cycles_run = async {
+            for i in 0..WARM_UP_CYCLES + cycles + TAIL_CYCLES {
+                if i == WARM_UP_CYCLES {
+                    before = Some(facts()?);
+                    start = board.borrow().now_ns();
+                    adc_violations = board.borrow().adc().borrow().cycle_violations;
                 }
-                if i % load.sdo_every == load.sdo_every / 2 {
-                    // Expedited upload request of 0x1018:01 (CiA 301 ccs 2).
-                    let request = [0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0];
-                    let id = cob::SDO_RX + u16::from(CAN_NODE);
-                    if let Ok(frame) = CanFrame::new(id, &request) {
-                        can.send(frame);
-                        can_seen.sdo_requests += 1;
+                let (a, b) = pair(i);
+                {
+                    let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+                    let mut o = sd.outputs_raw_mut();
+                    o[0..2].copy_from_slice(&a.to_le_bytes());
+                    o[2..4].copy_from_slice(&b.to_le_bytes());
+                }
+                let t0 = board.borrow().now_ns();
+                let resp = match group.tx_rx_dc(&md).await {
+                    Ok(r) => r,
+                    Err(e) => return Err(format!("cycle {i}: {e}")),
+                };
+                if !resp.all_op() {
+                    let (status, code) = al_status(&board);
+                    return Err(format!(
+                        "the slave left OP at cycle {i} (AL status {status:#06x}, AL status code \
+                     {code:#06x})"
+                    ));
+                }
+                sent.push((t0, a, b));
+                if let Some((load, can)) = &can {
+                    if i % load.sync_every == 0 {
+                        can.sync();
+                        can_seen.syncs += 1;
+                    }
+                    if i % load.sdo_every == load.sdo_every / 2 {
+                        // Expedited upload request of 0x1018:01 (CiA 301 ccs 2).
+                        let request = [0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0];
+                        let id = cob::SDO_RX + u16::from(CAN_NODE);
+                        if let Ok(frame) = CanFrame::new(id, &request) {
+                            can.send(frame);
+                            can_seen.sdo_requests += 1;
+                        }
                     }
                 }
+                if i >= WARM_UP_CYCLES {
+                    let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
+                    let img = sd.inputs_raw();
+                    if traffic.moving_inputs {
+                        // The SM3 image of this cycle must not be the last cycle's.
+                        let ai = img.get(..16).unwrap_or(&[]).to_vec();
+                        check.late_inputs += u64::from(last_inputs.as_ref() == Some(&ai));
+                        last_inputs = Some(ai);
+                    } else {
+                        let off = INPUTS_V.iter().enumerate().any(|(ch, v)| {
+                            let ai = i16::from_le_bytes([img[2 * ch], img[2 * ch + 1]]);
+                            (f64::from(ai) - v / 10.0 * 32768.0).abs() > 1.0
+                        });
+                        check.stale_inputs += u64::from(off);
+                    }
+                }
+                // ethercrab paces by the cycle it configured; the SYNC0 edges run at `cycle_ns`
+                // from a start that is a whole number of cycles, half a cycle after the frame,
+                // give or take the master's jitter.
+                let phase = resp.extra.dc_system_time % cycle_ns;
+                let nominal = t0 + (cycle_ns - phase) + cycle_ns / 2;
+                step_to(&board, nominal.saturating_add_signed(jitter.next_ns()));
             }
-            if i >= WARM_UP_CYCLES {
-                let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
-                let img = sd.inputs_raw();
-                let off = INPUTS_V.iter().enumerate().any(|(ch, v)| {
-                    let ai = i16::from_le_bytes([img[2 * ch], img[2 * ch + 1]]);
-                    (f64::from(ai) - v / 10.0 * 32768.0).abs() > 1.0
-                });
-                check.stale_inputs += u64::from(off);
-            }
-            // ethercrab paces by the cycle it configured; the SYNC0 edges run at `cycle_ns`
-            // from a start that is a whole number of cycles, half a cycle after the frame.
-            let phase = resp.extra.dc_system_time % cycle_ns;
-            step_to(&board, t0 + (cycle_ns - phase) + cycle_ns / 2);
-        }
-        Ok::<(), String>(())
+            Ok::<(), String>(())
+        };
+        // The SDO traffic ends with the cycles, however they end.
+        let cyclic = async {
+            let r = cycles_run.await;
+            stop_sdo.set(true);
+            r
+        };
+        let (cyclic, sdo) = futures_lite::future::zip(cyclic, sdo).await;
+        cyclic?;
+        sdo.map_err(|e| format!("SDO traffic in OP: {e}"))
     };
     let result = futures_lite::future::block_on(futures_lite::future::or(
         master,
@@ -535,6 +592,9 @@ pub fn dc_run_program(
     if let Some(b) = &before {
         judge(&board, &sent, start, adc_violations, b, &after, &mut check);
     }
+    check.sdo_exchanges = sdo_counts.get().exchanges;
+    check.traffic = traffic.describe();
+    check.judge_ldac = *traffic != Traffic::IDEAL;
     let al_log = board.borrow().esc().borrow().al_log.clone();
     Ok(DcRun {
         check,
@@ -880,7 +940,8 @@ pub fn sweep(
     also_ns: Option<u64>,
     progress: &mut dyn FnMut(&DcCheck),
 ) -> Sweep {
-    sweep_program(&Program::release(image), plan, also_ns, progress)
+    let traffic = Traffic::REAL_MASTER;
+    sweep_program(&Program::release(image), plan, also_ns, &traffic, progress)
 }
 
 /// [`sweep`] for any [`Program`].
@@ -888,12 +949,13 @@ pub fn sweep_program(
     program: &Program,
     plan: &Plan,
     also_ns: Option<u64>,
+    traffic: &Traffic,
     progress: &mut dyn FnMut(&DcCheck),
 ) -> Sweep {
     let mut points: Vec<DcCheck> = Vec::new();
     let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| -> bool {
         let cycles = plan.sweep_cycles(cycle_ns);
-        let check = match dc_run_program(program, cycle_ns, cycles, false, None) {
+        let check = match dc_run_traffic(program, cycle_ns, cycles, false, None, traffic) {
             Ok(r) => r.check,
             Err(e) => DcCheck {
                 cycle_ns,
@@ -908,23 +970,58 @@ pub fn sweep_program(
         ok
     };
     search(plan.resolution_ns, |ns| run(ns, &mut points));
+    // A shorter cycle sustained says nothing of a longer one (the firmware's periodic work
+    // falls elsewhere in the cycle): every cycle up to 1 ms, at log-spaced steps.
+    let shortest = points
+        .iter()
+        .filter(|p| p.sustained())
+        .map(|p| p.cycle_ns)
+        .min();
+    for ns in shortest.map(log_steps).unwrap_or_default() {
+        if !points.iter().any(|p| p.cycle_ns == ns) {
+            run(ns, &mut points);
+        }
+    }
     if let Some(ns) = also_ns.filter(|ns| !points.iter().any(|p| p.cycle_ns == *ns)) {
         run(ns, &mut points);
     }
     Sweep {
         points,
         method: format!(
-            "{} judged cycles per cycle time, at least {} ms; from {} us down ({} us first; up \
-             through {} us when {} us is not sustained; then halving the gap to {} us)",
+            "{} judged cycles per cycle time, at least {} ms, under {}; from {} us down ({} us \
+             first; up through {} us when {} us is not sustained; then halving the gap to {} \
+             us), then {} log-spaced steps from the shortest sustained to 1 ms",
             plan.sweep_cycles,
             SWEEP_MIN_WINDOW_NS / 1_000_000,
+            traffic.describe(),
             SWEEP_START_US[0],
             list(&SWEEP_START_US),
             list(&SWEEP_UP_US),
             SWEEP_START_US[0],
-            plan.resolution_ns / 1000
+            plan.resolution_ns / 1000,
+            LOG_STEPS
         ),
     }
+}
+
+/// Steps of the sweep above the shortest sustained cycle, up to 1 ms.
+const LOG_STEPS: u32 = 6;
+/// The longest cycle the sweep checks (ns).
+const SWEEP_LONGEST_NS: u64 = 1_000_000;
+
+/// `LOG_STEPS` cycle times from above `shortest_ns` to 1 ms, evenly spaced on a log scale,
+/// rounded to 1 us.
+fn log_steps(shortest_ns: u64) -> Vec<u64> {
+    let (lo, hi) = (shortest_ns as f64, SWEEP_LONGEST_NS as f64);
+    if lo >= hi {
+        return Vec::new();
+    }
+    (1..=LOG_STEPS)
+        .map(|k| {
+            let ns = lo * (hi / lo).powf(f64::from(k) / f64::from(LOG_STEPS));
+            (ns / 1000.0).round() as u64 * 1000
+        })
+        .collect()
 }
 
 /// "a, b, c".

@@ -25,6 +25,7 @@
 //! | [`boards`]   | both boards' images swept the same way, side by side                   |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 //! | [`peer`]     | other stacks on the same board (SOES): image, SII, figures, conformance |
+//! | [`traffic`]  | a real master's traffic in the DC runs: mailbox in OP, jitter, moving inputs |
 
 pub mod ahb_sram;
 pub mod bench;
@@ -45,3 +46,4 @@ pub mod rtt;
 pub mod run;
 pub mod stm32;
 pub mod thumb;
+pub mod traffic;

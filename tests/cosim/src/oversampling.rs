@@ -533,17 +533,20 @@ fn solve3(mut m: [[f64; 3]; 3], mut v: [f64; 3]) -> [f64; 3] {
 }
 
 /// The configurations `cargo xtask bench` measures (cycle, sample PDOs, update PDOs): the
-/// fewest sample PDOs that hold a cycle's scans at 1 ms, 250 us and 100 us, alone and with
-/// output blocks: 20 kHz per channel at 1 ms and 250 us, and the largest factor each cycle
-/// admits beside the inputs (1 ms: 25 updates, 25 kHz; 250 us: 5; 100 us: none, x1).
+/// fewest sample PDOs that hold a cycle's scans at 1 ms, 500 us and the advertised minimum
+/// (270 us), alone and with output blocks: 20 kHz per channel at 1 ms and 500 us, and the
+/// largest factor 1 ms admits beside the inputs (25 updates, 25 kHz).
 pub const BENCH_CONFIGS: [(u64, u8, u8); 6] = [
     (1_000_000, 8, 0),
     (1_000_000, 8, 4),
     (1_000_000, 8, 5),
-    (250_000, 2, 0),
-    (250_000, 2, 1),
-    (100_000, 1, 0),
+    (500_000, 4, 0),
+    (500_000, 4, 2),
+    (MIN_CYCLE_NS, 3, 0),
 ];
+
+/// The advertised minimum cycle (0x1C32:05), the shortest the module accepts.
+const MIN_CYCLE_NS: u64 = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS as u64;
 
 /// One line of figures of a run: samples per second (total and per channel), lost and
 /// duplicated, flagged blocks, PDI input bytes per cycle against the valid payload, CPU

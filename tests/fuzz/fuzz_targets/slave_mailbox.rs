@@ -31,8 +31,15 @@ fn serve<A: Application<Stage = OutputStage>>(
     stage: &OutputStage,
     now: u64,
 ) {
-    let _ = app.on_pdi_irq(&mut esc.driver(), stage, now);
-    let _ = app.poll(&mut esc.driver(), stage, now);
+    let irq = app.on_pdi_irq(&mut esc.driver(), stage, now);
+    let poll = app.poll(&mut esc.driver(), stage, now);
+    // The mailbox task, below the PDI task, when either asked for it.
+    if [irq, poll]
+        .iter()
+        .any(|o| o.as_ref().is_ok_and(|o| o.serve_mailbox))
+    {
+        let _ = app.serve_mailbox(&mut esc.driver(), stage, now);
+    }
     let (status, code) = esc.al_status();
     assert!(
         matches!(status & 0x0F, 1 | 2 | 3 | 4 | 8),

@@ -10,6 +10,7 @@
 //! | ESC IRQ line       | PDI task (middle)         | `PdiTask::run` (edge), then the DAC task if pended |
 //! | after every event  | PDI task background       | `PdiTask::run` (poll)                        |
 //! | SysTick (1 ms)     | `tick` -> PDI task        | `PdiTask::run` (poll)                        |
+//! | PDI task asked for the mailbox | mailbox task (lowest) | `PdiTask::mailbox_step` until done, right after the PDI task |
 //! | ADC timer (4 us)   | CNV timer + SSP (hardware)| one `ad7689` frame, the sample queued for the PDI task |
 //! | CAN frame received, CAN node deadline, PDI task left CAN work | CAN task (same priority as the PDI task) | [`firmware::stacks::canopen::task::run`] on the board's CAN bus ([`BusController`]) |
 //!
@@ -210,9 +211,15 @@ impl<A: HostedApplication> Tasks for PdiTask<A> {
         still_asserted: &mut dyn FnMut() -> bool,
         drain: &mut dyn FnMut(&mut Sampler),
     ) -> Done {
-        PdiTask::run(self, esc, stage, now_ns, wake, still_asserted, |app| {
+        let mut done = PdiTask::run(self, esc, stage, now_ns, wake, still_asserted, |app| {
             drain(&mut app.analog().sampler)
-        })
+        });
+        // The mailbox task (below the PDI task) runs its steps before the harness's next
+        // event: the host-compiled firmware takes no time.
+        if core::mem::take(&mut done.serve_mailbox) {
+            done.apply_outputs |= PdiTask::serve_mailbox(self, esc, stage, now_ns);
+        }
+        done
     }
 
     fn can_host(&mut self) -> Option<&mut dyn CanHost<Stage = OutputStage>> {

@@ -145,7 +145,7 @@ impl GatewayCpu {
             pdi_ready: io.esc.esc().borrow().pdi_operational(),
         };
         let line = io.esc.clone();
-        self.task.run(
+        let done = self.task.run(
             &mut self.esc,
             &self.marks,
             io.now_ns(),
@@ -153,6 +153,12 @@ impl GatewayCpu {
             || line.irq(),
             |_| {},
         );
+        // The mailbox task (below the PDI task) runs its steps before the harness's next
+        // event: the host-compiled firmware takes no time.
+        if done.serve_mailbox {
+            self.task
+                .serve_mailbox(&mut self.esc, &self.marks, io.now_ns());
+        }
         let g = self.gateway();
         if g.master.pending_tx() > 0 || g.work_waiting(io.now_ns()) {
             self.can_task(io);

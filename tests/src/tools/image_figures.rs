@@ -183,7 +183,25 @@ pub struct DcCheck {
     /// AD7689 conversions over the judged cycles (see the type's documentation).
     #[serde(default)]
     pub conversions: u64,
+    /// Cycles whose input image (moving inputs) was the previous cycle's on every channel:
+    /// an SM3 update that came late (a criterion).
+    #[serde(default)]
+    pub late_inputs: u64,
+    /// SDO exchanges completed in OP during the run (the mailbox traffic).
+    #[serde(default)]
+    pub sdo_exchanges: u64,
+    /// The traffic the run was judged under (the co-simulator's `Traffic::describe`).
+    #[serde(default)]
+    pub traffic: String,
+    /// SYNC0 -> LDAC is judged ([`DcCheck::ldac_met`], in the verdict): the runs under a
+    /// real master's traffic (the image's sweep); a figure only for the others (the peer).
+    #[serde(default)]
+    pub judge_ldac: bool,
 }
+
+/// The longest SYNC0 -> LDAC a sustained cycle time may show (BRIEF section 6: both DAC
+/// outputs updated within 1 us of the SYNC0 edge).
+pub const SYNC0_TO_LDAC_MAX_NS: u64 = 1_000;
 
 /// Conversions per judged cycle a sustained cycle needs: one per AD7689 channel.
 pub const CONVERSIONS_PER_CYCLE: u64 = 8;
@@ -195,8 +213,16 @@ impl DcCheck {
             && self.edges >= self.planned
             && self.missed_sync0 == 0
             && self.stale_outputs == 0
+            && self.late_inputs == 0
             && self.lost_samples == 0
             && self.conversions >= CONVERSIONS_PER_CYCLE * self.edges
+    }
+
+    /// SYNC0 -> LDAC within [`SYNC0_TO_LDAC_MAX_NS`] at every judged edge (judged apart from
+    /// [`Self::sustained`]: a late latch is a timing figure of the DAC path, not lost
+    /// process data; the sweep reports it per cycle time).
+    pub fn ldac_met(&self) -> bool {
+        self.sync0_to_ldac.count > 0 && self.sync0_to_ldac.max_ns <= SYNC0_TO_LDAC_MAX_NS
     }
 
     /// What broke, for a report ("sustained" when nothing did).
@@ -211,6 +237,7 @@ impl DcCheck {
         for (n, what) in [
             (self.missed_sync0, "missed SYNC0"),
             (self.stale_outputs, "stale outputs"),
+            (self.late_inputs, "late inputs"),
             (self.lost_samples, "lost samples"),
         ] {
             if n > 0 {
@@ -223,11 +250,19 @@ impl DcCheck {
                 self.conversions, self.edges
             ));
         }
-        if why.is_empty() {
-            "sustained".into()
+        let mut verdict = if why.is_empty() {
+            "sustained".to_string()
         } else {
             why.join(", ")
+        };
+        if self.judge_ldac && !self.ldac_met() {
+            verdict.push_str(&format!(
+                "; SYNC0 -> LDAC {:.2} us max: over the {:.1} us target",
+                self.sync0_to_ldac.max_ns as f64 / 1e3,
+                SYNC0_TO_LDAC_MAX_NS as f64 / 1e3
+            ));
         }
+        verdict
     }
 }
 

@@ -40,9 +40,9 @@ impl Rng {
     }
 }
 
-/// The cycle of the campaign's process data: a round figure at or above the advertised minimum
-/// (`firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS`), which the firmware enforces.
-pub const CYCLE: u64 = 100_000;
+/// The cycle of the campaign's process data: the advertised minimum
+/// (`firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS`), the shortest the firmware accepts.
+pub const CYCLE: u64 = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS as u64;
 
 /// CiA 401 AO error mode (0x6443: 1 = go to the error value, 0 = keep) and error value
 /// (0x6444, INTEGER32 in 0x6411 units).

@@ -16,8 +16,8 @@
 //! | `dac_preload`   | [`DacLatch::preload`]                           | DAC task after new outputs|
 //! | `pdi_outputs`   | [`SlaveApp::on_pdi_irq`] on the SM2 event       | PDI task, every cycle     |
 //! | `pdi_inputs`    | [`SlaveApp::poll`] after a SYNC0 edge (SM3), one whole ADC scan drained before it ([`Rig::adc_scan`]) | PDI task, every cycle |
-//! | `sdo_upload`    | [`SlaveApp::on_pdi_irq`] on SM0: expedited upload 0x1018:02 | per SDO request |
-//! | `sdo_download`  | [`SlaveApp::on_pdi_irq`] on SM0: expedited download 0x6443:01 | per SDO request |
+//! | `sdo_upload`    | [`SlaveApp::on_pdi_irq`] on SM0 and the mailbox task's steps: expedited upload 0x1018:02 | per SDO request |
+//! | `sdo_download`  | [`SlaveApp::on_pdi_irq`] on SM0 and the mailbox task's steps: expedited download 0x6443:01 | per SDO request |
 //! | `dma_scan_drain`| [`ScanReader::drain`] of one scan from the GPDMA ring, incl. both position computations ([`words_written`]) | PDI task (default GPDMA path) |
 //! | `dma_half_irq`  | [`HalfCounter::on_terminal_count`]              | GPDMA interrupt, per half ring |
 //! | `sample_push`   | [`SampleProducer::push`] of one sample          | sampler, 250 000 /s (`adc-irq`) |
@@ -118,12 +118,21 @@ impl Rig {
         }
     }
 
-    /// The PDI IRQ handler once.
+    /// The PDI IRQ handler once, then the mailbox task's steps if it asked for them.
     pub fn irq(&mut self) -> Result<PdiOutcome, CheckFailed> {
         let now = self.tick();
-        self.app
+        let failed = |_| CheckFailed("ESC access failed");
+        let mut out = self
+            .app
             .on_pdi_irq(&mut self.esc.driver(), &self.stage, now)
-            .map_err(|_| CheckFailed("ESC access failed"))
+            .map_err(failed)?;
+        if out.serve_mailbox {
+            let mbx = self
+                .app
+                .serve_mailbox(&mut self.esc.driver(), &self.stage, now);
+            out.apply_outputs |= mbx.map_err(failed)?.apply_outputs;
+        }
+        Ok(out)
     }
 
     /// The PDI task's background call once.

@@ -7,7 +7,7 @@
 //! 11928 B with the copy and the clear. The fills (`memset`, 404 B in compiler-builtins) came
 //! later, when the board check and the idle wait left the bootloader 232 B over its region.
 //! The `analog-io-can` application links this file too (`firmware/src/main.rs`): the
-//! mailbox task left it 420 B over its 48 KB; with these routines it is 940 B under, and its
+//! mailbox task left it 420 B over its 48 KB; with these routines it is under it, and its
 //! process-data path is no slower (3 000 DC cycles at 100 us with CAN load, PDI task mean
 //! 2 755 cycles against 2 783, CPU load 66.6 % against 67.8 %: its copies are short, where
 //! compiler-builtins' dispatch costs more than it gains). The other images keep

@@ -10,15 +10,19 @@ use crate::stacks::ethercat::sync::{Figures, SyncFigures};
 /// enforces on the SYNC0 cycle (AL status 0x0035) and on 0x1C32:02.
 ///
 /// The rule: at least the shortest DC cycle with 2 AO + 8 AI that the release image sustains
-/// on the co-simulated LPC1754 (`cargo xtask bench`, group 3: no missed SYNC0, no stale
-/// output, no lost sample), plus [`MIN_CYCLE_MARGIN_PERCENT`]. The bench prints the figure
-/// and fails when this constant is below it; after any change of the firmware or of the
-/// co-simulator's time model, `cargo xtask bench --min-cycle` runs that rule alone (and says
-/// when the constant could be lower): set the constant here. The CAN window has a rule of its
+/// on the co-simulated LPC1754 under a real master's traffic (`cargo xtask bench`: SDO
+/// exchanges back to back in OP, frame jitter, moving inputs; no missed SYNC0, no stale
+/// output, no late input, no lost sample; docs/book/traffic.md), plus
+/// [`MIN_CYCLE_MARGIN_PERCENT`]: 230 us sustained, 220 us not, so 264.5 us, rounded up. The
+/// bench prints the figure and fails when this constant is below it; after any change of the
+/// firmware or of the co-simulator's time model, `cargo xtask bench --min-cycle` runs that
+/// rule alone (and says when the constant could be lower): set the constant here. What
+/// holds it up is the mailbox task's longest step under the lock of the PDI side (one
+/// request through the SDO server, up to about 60 us). The CAN window has a rule of its
 /// own: every kind of CANopen node call fits right after a cycle's outputs at this cycle
 /// (`crate::stacks::canopen::window`, `every_kind_fits_after_the_outputs_at_the_advertised_minimum` in `analog-io-can`): the
 /// SDO call's bound needs about 90 us.
-pub const MIN_CYCLE_TIME_NS: u32 = 90_000;
+pub const MIN_CYCLE_TIME_NS: u32 = 270_000;
 /// Margin of [`MIN_CYCLE_TIME_NS`] over the measured minimum DC cycle, in percent: the
 /// measurement rests on a time model no board has confirmed (the co-simulator's flat cycles
 /// per instruction behind the flash accelerator).

@@ -231,10 +231,7 @@ impl Rig {
                 .app
                 .on_pdi_irq(&mut self.esc.driver(), &self.stage, self.now)
                 .unwrap();
-            if out.apply_outputs {
-                let a = self.latch.apply_now(&self.stage);
-                self.dac.push(a);
-            }
+            self.after(out);
         }
         panic!("IRQ never cleared");
     }
@@ -245,6 +242,15 @@ impl Rig {
             .app
             .poll(&mut self.esc.driver(), &self.stage, self.now)
             .unwrap();
+        self.after(out);
+    }
+
+    /// The DAC task if asked, then the mailbox task (below the PDI task) if asked.
+    fn after(&mut self, mut out: crate::stacks::ethercat::PdiOutcome) {
+        if out.serve_mailbox {
+            let mbx = self.app.serve_mailbox(&mut self.esc.driver(), &self.stage, self.now);
+            out.apply_outputs |= mbx.unwrap().apply_outputs;
+        }
         if out.apply_outputs {
             let a = self.latch.apply_now(&self.stage);
             self.dac.push(a);
@@ -793,11 +799,9 @@ fn dc_cycle_reads_no_mailbox_registers() {
     assert!(!r.app.mailbox().sm1_busy());
     assert_eq!(r.esc.sm_register_reads, sm_reads);
     assert_eq!(r.esc.al_status(), (0x08, 0));
-    // The periodic safety service reads the registers even without events (one access
-    // per call: the PDI error counter first, the registers in the next).
+    // The periodic safety service reads the registers even without events (the mailbox
+    // task: the PDI error counter, then the registers).
     r.now += u64::from(crate::stacks::ethercat::mailbox::SAFETY_SERVICE_MS) * 1_000_000;
-    r.poll();
-    assert_eq!(r.esc.sm_register_reads, sm_reads);
     r.poll();
     assert!(r.esc.sm_register_reads > sm_reads);
 }
@@ -816,40 +820,29 @@ impl Rig {
     }
 
     /// 1 ms DC cycles (outputs, then the edge and the poll after it) until the safety
-    /// service is due; the poll after the edge leaves it. The outputs of the last cycle
-    /// are latched.
+    /// service is due: `now` is then past it, before the next cycle's outputs.
     fn dc_cycles_until_the_safety_service_is_due(&mut self) {
         for k in 1..200i16 {
-            self.outputs(0x10 * k, 0x08 * k);
             self.now += 950_000;
-            let sm_reads = self.esc.sm_register_reads;
-            self.sync0();
-            if self.app.safety_service_due(self.now) {
-                assert_eq!(self.esc.sm_register_reads, sm_reads, "not after the edge");
+            // Due now or within this cycle's steps (each rig call takes 10 us).
+            if self.app.safety_service_due(self.now + 100_000) {
+                self.now += 100_000;
                 return;
             }
+            self.outputs(0x10 * k, 0x08 * k);
+            self.sync0();
         }
         panic!("the safety service never came due");
     }
 }
 
-/// In DC mode in OP the safety service (the mailbox and PDI error registers) runs in the
-/// PDI task's activation right after a cycle's outputs: the SM2 activation returns first
-/// (the DAC preload), the next one runs the service; a poll elsewhere in the cycle leaves
-/// it, since there it could hold the next SM2 event past the SYNC0 edge.
+/// In DC mode with no output events (the master stopped sending frames), the poll asks
+/// for the safety service itself once it is a whole period overdue.
 #[test]
-fn dc_safety_service_follows_the_outputs() {
+fn dc_safety_service_without_output_events_comes_from_the_poll() {
     let mut r = Rig::new();
     r.goto_op_dc_1ms();
     r.dc_cycles_until_the_safety_service_is_due();
-    let sm_reads = r.esc.sm_register_reads;
-    r.poll();
-    assert_eq!(
-        r.esc.sm_register_reads, sm_reads,
-        "a poll later in the cycle"
-    );
-    // The master's outputs of the next two cycles arrive; after each, one access of the
-    // service: the PDI error counter, then the mailbox registers.
     let Rig {
         mut esc,
         app,
@@ -857,6 +850,36 @@ fn dc_safety_service_follows_the_outputs() {
         now,
         ..
     } = r;
+    let mut task = PdiTask::new(app);
+    let poll = Wake {
+        edge: false,
+        line_asserted: false,
+        poll: true,
+        pdi_ready: true,
+    };
+    let mut run = |at: u64| task.run(&mut esc.driver(), &stage, at, poll, || false, |_| {});
+    assert!(!run(now + 5_000).serve_mailbox, "left to the output event");
+    let period = u64::from(SAFETY_SERVICE_MS) * 1_000_000;
+    assert!(run(now + period + 5_000).serve_mailbox, "overdue: the poll asks");
+}
+
+/// In DC mode in OP the safety service (the PDI error counter and the mailbox registers)
+/// is the mailbox task's: the output event that finds it due asks the mailbox task (so its
+/// steps start after the outputs are preloaded, not just before the next frame) and reads
+/// none of its registers itself; the mailbox task reads them, one step per access.
+#[test]
+fn dc_safety_service_is_the_mailbox_tasks() {
+    let mut r = Rig::new();
+    r.goto_op_dc_1ms();
+    r.dc_cycles_until_the_safety_service_is_due();
+    let Rig {
+        mut esc,
+        app,
+        stage,
+        now,
+        ..
+    } = r;
+    let sm_reads = esc.sm_register_reads;
     let mut task = PdiTask::new(app);
     let run = |task: &mut PdiTask<AnalogIo<AnalogFigures>>, esc: &mut FakeEsc, at: u64, wake: Wake| {
         task.run(&mut esc.driver(), &stage, at, wake, || false, |_| {})
@@ -867,63 +890,34 @@ fn dc_safety_service_follows_the_outputs() {
         poll: false,
         pdi_ready: true,
     };
-    esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
-    let done = run(&mut task, &mut esc, now + 10_000, irq);
-    assert!(done.preload_outputs && done.pend_again);
-    assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
-    assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
-    let again = Wake {
+    // The poll after an edge leaves it to the next output event.
+    let poll = Wake {
         edge: false,
         line_asserted: false,
-        ..irq
+        poll: true,
+        pdi_ready: true,
     };
+    let done = run(&mut task, &mut esc, now + 5_000, poll);
+    assert!(!done.serve_mailbox, "left to the output event");
+    assert!(task.app().safety_service_due(now + 5_000));
+    esc.master_write_outputs(&[0x00, 0x7F, 0x00, 0x3F]);
+    let done = run(&mut task, &mut esc, now + 10_000, irq);
+    assert!(done.preload_outputs && done.serve_mailbox);
+    assert_eq!(stage.staged().1, DacPair::new(0xFE00, 0x7E00), "staged");
+    assert_eq!(esc.sm_register_reads, sm_reads, "not read by the PDI task");
+    assert!(!task.app().safety_service_due(now + 20_000), "re-armed");
     let reads = esc.reads;
-    let done = run(&mut task, &mut esc, now + 20_000, again);
-    assert!(!done.pend_again);
-    assert_eq!(esc.reads - reads, 1, "then the PDI error counter");
-    assert_eq!(esc.sm_register_reads, sm_reads);
-    assert!(task.app().safety_service_due(now + 20_000));
-    esc.master_write_outputs(&[0x00, 0x3F, 0x00, 0x1F]);
-    let done = run(&mut task, &mut esc, now + 1_010_000, irq);
-    assert!(done.preload_outputs && done.pend_again);
-    assert_eq!(esc.sm_register_reads, sm_reads, "the outputs first");
-    let done = run(&mut task, &mut esc, now + 1_020_000, again);
-    assert!(!done.pend_again);
-    assert!(
-        esc.sm_register_reads > sm_reads,
-        "then the mailbox registers"
-    );
-    assert!(!task.app().safety_service_due(now + 1_020_000));
-    // Nothing is put off any more.
-    let sm_reads = esc.sm_register_reads;
-    let done = run(&mut task, &mut esc, now + 1_030_000, again);
-    assert!(!done.pend_again);
-    assert_eq!(esc.sm_register_reads, sm_reads);
-}
-
-/// In DC mode without SM2 events (the master stopped) the safety service has no outputs
-/// to wait for: the poll after an edge starts it two SYNC0 cycles after it came due (the
-/// PDI error counter), the next one reads the mailbox registers.
-#[test]
-fn dc_safety_service_runs_late_when_the_master_stops() {
-    let mut r = Rig::new();
-    r.goto_op_dc_1ms();
-    r.dc_cycles_until_the_safety_service_is_due();
-    let mut late = 0;
-    loop {
-        r.now += 950_000;
-        let sm_reads = r.esc.sm_register_reads;
-        let due = r.app.safety_service_due(r.now);
-        r.sync0();
-        if r.esc.sm_register_reads > sm_reads {
-            break;
-        }
-        late += u32::from(due);
-        assert!(late <= 3, "the safety service never ran");
+    let mut steps = 0;
+    while task
+        .mailbox_step(&mut esc.driver(), &stage, now + 20_000)
+        .more
+    {
+        steps += 1;
     }
-    assert_eq!(late, 3, "put off by two cycles, then the PDI error counter");
-    assert!(!r.app.safety_service_due(r.now));
-    assert_eq!(r.esc.al_status(), (0x08, 0));
+    assert!(esc.sm_register_reads > sm_reads, "read by the mailbox task");
+    assert!(esc.reads - reads >= 2, "the PDI error counter and the registers");
+    assert!(steps >= 1, "one access per step");
+    assert_eq!(esc.al_status(), (0x08, 0));
 }
 
 /// The periodic safety service belongs to PREOP and up: an SM activation in INIT (the

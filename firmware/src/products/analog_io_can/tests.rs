@@ -184,17 +184,21 @@ fn output_events(app: &mut SlaveApp<AnalogCan>, times: &[u64]) {
 }
 
 const US: u64 = 1_000;
+/// The advertised minimum cycle (ns), the shortest DC cycle the module accepts.
+const CYCLE: u64 = crate::products::analog_io::sync::MIN_CYCLE_TIME_NS as u64;
 
 impl Rig {
     /// A rig after the boot-up whose application served outputs at `base`, 100 us and
     /// 200 us later (EtherCAT cycles of 100 us); `base`.
-    fn in_100_us_cycles() -> (Self, u64) {
+    /// Three cycles of the advertised minimum ([`CYCLE`]); the next output event is due at
+    /// `base + 3 * CYCLE`.
+    fn in_minimum_cycles() -> (Self, u64) {
         let mut r = Self::new(usize::MAX);
         r.run(&[]);
         let base = r.now;
         for k in 0..3 {
             // The CAN task looks between the cycles (its tick at the latest).
-            r.now = base + k * 100 * US;
+            r.now = base + k * CYCLE;
             output_events(&mut r.app, &[r.now]);
             r.activation();
         }
@@ -211,15 +215,15 @@ fn upload_0x1000() -> CanFrame {
 /// the next cycle's outputs open the window.
 #[test]
 fn frames_wait_for_the_window_and_none_is_lost() {
-    let (mut r, base) = Rig::in_100_us_cycles();
-    r.now = base + 280 * US;
+    let (mut r, base) = Rig::in_minimum_cycles();
+    r.now = base + 3 * CYCLE - 20 * US;
     r.can.rx.extend(vec![upload_0x1000(); 3]);
     assert_eq!(r.activation(), CanOutcome::default());
     assert_eq!(r.inbox.len(), 3, "taken from the controller, not served");
     assert!(r.can.tx.is_empty());
     assert!(r.app.application().can.waiting() && !r.app.application().can.work_waiting(r.now));
-    output_events(&mut r.app, &[base + 300 * US]);
-    r.now = base + 310 * US;
+    output_events(&mut r.app, &[base + 3 * CYCLE]);
+    r.now = base + 3 * CYCLE + 10 * US;
     assert!(
         r.app.application().can.work_waiting(r.now),
         "the PDI task pends the CAN task"
@@ -237,8 +241,8 @@ fn frames_wait_for_the_window_and_none_is_lost() {
 
 #[test]
 fn a_full_inbox_counts_the_frames_it_loses() {
-    let (mut r, base) = Rig::in_100_us_cycles();
-    r.now = base + 290 * US;
+    let (mut r, base) = Rig::in_minimum_cycles();
+    r.now = base + 3 * CYCLE - 10 * US;
     let extra = 5;
     r.can.rx.extend(vec![nmt(0x80); INBOX_FRAMES + extra]);
     let mut activations = 0;

@@ -249,26 +249,205 @@ pub enum Service {
     Events(AlEvents),
 }
 
+/// Bytes of one access to a mailbox buffer by the application's mailbox task: the task runs
+/// below the PDI task and takes the ESC for one access at a time, so the process data wait
+/// for at most one such access (16 B on the 12.5 MHz legacy SPI: about 13 us with the
+/// address phase) instead of a whole 128-byte frame (about 85 us).
+pub const CHUNK: usize = 16;
+
+/// Where the mailbox job is between two of its steps ([`MailboxLink::step`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Job {
+    /// Nothing under way.
+    Idle,
+    /// Reading the request from SM0.
+    Read(Transfer),
+    /// The request is read: the server's reply next.
+    Process,
+    /// SM1 is free and no request came: the server's waiting frames next.
+    Background,
+    /// Writing a frame to SM1, then what `AfterWrite` says.
+    Write(Transfer, AfterWrite),
+    /// The repeated frame is out: the repeat acknowledge (SM1 PDI control) to write.
+    RepeatAck(u8),
+}
+
+/// What follows the write of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AfterWrite {
+    /// A reply or server frame (in the reply buffer); `blocked`: a request waits in SM0
+    /// until the master has read it.
+    Reply { blocked: bool },
+    /// The repeated frame (in the request buffer); then this acknowledge.
+    Repeat(u8),
+}
+
+/// One transfer of a mailbox buffer `len` bytes long, in accesses of at most a chunk: the
+/// middle part `at..end`, then (unless the middle reached it) the last byte, which frees
+/// (read) or fills (write) the mailbox. The ESC opens the buffer on its first byte and
+/// closes it on its last, whatever lies between (hardware-facts 1.3/1.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Transfer {
+    at: u16,
+    end: u16,
+    len: u16,
+}
+
+impl Transfer {
+    /// A request in a buffer of `len` bytes: [`FIRST_READ`] bytes first (the header gives
+    /// the rest, [`Transfer::after_header`]); a small buffer whole.
+    fn request(len: usize) -> Self {
+        let end = if len <= FIRST_READ + 1 {
+            len
+        } else {
+            FIRST_READ
+        };
+        Self::new(end, len)
+    }
+
+    /// A frame of `n` bytes in a buffer of `len`: the frame, then the last byte; a frame
+    /// that fills the buffer anyway whole.
+    fn frame(n: usize, len: usize) -> Self {
+        let n = n.max(1);
+        Self::new(if n + 1 >= len { len } else { n }, len)
+    }
+
+    const fn new(end: usize, len: usize) -> Self {
+        Self {
+            at: 0,
+            end: end as u16,
+            len: len as u16,
+        }
+    }
+
+    /// After the first read of a request: the rest of the header's length (`head`: the
+    /// bytes read), all of the buffer if it claims that much or more.
+    fn after_header(&mut self, head: &[u8]) {
+        if usize::from(self.at) != FIRST_READ || usize::from(self.end) != FIRST_READ {
+            return;
+        }
+        let declared = match head {
+            [lo, hi, ..] => MAILBOX_HEADER_LEN + usize::from(u16::from_le_bytes([*lo, *hi])),
+            _ => 0,
+        };
+        let len = usize::from(self.len);
+        self.end = if declared + 1 >= len {
+            self.len
+        } else {
+            declared.max(FIRST_READ) as u16
+        };
+    }
+
+    /// One access: reads (`Dir::Read`) or writes the next piece of `buf` at `start`, at
+    /// most `chunk` bytes; `true` when the transfer is done.
+    fn step<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        start: u16,
+        buf: &mut [u8],
+        dir: Dir,
+        chunk: usize,
+    ) -> PdiResult<bool, P> {
+        let (at, end, len) = (
+            usize::from(self.at),
+            usize::from(self.end),
+            usize::from(self.len),
+        );
+        let range = if at < end {
+            at..end.min(at + chunk)
+        } else {
+            len.saturating_sub(1)..len
+        };
+        self.at = range.end as u16;
+        let addr = start.wrapping_add(range.start as u16);
+        let part = buf.get_mut(range).unwrap_or(&mut []);
+        match dir {
+            Dir::Read => {
+                esc.read(addr, part)?;
+                self.after_header(buf);
+            }
+            Dir::Write => {
+                esc.write(addr, part)?;
+            }
+        }
+        Ok(self.at >= self.len)
+    }
+}
+
+/// The direction of a [`Transfer`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Dir {
+    Read,
+    Write,
+}
+
+/// The state of a link's stepped job ([`Steps`]), or `()` for a link served in whole
+/// exchanges only ([`MailboxLink::service`]).
+pub trait JobState {
+    /// A job was asked for or is under way.
+    fn busy(&self) -> bool;
+    /// Drops the job (state change to INIT, mailbox start).
+    fn reset(&mut self);
+}
+
+impl JobState for () {
+    fn busy(&self) -> bool {
+        false
+    }
+
+    fn reset(&mut self) {}
+}
+
+/// The stepped job of a link of `MBX`-byte mailboxes, accessed at most `CHUNK` bytes at a
+/// time ([`MailboxLink::step`]).
+pub struct Steps<const MBX: usize, const CHUNK: usize> {
+    /// The request being read; the repeated frame being written.
+    req: [u8; MBX],
+    /// SM0 and SM1 as the job under way found them.
+    sm: (SyncManager, SyncManager),
+    job: Job,
+    wanted: Option<Service>,
+}
+
+impl<const MBX: usize, const CHUNK: usize> JobState for Steps<MBX, CHUNK> {
+    fn busy(&self) -> bool {
+        self.wanted.is_some() || self.job != Job::Idle
+    }
+
+    fn reset(&mut self) {
+        self.job = Job::Idle;
+        self.wanted = None;
+    }
+}
+
 /// Mailbox service state: the link of a mailbox of `MBX` bytes (each direction) to the
 /// server `S`.
-pub struct MailboxLink<S, const MBX: usize> {
+///
+/// With [`Steps`] the service is a job of bounded steps ([`Self::step`]): each makes at
+/// most one access to a mailbox buffer (of at most a chunk) or a few to registers, or one
+/// call of the server. A caller that must not be held for a whole exchange (the
+/// application's PDI task) asks for the service ([`Self::want`]) and lets a task below it
+/// run the steps, each under the lock of the ESC. [`Self::service`] serves a whole exchange
+/// at once (the bootloader, whose link has no job state).
+pub struct MailboxLink<S, const MBX: usize, J = ()> {
     server: S,
     buf: [u8; MBX],
     pending: usize,
     blocked: bool,
     sm1_busy: bool,
     registers: Option<(SyncManager, SyncManager)>,
+    steps: J,
     replies: u32,
     repeats: u32,
 }
 
 /// The application's link.
-pub type AppLink = MailboxLink<AppServer, MAILBOX_SIZE>;
+pub type AppLink = MailboxLink<AppServer, MAILBOX_SIZE, Steps<MAILBOX_SIZE, CHUNK>>;
 
 impl AppLink {
     /// The application's link on the dictionary `od`, nothing pending.
     pub const fn for_dictionary(od: &'static ObjectDictionary) -> Self {
-        Self::new(AppServer::new(od))
+        Self::stepped(AppServer::new(od))
     }
 
     /// Queues an Emergency (sent when SM1 is free).
@@ -277,9 +456,38 @@ impl AppLink {
     }
 }
 
-impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
-    /// Nothing pending.
+impl<S, const MBX: usize> MailboxLink<S, MBX> {
+    /// Nothing pending; served in whole exchanges.
     pub const fn new(server: S) -> Self {
+        Self::with_steps(server, ())
+    }
+}
+
+impl<S, const MBX: usize, const CHUNK: usize> MailboxLink<S, MBX, Steps<MBX, CHUNK>> {
+    /// Nothing pending; served in steps.
+    pub const fn stepped(server: S) -> Self {
+        // A step must move at least one byte.
+        const { assert!(CHUNK > 0) };
+        const NONE: SyncManager = SyncManager {
+            start: 0,
+            length: 0,
+            control: 0,
+            status: 0,
+            activate: 0,
+            pdi_control: 0,
+        };
+        let steps = Steps {
+            req: [0; MBX],
+            sm: (NONE, NONE),
+            job: Job::Idle,
+            wanted: None,
+        };
+        Self::with_steps(server, steps)
+    }
+}
+
+impl<S, const MBX: usize, J> MailboxLink<S, MBX, J> {
+    const fn with_steps(server: S, steps: J) -> Self {
         Self {
             server,
             buf: [0; MBX],
@@ -287,11 +495,14 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
             blocked: false,
             sm1_busy: false,
             registers: None,
+            steps,
             replies: 0,
             repeats: 0,
         }
     }
+}
 
+impl<S: MailboxServer, const MBX: usize, J: JobState> MailboxLink<S, MBX, J> {
     /// The server.
     pub fn server(&self) -> &S {
         &self.server
@@ -312,10 +523,20 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
         self.repeats
     }
 
-    /// The mailbox AL event bits to enable: SM0 while no reply waits, SM1 while one does
-    /// or while a request waits in SM0 for SM1 to be read, or other frames wait for SM1.
+    /// True while a service was asked for or a job is under way ([`Self::step`] has work).
+    pub fn busy(&self) -> bool {
+        self.steps.busy()
+    }
+
+    /// The mailbox AL event bits to enable: none while the service is asked for or under
+    /// way (the line would stay asserted for the PDI task until the job reads SM0 or
+    /// writes SM1; the job's end enables them again); SM0 while no reply waits, SM1 while
+    /// one does or while a request waits in SM0 for SM1 to be read, or other frames wait
+    /// for SM1.
     pub fn event_mask(&self) -> AlEvents {
-        if self.pending != 0 || self.blocked || (self.sm1_busy && self.has_outgoing()) {
+        if self.busy() {
+            AlEvents::empty()
+        } else if self.pending != 0 || self.blocked || (self.sm1_busy && self.has_outgoing()) {
             AlEvents::SM1
         } else {
             AlEvents::SM0
@@ -333,8 +554,8 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
         self.server.has_outgoing()
     }
 
-    /// Takes note of the AL event bits of an access and tells whether [`Self::service`]
-    /// has work: a request in SM0 (bit 8) or a frame to send, with SM1 free (bit 9 seen
+    /// Takes note of the AL event bits of an access and tells whether the mailbox needs
+    /// the service: a request in SM0 (bit 8) or a frame to send, with SM1 free (bit 9 seen
     /// since the last write, or never written). A request that must wait for SM1 sets the
     /// SM1 event mask ([`Self::event_mask`]).
     pub fn needs_service(&mut self, events: AlEvents) -> bool {
@@ -351,7 +572,8 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
         request || self.pending != 0 || self.blocked || self.has_outgoing()
     }
 
-    /// ESM transition.
+    /// ESM transition. To INIT: the job under way is dropped (a reply half written is
+    /// never marked full; a request half read is dropped at INIT -> PREOP).
     pub fn on_state_change(&mut self, ctx: &mut S::Context<'_>, from: AlState, to: AlState) {
         self.server.on_state_change(ctx, from, to);
         if to == AlState::Init {
@@ -359,6 +581,7 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
             self.blocked = false;
             self.sm1_busy = false;
             self.registers = None;
+            self.steps.reset();
         }
     }
 
@@ -394,11 +617,15 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
         self.pending = 0;
         self.blocked = false;
         self.sm1_busy = false;
+        self.steps.reset();
         Ok(())
     }
 
-    /// Serves the mailbox: repeat request (if asked), waiting reply, a new request if SM0 is
-    /// full, then the server's pending work. At most one request per call.
+    /// Serves the mailbox as one whole exchange, its accesses as long as the frames: repeat
+    /// request (if asked), waiting reply, a new request if SM0 is full, then the server's
+    /// pending work. At most one request per call. For the bootloader, which has no process
+    /// data to protect and no room for the stepped job ([`Self::step`] does the same in
+    /// bounded steps; a host test runs both on one script and compares every frame).
     pub fn service<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
@@ -419,15 +646,10 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
                 let (sm0, sm1) = esc.read_sm_pair(0)?;
                 let check_repeat = how == Service::Registers { check_repeat: true };
                 if check_repeat && sm1.repeat_requested() {
-                    if sm1.mailbox_full() || !sm0.mailbox_full() {
+                    if !new_request_answers_repeat(&sm0, &sm1) {
                         self.repeat(esc, &sm1)?;
                         return Ok(());
                     }
-                    // SM1 was read and a new request waits: the master has moved on, and
-                    // the frame it asks for again was one it did not ask for. SOEM drops an
-                    // Emergency it reads, reads SM1 again at once and takes the empty
-                    // mailbox for a lost frame; repeating that frame would start the same
-                    // race again. The new request's reply answers the repeat.
                     esc.sm_pdi_control(1, sm1.requested_repeat_ack())?;
                     self.repeats = self.repeats.wrapping_add(1);
                 }
@@ -515,6 +737,213 @@ impl<S: MailboxServer, const MBX: usize> MailboxLink<S, MBX> {
         self.repeats = self.repeats.wrapping_add(1);
         Ok(())
     }
+}
+
+impl<S: MailboxServer, const MBX: usize, const CHUNK: usize>
+    MailboxLink<S, MBX, Steps<MBX, CHUNK>>
+{
+    /// Asks for the service `how`, merged with one asked for before and not begun: the
+    /// registers read covers the event bits (which the job reads again anyway), the repeat
+    /// check is kept.
+    pub fn want(&mut self, how: Service) {
+        use Service::Registers;
+        self.steps.wanted = Some(match (self.steps.wanted, how) {
+            (Some(Registers { check_repeat: a }), Registers { check_repeat: b }) => Registers {
+                check_repeat: a || b,
+            },
+            (Some(r @ Registers { .. }), _) => r,
+            (_, how) => how,
+        });
+    }
+
+    /// One step of the mailbox job; `true` while there is more to do. A job serves the
+    /// repeat request (if asked), a waiting reply, a new request if SM0 is full, else the
+    /// server's pending work: at most one request per job. A job begins with what was
+    /// asked ([`Self::want`]): the SyncManager registers read, or the AL event bits read
+    /// again (an access of its own), since the ones that asked may be old by then. A
+    /// failed access ends the job (the safety service looks again).
+    pub fn step<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        state: AlState,
+        ctx: &mut S::Context<'_>,
+        now_ms: u32,
+    ) -> PdiResult<bool, P> {
+        if state == AlState::Init {
+            self.steps.reset();
+            return Ok(false);
+        }
+        if let Err(e) = self.advance(esc, state, ctx, now_ms) {
+            self.steps.job = Job::Idle;
+            return Err(e);
+        }
+        Ok(self.busy())
+    }
+
+    fn advance<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        state: AlState,
+        ctx: &mut S::Context<'_>,
+        now_ms: u32,
+    ) -> PdiResult<(), P> {
+        let (sm0, sm1) = self.steps.sm;
+        self.steps.job = match self.steps.job {
+            Job::Idle => match self.steps.wanted.take() {
+                Some(how) => self.begin(esc, how)?,
+                None => Job::Idle,
+            },
+            Job::Read(mut t) => {
+                let len = usize::from(sm0.length).min(MBX);
+                let req = self.steps.req.get_mut(..len).unwrap_or(&mut []);
+                match t.step(esc, sm0.start, req, Dir::Read, CHUNK)? {
+                    true => Job::Process,
+                    false => Job::Read(t),
+                }
+            }
+            Job::Process => {
+                let len = usize::from(sm0.length).min(MBX);
+                let req = self.steps.req.get(..len).unwrap_or(&[]);
+                let reply_len = usize::from(sm1.length).min(MBX);
+                self.buf = [0; MBX];
+                let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
+                match self.server.process(ctx, req, state, now_ms, out) {
+                    Reply::Frame(n) => self.reply(n, reply_len, false),
+                    _ => Job::Background,
+                }
+            }
+            Job::Background => {
+                let reply_len = usize::from(sm1.length).min(MBX);
+                self.buf = [0; MBX];
+                let out = self.buf.get_mut(..reply_len).unwrap_or(&mut []);
+                match self.server.poll(ctx, out) {
+                    Reply::Frame(n) => self.reply(n, reply_len, false),
+                    _ => Job::Idle,
+                }
+            }
+            Job::Write(mut t, then) => {
+                let len = usize::from(sm1.length).min(MBX);
+                let frame = match then {
+                    AfterWrite::Reply { .. } => &mut self.buf,
+                    AfterWrite::Repeat(_) => &mut self.steps.req,
+                };
+                let frame = frame.get_mut(..len).unwrap_or(&mut []);
+                if t.step(esc, sm1.start, frame, Dir::Write, CHUNK)? {
+                    self.sm1_busy = true;
+                    self.replies = self.replies.wrapping_add(1);
+                    match then {
+                        AfterWrite::Reply { blocked } => {
+                            self.pending = 0;
+                            self.blocked = blocked;
+                            Job::Idle
+                        }
+                        AfterWrite::Repeat(ack) => Job::RepeatAck(ack),
+                    }
+                } else {
+                    Job::Write(t, then)
+                }
+            }
+            Job::RepeatAck(ack) => {
+                esc.sm_pdi_control(1, ack)?;
+                self.repeats = self.repeats.wrapping_add(1);
+                Job::Idle
+            }
+        };
+        Ok(())
+    }
+
+    /// The waiting reply of `n` bytes in a buffer of `len` to write.
+    fn reply(&mut self, n: usize, len: usize, blocked: bool) -> Job {
+        self.pending = n.max(1);
+        Job::Write(
+            Transfer::frame(self.pending, len),
+            AfterWrite::Reply { blocked },
+        )
+    }
+
+    /// The first step of a job: what the mailbox holds, and what to do about it.
+    fn begin<P: Pdi>(&mut self, esc: &mut Et1100<P>, how: Service) -> PdiResult<Job, P> {
+        let (sm0, sm1, sm1_full, sm0_full) = match (how, self.registers) {
+            (Service::Events(_), Some((sm0, sm1))) => {
+                // The event bits again: the ones that asked may be old by now.
+                let events = esc.low_events()?;
+                if events.contains(AlEvents::SM1) {
+                    self.sm1_busy = false;
+                }
+                let request = events.contains(AlEvents::SM0) || self.blocked;
+                (sm0, sm1, self.sm1_busy, request)
+            }
+            (how, _) => {
+                let (sm0, sm1) = esc.read_sm_pair(0)?;
+                let check_repeat = how == Service::Registers { check_repeat: true };
+                if check_repeat && sm1.repeat_requested() {
+                    if !new_request_answers_repeat(&sm0, &sm1) {
+                        self.steps.sm = (sm0, sm1);
+                        return self.begin_repeat(esc, &sm1);
+                    }
+                    esc.sm_pdi_control(1, sm1.requested_repeat_ack())?;
+                    self.repeats = self.repeats.wrapping_add(1);
+                }
+                self.registers = Some((sm0, sm1));
+                (sm0, sm1, sm1.mailbox_full(), sm0.mailbox_full())
+            }
+        };
+        self.steps.sm = (sm0, sm1);
+        self.sm1_busy = sm1_full;
+        self.blocked = false;
+        let len = usize::from(sm1.length).min(MBX);
+        Ok(if self.pending != 0 {
+            match sm1_full {
+                true => Job::Idle,
+                // A request may wait in SM0 until the master has read SM1.
+                false => self.reply(self.pending, len, sm0_full),
+            }
+        } else if sm1_full {
+            self.blocked = sm0_full;
+            Job::Idle
+        } else if sm0_full && sm0.enabled() {
+            self.steps.req = [0; MBX];
+            Job::Read(Transfer::request(usize::from(sm0.length).min(MBX)))
+        } else {
+            Job::Background
+        })
+    }
+
+    /// The repeat request: SM1 emptied if full, the last frame to write again, then the
+    /// acknowledge.
+    fn begin_repeat<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        sm1: &SyncManager,
+    ) -> PdiResult<Job, P> {
+        let ack = sm1.pdi_control & SyncManager::PDI_REPEAT_ACK;
+        // Empty now, or emptied below.
+        self.sm1_busy = false;
+        if sm1.mailbox_full() {
+            // Empty SM1 by deactivating it from the PDI side, then activate it again.
+            esc.sm_pdi_control(1, ack | SyncManager::PDI_DEACTIVATE)?;
+            esc.sm_pdi_control(1, ack)?;
+        }
+        let len = usize::from(sm1.length).min(MBX);
+        self.steps.req = [0; MBX];
+        let out = self.steps.req.get_mut(..len).unwrap_or(&mut []);
+        let then = sm1.requested_repeat_ack();
+        Ok(match self.server.repeat(out).frame_len() {
+            Some(n) => Job::Write(Transfer::frame(n, len), AfterWrite::Repeat(then)),
+            None => Job::RepeatAck(then),
+        })
+    }
+}
+
+/// Whether a repeat request is answered by the reply to the request waiting in SM0 instead
+/// of the last frame again: SM1 was read and a new request waits, so the master has moved
+/// on, and the frame it asks for again was one it did not ask for. SOEM drops an Emergency
+/// it reads, reads SM1 again at once and takes the empty mailbox for a lost frame;
+/// repeating that frame would start the same race again.
+// Inlined: the bootloader links `service` too and has no room for one more call.
+#[inline(always)]
+fn new_request_answers_repeat(sm0: &SyncManager, sm1: &SyncManager) -> bool {
+    !sm1.mailbox_full() && sm0.mailbox_full()
 }
 
 /// Reads a request from the SM0 buffer `req.len()` long at `start`: [`FIRST_READ`] bytes,
@@ -792,5 +1221,241 @@ mod tests {
         // A zero length still marks the buffer full.
         write_frame(&mut esc.driver(), IN, &f, 0).unwrap();
         assert!(esc.sm(1).mailbox_full());
+    }
+
+    /// The analog-io product's application as the objects of the SDO server.
+    fn with_app<R>(f: impl FnOnce(&mut dyn ObjectAccess) -> R) -> R {
+        use crate::stacks::ethercat::Application as _;
+        let mut app = crate::products::analog_io::application();
+        let stage = crate::io::analog::outputs::OutputStage::new();
+        app.with_objects(&stage, 0, f)
+    }
+
+    /// What a master's script of SDO exchanges saw through a link with `CH`-byte chunks.
+    struct Script {
+        stepped: bool,
+        frames: Vec<Vec<u8>>,
+        longest: usize,
+        steps: usize,
+        /// Process-data reads the PDI task made between two steps.
+        pd_reads: usize,
+        segments: usize,
+    }
+
+    /// Runs the job asked for with `how`, one step at a time, the PDI task reading the
+    /// outputs between two steps (as the mailbox task's lock allows); or, `stepped` false,
+    /// the whole exchange at once ([`MailboxLink::service`], the bootloader's).
+    fn serve_steps<const CH: usize>(
+        link: &mut MailboxLink<AppServer, MAILBOX_SIZE, Steps<MAILBOX_SIZE, CH>>,
+        esc: &mut FakeEsc,
+        objects: &mut dyn ObjectAccess,
+        how: Service,
+        script: &mut Script,
+    ) {
+        // As the slave application asks: the event bits first.
+        if let Service::Events(events) = how {
+            if !link.needs_service(events) {
+                return;
+            }
+        }
+        if !script.stepped {
+            script.steps += 1;
+            link.service(&mut esc.driver(), AlState::PreOp, objects, 0, how)
+                .unwrap();
+            return;
+        }
+        link.want(how);
+        for _ in 0..64 {
+            let more = link
+                .step(&mut esc.driver(), AlState::PreOp, objects, 0)
+                .unwrap();
+            script.steps += 1;
+            esc.driver().read(0x1200, &mut [0u8; 4]).unwrap();
+            script.pd_reads += 1;
+            if !more {
+                return;
+            }
+        }
+        panic!("the job never ended");
+    }
+
+    /// The script: expedited uploads, a complete-access upload (segmented when it does not
+    /// fit), SDO Information (the OD list in fragments, an object description), a repeat
+    /// request; the master reads every frame as soon as SM1 is full.
+    fn script<const CH: usize>(stepped: bool) -> Script {
+        let mut esc = esc();
+        let od = &crate::products::analog_io::od::OD;
+        let mut link =
+            MailboxLink::<_, MAILBOX_SIZE, Steps<MAILBOX_SIZE, CH>>::stepped(AppServer::new(od));
+        let mut s = Script {
+            stepped,
+            frames: Vec::new(),
+            longest: 0,
+            steps: 0,
+            pd_reads: 0,
+            segments: 0,
+        };
+        let mut counter = 0u8;
+        with_app(|objects| {
+            let mut exchange = |esc: &mut FakeEsc, coe: &[u8], s: &mut Script| {
+                counter = counter % 7 + 1;
+                let mut f = (coe.len() as u16).to_le_bytes().to_vec();
+                f.extend_from_slice(&[0, 0, 0, 0x03 | counter << 4]);
+                f.extend_from_slice(coe);
+                assert!(esc.master_write_mailbox(&f));
+                let how = Service::Events(esc.event_request());
+                serve_steps(&mut link, esc, objects, how, s);
+                let mut last = Vec::new();
+                while let Some(reply) = esc.master_read_mailbox() {
+                    s.frames.push(reply.clone());
+                    last = reply;
+                    let how = Service::Events(esc.event_request());
+                    serve_steps(&mut link, esc, objects, how, s);
+                }
+                last
+            };
+            let upload = |cmd: u8, index: u16, sub: u8| {
+                let [lo, hi] = index.to_le_bytes();
+                std::vec![0x00, 0x20, cmd, lo, hi, sub, 0, 0, 0, 0]
+            };
+            for (index, sub) in [(0x1018, 1), (0x1000, 0), (0x1C32, 5)] {
+                let r = exchange(&mut esc, &upload(0x40, index, sub), &mut s);
+                assert_eq!(r[8], 0x43, "expedited upload of {index:04X}");
+            }
+            // Complete access from subindex 0, the module description (the largest
+            // object); segments while the object does not fit.
+            let description = crate::products::analog_io::od::MODULE_DESCRIPTION_INDEX;
+            for (cmd, index) in [(0x50, 0x1C32u16), (0x50, 0x1C33), (0x40, description)] {
+                let mut r = exchange(&mut esc, &upload(cmd, index, 0), &mut s);
+                assert_eq!(r[8] & 0xE3, 0x41, "normal upload of {index:04X}");
+                let size = u32::from_le_bytes([r[12], r[13], r[14], r[15]]) as usize;
+                let mut got = usize::from(u16::from_le_bytes([r[0], r[1]])) - 10;
+                let mut toggle = 0u8;
+                while got < size {
+                    r = exchange(
+                        &mut esc,
+                        &[0x00, 0x20, 0x60 | toggle, 0, 0, 0, 0, 0, 0, 0],
+                        &mut s,
+                    );
+                    assert_eq!(r[8] & 0xF0, toggle, "segment of {index:04X}");
+                    got += usize::from(u16::from_le_bytes([r[0], r[1]])) - 3;
+                    s.segments += 1;
+                    toggle ^= 0x10;
+                }
+            }
+            // SDO Information: the OD list (all objects), in fragments.
+            let list = exchange(&mut esc, &[0x00, 0x80, 0x01, 0, 0, 0, 0x01, 0], &mut s);
+            assert_eq!(list[8] & 0x7F, 0x02, "OD list response");
+            let desc = exchange(&mut esc, &[0x00, 0x80, 0x03, 0, 0, 0, 0x32, 0x1C], &mut s);
+            assert_eq!(desc[8] & 0x7F, 0x04, "object description response");
+            // The repeat request: the last frame again.
+            esc.master_repeat_request();
+            let how = Service::Registers { check_repeat: true };
+            serve_steps(&mut link, &mut esc, objects, how, &mut s);
+            let again = esc.master_read_mailbox().expect("repeated");
+            assert_eq!(again, desc);
+            s.frames.push(again);
+            let sm1 = esc.sm(1);
+            assert_eq!(sm1.repeat_ack(), sm1.repeat_request(), "acknowledged");
+        });
+        assert_eq!(link.repeats(), 1);
+        assert!(!link.busy());
+        s.longest = esc.longest_ram_access;
+        s
+    }
+
+    #[test]
+    fn chunked_jobs_carry_the_same_frames_in_bounded_accesses() {
+        let whole = script::<MAILBOX_SIZE>(false);
+        let chunked = script::<CHUNK>(true);
+        let stepped_whole = script::<MAILBOX_SIZE>(true);
+        assert_eq!(stepped_whole.frames, whole.frames);
+        assert_eq!(chunked.frames, whole.frames, "same frames, same order");
+        assert!(whole.frames.len() >= 12, "{} frames", whole.frames.len());
+        assert!(chunked.segments >= 1, "a segmented upload");
+        assert!(whole.longest > CHUNK, "whole frames in one access");
+        assert!(
+            chunked.longest <= CHUNK,
+            "every access at most one chunk: {}",
+            chunked.longest
+        );
+        // The process data get the bus between every two steps.
+        assert_eq!(chunked.pd_reads, chunked.steps);
+        assert!(chunked.steps > whole.steps);
+    }
+
+    #[test]
+    fn a_request_half_read_at_init_is_dropped_with_the_job() {
+        let mut esc = esc();
+        let mut link = AppLink::for_dictionary(&crate::products::analog_io::od::OD);
+        let f = frame(40, 40);
+        assert!(esc.master_write_mailbox(&f));
+        with_app(|objects| {
+            link.want(Service::Registers {
+                check_repeat: false,
+            });
+            // The registers, then the first chunk of the request.
+            for _ in 0..2 {
+                assert!(link
+                    .step(&mut esc.driver(), AlState::PreOp, objects, 0)
+                    .unwrap());
+            }
+            link.on_state_change(objects, AlState::PreOp, AlState::Init);
+            assert!(!link.busy());
+            assert!(!link
+                .step(&mut esc.driver(), AlState::Init, objects, 0)
+                .unwrap());
+        });
+        assert!(esc.master_read_mailbox().is_none(), "nothing answered");
+        // INIT -> PREOP drops what is left of it in SM0.
+        let (sm0, sm1) = (esc.sm(0), esc.sm(1));
+        link.start(&mut esc.driver(), sm0, sm1).unwrap();
+        assert!(!esc.sm(0).mailbox_full());
+    }
+
+    #[test]
+    fn a_failed_access_ends_the_job_and_the_next_one_serves_the_request() {
+        let mut esc = esc();
+        let mut link = AppLink::for_dictionary(&crate::products::analog_io::od::OD);
+        let coe = [0x00u8, 0x20, 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0];
+        let mut f = std::vec![10u8, 0, 0, 0, 0, 0x13];
+        f.extend_from_slice(&coe);
+        assert!(esc.master_write_mailbox(&f));
+        with_app(|objects| {
+            let how = Service::Registers {
+                check_repeat: false,
+            };
+            link.want(how);
+            assert!(link
+                .step(&mut esc.driver(), AlState::PreOp, objects, 0)
+                .unwrap());
+            esc.fail_next = true;
+            assert!(link
+                .step(&mut esc.driver(), AlState::PreOp, objects, 0)
+                .is_err());
+            assert!(!link.busy(), "the job ended");
+            link.want(how);
+            while link
+                .step(&mut esc.driver(), AlState::PreOp, objects, 0)
+                .unwrap()
+            {}
+        });
+        let reply = esc.master_read_mailbox().expect("served");
+        assert_eq!(reply[8], 0x43);
+    }
+
+    #[test]
+    fn mailbox_events_are_masked_while_the_job_waits_or_runs() {
+        let mut link = AppLink::for_dictionary(&crate::products::analog_io::od::OD);
+        assert_eq!(link.event_mask(), AlEvents::SM0);
+        link.want(Service::Events(AlEvents::SM0));
+        assert_eq!(link.event_mask(), AlEvents::empty());
+        link.want(Service::Registers { check_repeat: true });
+        link.want(Service::Events(AlEvents::SM1));
+        assert_eq!(
+            link.steps.wanted,
+            Some(Service::Registers { check_repeat: true }),
+            "the registers read covers the events, the repeat check is kept"
+        );
     }
 }

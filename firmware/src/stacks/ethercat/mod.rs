@@ -9,8 +9,9 @@
 //!
 //! | Caller (priority)          | Call                                   | State touched                   |
 //! |----------------------------|----------------------------------------|---------------------------------|
-//! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`] ([`pdi_task::PdiTask::run`]) | `SlaveApp` (local), the ESC, the stage |
-//! | background                 | [`SlaveApp::poll`], [`SlaveApp::safety_service`] | the same, from the same task |
+//! | PDI IRQ task (middle)      | [`SlaveApp::on_pdi_irq`] ([`pdi_task::PdiTask::run`]) | `SlaveApp`, the ESC, the stage |
+//! | background                 | [`SlaveApp::poll`]                     | the same, from the same task    |
+//! | mailbox task (below)       | [`SlaveApp::mailbox_step`], one step per lock, while [`PdiOutcome::serve_mailbox`] asked | the same, under the lock |
 //!
 //! The application's [`CycleStage`] is the one thing shared with the task that acts at the
 //! SYNC0 edge (lock-free). When [`PdiOutcome::apply_outputs`] is set, the PDI task asks
@@ -84,6 +85,18 @@ pub struct PdiOutcome {
     /// A master asked for BOOT on a well configured bootstrap mailbox: set the boot request
     /// ([`crate::platform::boot::request`]) and reset the CPU; the bootloader takes it from there.
     pub enter_bootloader: bool,
+    /// The mailbox needs its service: run [`SlaveApp::mailbox_step`] from the mailbox task
+    /// (below the PDI task) until it says there is no more.
+    pub serve_mailbox: bool,
+}
+
+/// What one step of the mailbox job did ([`SlaveApp::mailbox_step`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MailboxStep {
+    /// More steps are to come: call again (after letting higher priorities run).
+    pub more: bool,
+    /// What the step asks of the output task (SDO-written outputs in OP).
+    pub outcome: PdiOutcome,
 }
 
 /// AL event bits always enabled.
@@ -105,9 +118,8 @@ pub struct SlaveApp<A: Application> {
     sync0_seen: u32,
     /// Time of the next unconditional mailbox service (ns); never while in INIT.
     mailbox_check_ns: u64,
-    /// The safety service has read the PDI error counter; the mailbox registers follow in
-    /// the next slot.
-    pdi_errors_read: bool,
+    /// The safety service is due: the mailbox task reads the PDI error counter first.
+    pdi_errors_due: bool,
     /// Time of the background poll's next own event sample (ns).
     event_sample_ns: u64,
     /// Read changed outputs twice before taking them (decided at PREOP -> SAFEOP).
@@ -135,7 +147,7 @@ impl<A: Application> SlaveApp<A> {
             mask_stale: true,
             sync0_seen: 0,
             mailbox_check_ns: u64::MAX,
-            pdi_errors_read: false,
+            pdi_errors_due: false,
             event_sample_ns: 0,
             confirm_outputs: true,
             fresh: A::output_buffer(),
@@ -182,13 +194,17 @@ impl<A: Application> SlaveApp<A> {
     }
 
     /// The ESC IRQ: reads the AL event bits once and serves AL control, watchdog, outputs
-    /// (SM2), SyncManager activation (repeat request) and the mailbox (SM0/SM1) when its
-    /// event bits say it has work ([`mailbox::MailboxLink::needs_service`]).
+    /// (SM2), and asks for the mailbox service (SM0/SM1, the SyncManager activation with
+    /// the repeat request) when its event bits say it has work
+    /// ([`mailbox::MailboxLink::needs_service`]): the mailbox task runs it
+    /// ([`Self::mailbox_step`]), below this one, so no mailbox exchange holds the outputs.
     ///
     /// The event bits come from [`Pdi::low_events`]: on the SPI PDI a NOP with 2 address
     /// bytes, which shifts out 0x0220/0x0221 (AL control .. SM7). The 3-byte NOP would add
     /// 0x0222 (SyncManagers 8..15), which the ET1100 does not have, for one more byte on the
     /// bus in every cycle.
+    // Out of line: inlined, the PDI task's image is larger (one call per activation).
+    #[inline(never)]
     pub fn on_pdi_irq<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
@@ -212,6 +228,9 @@ impl<A: Application> SlaveApp<A> {
             self.outputs(esc, stage, now_ns, &mut out)?;
             out.sm2_event = true;
             self.app.on_output_event(now_ns);
+            if self.safety_service_due(now_ns) {
+                self.want_safety_service(now_ns, &mut out);
+            }
         }
         let activation = events.contains(AlEvents::SM_ACTIVATION);
         if activation {
@@ -222,9 +241,9 @@ impl<A: Application> SlaveApp<A> {
         let mailbox_work = self.esm.state() != AlState::Init && self.mailbox_has_work(events);
         if activation {
             let how = Service::Registers { check_repeat: true };
-            self.serve_mailbox(esc, stage, now_ns, how, &mut out)?;
+            self.want_mailbox(now_ns, how, &mut out);
         } else if mailbox_work {
-            self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
+            self.want_mailbox(now_ns, Service::Events(events), &mut out);
         }
         self.update_mask(esc)?;
         Ok(out)
@@ -234,6 +253,8 @@ impl<A: Application> SlaveApp<A> {
     /// inputs outside SM-synchronous cycles, and the mailbox (waiting reply, SDO
     /// Information fragments, Emergencies) when the event bits of the inputs write or the
     /// waiting work call for it, else every [`SAFETY_SERVICE_MS`].
+    // Out of line: inlined, the PDI task's image is larger (one call per activation).
+    #[inline(never)]
     pub fn poll<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
@@ -284,20 +305,20 @@ impl<A: Application> SlaveApp<A> {
                 None => AlEvents::empty(),
             };
             let work = self.mailbox_has_work(events);
-            // In DC mode the periodic register reads, the longest background work, belong
-            // to the PDI task's activation right after the outputs ([`Self::safety_service`]):
-            // anywhere else in the cycle they can hold the next SM2 event, and its DAC
-            // preload, past the SYNC0 edge. Without SM2 events (the master stopped) there
-            // are no outputs to delay: the poll runs them two SYNC0 cycles late.
-            let dc = self.app.sync().mode() == SyncMode::DcSync0 && self.app.sync().armed();
-            let late = || {
-                self.mailbox_check_ns
-                    .saturating_add(2 * u64::from(self.app.sync().sync0_cycle_ns()))
-            };
-            if self.safety_service_due(now_ns) && (!dc || now_ns >= late()) {
-                self.registers_service(esc, stage, now_ns, &mut out)?;
+            // In DC cycles the output event asks for the periodic register reads, so that
+            // their steps start after the outputs are preloaded and cannot hold a frame's
+            // outputs back past SYNC0; here only if no output event came for a period.
+            let dc_cycles = matches!(self.esm.state(), AlState::SafeOp | AlState::Op)
+                && self.app.sync().mode() == SyncMode::DcSync0
+                && self.app.sync().armed();
+            let overdue = now_ns
+                >= self
+                    .mailbox_check_ns
+                    .saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000);
+            if self.safety_service_due(now_ns) && (!dc_cycles || overdue) {
+                self.want_safety_service(now_ns, &mut out);
             } else if work {
-                self.serve_mailbox(esc, stage, now_ns, Service::Events(events), &mut out)?;
+                self.want_mailbox(now_ns, Service::Events(events), &mut out);
             }
         }
         self.update_mask(esc)?;
@@ -724,48 +745,10 @@ impl<A: Application> SlaveApp<A> {
 
     // ------------------------------------------------------------ mailbox
 
-    /// Whether the periodic safety service (the mailbox and PDI error registers read, every
-    /// [`SAFETY_SERVICE_MS`] from PREOP) is due.
+    /// Whether the periodic safety service (the mailbox and PDI error registers read by the
+    /// mailbox task, every [`SAFETY_SERVICE_MS`] from PREOP) is due.
     pub fn safety_service_due(&self, now_ns: u64) -> bool {
         now_ns >= self.mailbox_check_ns
-    }
-
-    /// The periodic safety service if it is due. The PDI task calls it right after the
-    /// outputs of a cycle are in, where it delays no SM2 event ([`Self::poll`] leaves it
-    /// there in DC mode).
-    pub fn safety_service<P: Pdi>(
-        &mut self,
-        esc: &mut Et1100<P>,
-        stage: &A::Stage,
-        now_ns: u64,
-    ) -> PdiResult<PdiOutcome, P> {
-        let mut out = PdiOutcome::default();
-        if self.safety_service_due(now_ns) {
-            self.registers_service(esc, stage, now_ns, &mut out)?;
-        }
-        Ok(out)
-    }
-
-    /// The safety service, one access per call: the PDI error counter, then, in the next
-    /// call (the service is due until the mailbox registers are read), the mailbox from its
-    /// registers, which also sends an Emergency the first queued. In DC mode a cycle that
-    /// carried all three register reads had its next outputs late.
-    fn registers_service<P: Pdi>(
-        &mut self,
-        esc: &mut Et1100<P>,
-        stage: &A::Stage,
-        now_ns: u64,
-        out: &mut PdiOutcome,
-    ) -> PdiResult<(), P> {
-        if !self.pdi_errors_read {
-            self.report_pdi_errors(esc)?;
-            self.pdi_errors_read = true;
-            return Ok(());
-        }
-        let how = Service::Registers {
-            check_repeat: false,
-        };
-        self.serve_mailbox(esc, stage, now_ns, how, out)
     }
 
     /// The next safety service of the mailbox: [`SAFETY_SERVICE_MS`] after the registers were
@@ -776,35 +759,95 @@ impl<A: Application> SlaveApp<A> {
             AlState::Init => u64::MAX,
             _ => now_ns.saturating_add(u64::from(SAFETY_SERVICE_MS) * 1_000_000),
         };
-        // The next safety service starts with the PDI error counter again.
-        self.pdi_errors_read = false;
     }
 
-    fn serve_mailbox<P: Pdi>(
+    /// Asks for the periodic safety service: the PDI error counter, then the mailbox
+    /// registers, in the mailbox task. The register reads are the mailbox task's, below
+    /// this one, so they hold no SM2 event wherever in the cycle they fall.
+    fn want_safety_service(&mut self, now_ns: u64, out: &mut PdiOutcome) {
+        self.pdi_errors_due = true;
+        let how = Service::Registers {
+            check_repeat: false,
+        };
+        self.want_mailbox(now_ns, how, out);
+    }
+
+    /// Asks for the mailbox service `how` (run by [`Self::mailbox_step`]). Reading the
+    /// registers re-arms the periodic safety service.
+    fn want_mailbox(&mut self, now_ns: u64, how: Service, out: &mut PdiOutcome) {
+        if matches!(how, Service::Registers { .. }) {
+            self.arm_mailbox_check(now_ns);
+        }
+        self.mailbox.want(how);
+        // No mailbox events while the job waits or runs (the line would stay asserted).
+        self.mask_stale = true;
+        out.serve_mailbox = true;
+    }
+
+    /// One bounded step of the mailbox job ([`mailbox::MailboxLink::step`]: at most one
+    /// access of [`mailbox::CHUNK`] bytes to a mailbox buffer, a few to registers, or one
+    /// request through the SDO server). The mailbox task calls it, one step per lock of
+    /// the application and the ESC, while [`MailboxStep::more`] says so; the PDI and SYNC0
+    /// tasks run between two steps. The last step enables the mailbox events again.
+    // Out of line: the mailbox task's, not on the process-data path.
+    #[inline(never)]
+    pub fn mailbox_step<P: Pdi>(
         &mut self,
         esc: &mut Et1100<P>,
         stage: &A::Stage,
         now_ns: u64,
-        how: Service,
-        out: &mut PdiOutcome,
-    ) -> PdiResult<(), P> {
-        let state = self.esm.state();
-        self.mask_stale = true;
-        if matches!(how, Service::Registers { .. }) {
-            self.arm_mailbox_check(now_ns);
+    ) -> PdiResult<MailboxStep, P> {
+        if core::mem::take(&mut self.pdi_errors_due) {
+            // The safety service's first access, a step of its own.
+            self.report_pdi_errors(esc)?;
+            return Ok(MailboxStep {
+                more: true,
+                ..Default::default()
+            });
         }
+        let state = self.esm.state();
         // ns -> ms as (ns / 64) / 15625: a divisor below 2^16 keeps it to 32-bit divisions.
         let now_ms = div_u64_u32(now_ns >> 6, 15_625) as u32;
         let mailbox = &mut self.mailbox;
-        let served = self.app.with_objects(stage, now_ns, |objects| {
-            mailbox.service(esc, state, objects, now_ms, how)
+        let stepped = self.app.with_objects(stage, now_ns, |objects| {
+            mailbox.step(esc, state, objects, now_ms)
         });
+        let mut step = MailboxStep::default();
         // SDO-written outputs take effect in OP.
         let after = self.app.after_mailbox(state == AlState::Op, stage);
-        out.apply_outputs |= after.apply_outputs;
+        step.outcome.apply_outputs = after.apply_outputs;
         if let Some(e) = after.emergency {
             self.emergency(e);
         }
-        served
+        step.more = match stepped {
+            Ok(more) => more,
+            Err(e) => {
+                self.mask_stale = true;
+                return Err(e);
+            }
+        };
+        if !step.more {
+            self.mask_stale = true;
+            self.update_mask(esc)?;
+        }
+        Ok(step)
+    }
+
+    /// Runs the mailbox job to its end at once (host harnesses and tests that do not model
+    /// the mailbox task's priority).
+    pub fn serve_mailbox<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &A::Stage,
+        now_ns: u64,
+    ) -> PdiResult<PdiOutcome, P> {
+        let mut out = PdiOutcome::default();
+        loop {
+            let step = self.mailbox_step(esc, stage, now_ns)?;
+            out.apply_outputs |= step.outcome.apply_outputs;
+            if !step.more {
+                return Ok(out);
+            }
+        }
     }
 }

@@ -52,6 +52,8 @@ pub struct Done {
     /// Set the boot request and reset the CPU into the bootloader (a master's INIT -> BOOT,
     /// [`super::PdiOutcome::enter_bootloader`]).
     pub enter_bootloader: bool,
+    /// Pend the mailbox task ([`PdiTask::mailbox_step`]).
+    pub serve_mailbox: bool,
 }
 
 impl Done {
@@ -59,7 +61,21 @@ impl Done {
     fn take(&mut self, o: super::PdiOutcome) {
         self.apply_outputs |= o.apply_outputs;
         self.enter_bootloader |= o.enter_bootloader;
+        self.serve_mailbox |= o.serve_mailbox;
     }
+}
+
+/// Steps of the mailbox job in one activation of the mailbox task before it pends itself
+/// again (a bound: a job takes about 20 with 128-byte mailboxes).
+pub const MAILBOX_STEPS: u32 = 64;
+
+/// What one step of the mailbox task asks the hardware layer for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MailboxDone {
+    /// Step again (after releasing the lock, so higher priorities run first).
+    pub more: bool,
+    /// Pend the DAC task to apply the staged outputs now (SDO-written outputs in OP).
+    pub apply_outputs: bool,
 }
 
 /// Bounds the self-pends of a level IRQ seen through an edge interrupt.
@@ -113,8 +129,6 @@ pub struct PdiTask<A: Application> {
     bus_errors: u32,
     /// Background work put off to the next activation (the DAC task first).
     poll_deferred: bool,
-    /// The next activation follows a cycle's outputs: it runs the safety service.
-    service_deferred: bool,
 }
 
 impl<A: Application> PdiTask<A> {
@@ -126,7 +140,6 @@ impl<A: Application> PdiTask<A> {
             started: false,
             bus_errors: 0,
             poll_deferred: false,
-            service_deferred: false,
         }
     }
 
@@ -191,29 +204,19 @@ impl<A: Application> PdiTask<A> {
         }
         let mut done = Done::default();
         let deferred = core::mem::take(&mut self.poll_deferred);
-        let after_outputs = core::mem::take(&mut self.service_deferred);
         let mut poll = wake.poll || deferred;
         if wake.edge || wake.line_asserted {
             let r = self.app.on_pdi_irq(esc, stage, now_ns);
-            let sm2_event = r.as_ref().is_ok_and(|o| o.sm2_event);
             done.take(self.outcome(r, stage));
             done.preload_outputs = stage.dc_mode() && !done.apply_outputs;
-            let service = sm2_event && self.app.safety_service_due(now_ns);
-            if !deferred && (poll || service) && (done.apply_outputs || done.preload_outputs) {
+            if !deferred && poll && (done.apply_outputs || done.preload_outputs) {
                 // The DAC task is pended only when this activation returns: the outputs
                 // go first, the background work in the next activation, or a long one
-                // would push the DC preload past the SYNC0 edge. Right after the outputs
-                // of a cycle is also the one moment the safety service (the longest
-                // background work) delays no SM2 event. Put off once only, so a stuck
-                // line cannot keep the task pending itself.
+                // would push the DC preload past the SYNC0 edge. Put off once only, so a
+                // stuck line cannot keep the task pending itself.
                 self.poll_deferred = true;
-                self.service_deferred = sm2_event;
                 poll = false;
             }
-        }
-        if after_outputs {
-            let r = self.app.safety_service(esc, stage, now_ns);
-            done.take(self.outcome(r, stage));
         }
         if poll {
             drain(self.app.application_mut());
@@ -224,6 +227,47 @@ impl<A: Application> PdiTask<A> {
         }
         done.pend_again = self.line.after_serve(wake.edge, still_asserted()) || self.poll_deferred;
         done
+    }
+
+    /// One step of the mailbox task, which runs below this task and calls this under the
+    /// lock of the task's state and the ESC, one step per lock
+    /// ([`SlaveApp::mailbox_step`]). A failed access ends the job (counted).
+    pub fn mailbox_step<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &A::Stage,
+        now_ns: u64,
+    ) -> MailboxDone {
+        if !self.started {
+            return MailboxDone::default();
+        }
+        let r = self.app.mailbox_step(esc, stage, now_ns);
+        let more = r.as_ref().is_ok_and(|s| s.more);
+        let outcome = self.outcome(r.map(|s| s.outcome), stage);
+        MailboxDone {
+            more,
+            apply_outputs: outcome.apply_outputs,
+        }
+    }
+
+    /// Runs the mailbox task's steps at once, at most [`MAILBOX_STEPS`] of them as one
+    /// activation of the task does (host harnesses that do not model its priority). True
+    /// when a step asked for the staged outputs to be applied.
+    pub fn serve_mailbox<P: Pdi>(
+        &mut self,
+        esc: &mut Et1100<P>,
+        stage: &A::Stage,
+        now_ns: u64,
+    ) -> bool {
+        let mut apply_outputs = false;
+        for _ in 0..MAILBOX_STEPS {
+            let step = self.mailbox_step(esc, stage, now_ns);
+            apply_outputs |= step.apply_outputs;
+            if !step.more {
+                break;
+            }
+        }
+        apply_outputs
     }
 
     /// What to do after a call. A failed ESC access may have cut off an outcome that a
@@ -364,10 +408,16 @@ mod tests {
         ];
         assert!(esc.master_write_mailbox(&upload));
         esc.master_al_control(0x01);
-        t.run(&mut esc.driver(), &stage, 1_000, POLL, || true, |_| {});
+        let done = t.run(&mut esc.driver(), &stage, 1_000, POLL, || true, |_| {});
+        assert!(done.serve_mailbox, "the poll asks for the mailbox task");
+        assert!(
+            esc.master_read_mailbox().is_none(),
+            "not served by the PDI task"
+        );
+        while t.mailbox_step(&mut esc.driver(), &stage, 1_000).more {}
         let reply = esc
             .master_read_mailbox()
-            .expect("the poll served the mailbox");
+            .expect("the mailbox task served the mailbox");
         assert_eq!(reply[8], 0x43);
         assert_eq!(reply[12..16], 0x000C_0191u32.to_le_bytes());
         // The pending AL control request was not touched.

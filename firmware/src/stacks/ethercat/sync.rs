@@ -674,7 +674,7 @@ mod tests {
     use super::*;
 
     /// The figures of the tests: the analog products' (`crate::products`).
-    const MIN_CYCLE_TIME_NS: u32 = 90_000;
+    const MIN_CYCLE_TIME_NS: u32 = crate::products::analog_io::sync::MIN_CYCLE_TIME_NS;
     struct TestFigures;
     impl Figures for TestFigures {
         const SYNC: SyncFigures = FIGURES;

@@ -174,7 +174,10 @@ pub fn measure_stack(
         })
         .collect::<Vec<_>>()
         .join(", ");
-    let sweep = sweep_program(program, plan, None, &mut |c| {
+    // The peer's figures stay the ideal master's: its dictionary has none of the objects the
+    // image's SDO traffic reads.
+    let traffic = crate::traffic::Traffic::IDEAL;
+    let sweep = sweep_program(program, plan, None, &traffic, &mut |c| {
         progress(&format!(
             "{name}: cycle {:.1} us: {} (CPU load {:.1} %)",
             c.cycle_ns as f64 / 1e3,

@@ -101,7 +101,7 @@ the DAC model recorded it.
 
 Examples:
   cargo xtask sim
-  cargo xtask sim --cycle-us 100 --freq 1000 --seconds 0.05 --pcap sim.pcap
+  cargo xtask sim --cycle-us 1000 --freq 100 --seconds 0.05 --pcap sim.pcap
   sudo ip link add vb0 type veth peer name vb1 && sudo ip link set vb0 up && sudo ip link set vb1 up
   sudo cargo xtask sim --iface vb1          # then point a master at vb0 (docs/book/getting-started-virtual.md)
   cargo xtask sim --product analog-io-can --can-port 29536   # then python-canopen (docs/book/canopen.md)";

@@ -43,8 +43,9 @@ use std::time::{Duration, Instant};
 pub const MIN_CYCLE_US: u32 = 25;
 /// Longest cycle time accepted (us): 0x1C32:02 and 0x09A0 are 32-bit nanoseconds.
 pub const MAX_CYCLE_US: u32 = 4_000_000;
-/// Default cycle time (us).
-pub const DEFAULT_CYCLE_US: u32 = 100;
+/// Default cycle time (us): the module's advertised minimum (0x1C32:05), the shortest DC
+/// cycle it accepts.
+pub const DEFAULT_CYCLE_US: u32 = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS / 1000;
 /// Default frequencies of the loop-back experiment (the thesis: 50 Hz, 500 Hz, 1 kHz).
 pub const DEFAULT_FREQS_HZ: [f64; 3] = [50.0, 500.0, 1000.0];
 /// Default virtual time of the loop-back, per frequency (s): 5 periods at 50 Hz.

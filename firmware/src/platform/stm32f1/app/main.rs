@@ -5,15 +5,18 @@
 //!
 //! | task        | binds / kind                   | prio | owns                                   |
 //! |-------------|--------------------------------|------|----------------------------------------|
-//! | `sync0_dac` | TIM8_CC (CH1 capture, pend)    | 3    | SYNC0 capture, AD5663 + LDAC, `DacLatch` |
-//! | `pdi`       | EXTI0 (PC0 falling, pend)      | 2    | ET1100 (FSMC), sample consumer, `SlaveApp` |
-//! | `adc_dma`   | DMA1_CHANNEL2 (half ring)      | 1    | - (counts ring halves)                 |
+//! | `sync0_dac` | TIM8_CC (CH1 capture, pend)    | 4    | SYNC0 capture, AD5663 + LDAC, `DacLatch` |
+//! | `pdi`       | EXTI0 (PC0 falling, pend)      | 3    | `PdiSide`: ET1100 (FSMC), sample consumer, `SlaveApp` |
+//! | `adc_dma`   | DMA1_CHANNEL2 (half ring)      | 2    | - (counts ring halves)                 |
+//! | `mailbox`   | UART5 (pend only; UART5 unused) | 1   | - (`PdiSide` one bounded step per lock) |
 //! | `tick`      | SysTick, every 1 ms            | 1    | the watchdog (fed every 10 ms); requests the PDI task's background work |
 //! | `idle`      | -                              | 0    | `wfi`                                  |
 //!
 //! The task bodies are the LPC1754 image's (`src/main.rs`) without CAN and without the
 //! bootloader: the product has no bootstrap mailbox, so the slave application refuses BOOT
-//! and never asks for the bootloader. The tasks share only the lock-free `OutputStage`
+//! and never asks for the bootloader. The PDI and mailbox tasks share the `PdiSide` (the
+//! mailbox takes its lock for one bounded step at a time, so process data never waits for a
+//! whole mailbox exchange); otherwise the tasks share only the lock-free `OutputStage`
 //! (`&'static`), the sample ring and two request flags.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -41,7 +44,7 @@ mod rtic_app {
     use firmware::io::analog::AnalogApplication;
     use firmware::platform::stm32f1::time::CYCLE_HZ;
     use firmware::products::selected as product;
-    use firmware::stacks::ethercat::pdi_task::{PdiTask, Wake};
+    use firmware::stacks::ethercat::pdi_task::{PdiTask, Wake, MAILBOX_STEPS};
     use firmware::stacks::ethercat::SlaveApp;
     use stm32f1::stm32f103::Interrupt;
 
@@ -57,7 +60,11 @@ mod rtic_app {
     const FEED_TICKS: u32 = hw::wdt::FEED_PERIOD_MS * TICK_HZ / 1_000;
 
     #[shared]
-    struct Shared {}
+    struct Shared {
+        /// The slave application and the ESC: the PDI task's, lent to the mailbox task below
+        /// it one bounded step at a time.
+        pdi: &'static mut PdiSide,
+    }
 
     #[local]
     struct Local {
@@ -65,18 +72,18 @@ mod rtic_app {
         dac: Dac,
         latch: DacLatch,
         stage_dac: &'static OutputStage,
-        esc: Esc,
         esc_irq: EscIrq,
         esc_eeprom_loaded: InPin,
         stage_pdi: &'static OutputStage,
-        pdi: &'static mut PdiSide,
+        stage_mailbox: &'static OutputStage,
         wdt: Watchdog,
     }
 
-    /// The PDI task's state besides the ESC: the slave application and the consumer side
-    /// of the sample ring.
+    /// The PDI task's state: the slave application, the ESC and the consumer side of the
+    /// sample ring.
     pub struct PdiSide {
         task: PdiTask<product::Application>,
+        esc: Esc,
         samples_out: AdcSource,
     }
 
@@ -107,7 +114,7 @@ mod rtic_app {
         syst.clear_current();
 
         let hw::board::Board {
-            mut esc,
+            esc,
             esc_irq,
             esc_eeprom_loaded,
             sync0,
@@ -123,10 +130,11 @@ mod rtic_app {
 
         let pdi = cx.local.pdi_slot.write(PdiSide {
             task: PdiTask::new(SlaveApp::new(product::CONFIG, product::application())),
+            esc,
             samples_out: AdcSource::new(),
         });
         let ready = hw::board::wait_esc_eeprom_loaded(&esc_eeprom_loaded);
-        if !pdi.task.start(&mut esc, ready) {
+        if !pdi.task.start(&mut pdi.esc, ready) {
             defmt::warn!("ET1100 PDI not ready: the PDI task starts the application later");
         }
 
@@ -142,17 +150,16 @@ mod rtic_app {
 
         let stage: &'static OutputStage = cx.local.stage;
         (
-            Shared {},
+            Shared { pdi },
             Local {
                 sync0,
                 dac,
                 latch: DacLatch::new(),
                 stage_dac: stage,
-                esc,
                 esc_irq,
                 esc_eeprom_loaded,
                 stage_pdi: stage,
-                pdi,
+                stage_mailbox: stage,
                 wdt,
             },
         )
@@ -167,7 +174,7 @@ mod rtic_app {
 
     /// SYNC0 edge (TIM8_CH1 capture) -> latch the DAC pair; or, pended by the PDI task,
     /// apply now / preload the input registers for the next edge (DC fast path).
-    #[task(binds = TIM8_CC, priority = 3, local = [sync0, dac, latch, stage_dac])]
+    #[task(binds = TIM8_CC, priority = 4, local = [sync0, dac, latch, stage_dac])]
     fn sync0_dac(cx: sync0_dac::Context) {
         let stage = *cx.local.stage_dac;
         let result = match cx.local.sync0.on_interrupt() {
@@ -195,16 +202,20 @@ mod rtic_app {
 
     /// ESC IRQ (PC0 falling edge), pended after SYNC0 / by the tick, or by itself while the
     /// line stays asserted or background work waits behind the DAC task.
-    #[task(binds = EXTI0, priority = 2, local = [esc, esc_irq, esc_eeprom_loaded, stage_pdi, pdi])]
-    fn pdi(cx: pdi::Context) {
+    #[task(binds = EXTI0, priority = 3, local = [esc_irq, esc_eeprom_loaded, stage_pdi], shared = [pdi])]
+    fn pdi(mut cx: pdi::Context) {
+        // The highest priority of the resource's users: the lock costs nothing.
+        cx.shared.pdi.lock(|pdi| pdi_task(pdi, cx.local));
+    }
+
+    /// The body of the PDI task.
+    fn pdi_task(pdi: &mut PdiSide, local: pdi::LocalResources<'_>) {
         let pdi::LocalResources {
-            esc,
             esc_irq,
             esc_eeprom_loaded,
             stage_pdi,
-            pdi,
             ..
-        } = cx.local;
+        } = local;
         let wake = Wake {
             edge: esc_irq.acknowledge(),
             line_asserted: esc_irq.still_asserted(),
@@ -214,7 +225,7 @@ mod rtic_app {
         let now = hw::time::now_ns();
         let samples = &mut pdi.samples_out;
         let done = pdi.task.run(
-            esc,
+            &mut pdi.esc,
             stage_pdi,
             now,
             wake,
@@ -232,14 +243,40 @@ mod rtic_app {
         if done.pend_again {
             rtic::pend(Interrupt::EXTI0);
         }
+        if done.serve_mailbox {
+            rtic::pend(Interrupt::UART5);
+        }
         if done.enter_bootloader {
             // Not reachable with this product's configuration (no bootstrap mailbox).
             defmt::error!("BOOT requested, but this board has no bootloader");
         }
     }
 
+    /// The mailbox (SDO, SDO Information, Emergencies), pended by the PDI task when the
+    /// mailbox needs its service: one bounded step per lock of the PDI side
+    /// (`SlaveApp::mailbox_step`), so the SYNC0 and PDI tasks above it wait for one step at
+    /// most. UART5 is not used on this board: only software pends it.
+    #[task(binds = UART5, priority = 1, local = [stage_mailbox], shared = [pdi])]
+    fn mailbox(mut cx: mailbox::Context) {
+        let stage = *cx.local.stage_mailbox;
+        for _ in 0..MAILBOX_STEPS {
+            let now = hw::time::now_ns();
+            let step = cx
+                .shared
+                .pdi
+                .lock(|pdi| pdi.task.mailbox_step(&mut pdi.esc, stage, now));
+            if step.apply_outputs {
+                request_dac_apply();
+            }
+            if !step.more {
+                return;
+            }
+        }
+        rtic::pend(Interrupt::UART5);
+    }
+
     /// DMA1 channel 2: one interrupt per half ring.
-    #[task(binds = DMA1_CHANNEL2, priority = 1)]
+    #[task(binds = DMA1_CHANNEL2, priority = 2)]
     fn adc_dma(_: adc_dma::Context) {
         hw::adc::on_dma_interrupt();
     }
