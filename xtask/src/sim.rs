@@ -1,6 +1,6 @@
 //! `cargo xtask sim`: the virtual board (a software ET1100 + AD5663 + AD7689) driven by a
 //! real EtherCAT master, with the firmware's slave application compiled for the host
-//! (default) or, with `--image`, the release image on the LPC1754 co-simulator
+//! (default) or, with `--image`, the release image on the co-simulated LPC1754 or STM32F103
 //! (`tests/cosim`, run as its own binary: it links the GPL-2.0 unicorn engine, which stays
 //! out of xtask). The options are [`virtual_board::tools::sim::cli::SimArgs`].
 
@@ -14,8 +14,8 @@ use virtual_board::tools::sim::{self, Target};
 pub struct Args {
     #[command(flatten)]
     pub sim: SimArgs,
-    /// Run the release image (built first) on the LPC1754 co-simulator instead of the
-    /// host-compiled application; prints the image facts (instructions, cycles, CPU load,
+    /// Run the release image (built first) on the co-simulator of its board's MCU (LPC1754
+    /// or STM32F103) instead of the host-compiled application; prints the image facts (instructions, cycles, CPU load,
     /// stack, interrupts) too.
     #[arg(long)]
     pub image: bool,
@@ -23,14 +23,6 @@ pub struct Args {
 
 pub fn run(args: &Args) -> Result {
     let product = args.sim.product()?;
-    if product.board.mcu() != firmware::platform::board::Mcu::Lpc1754 {
-        return Err(format!(
-            "{}: the virtual board and the co-simulator model the LPC1754 board (the ET1100 on \
-             SPI) only; the image for \"{}\" is not simulated yet (docs/book/stm32.md, what \
-             comes next)",
-            product.name, product.board.name
-        ));
-    }
     if args.image {
         return run_image(product);
     }
@@ -40,6 +32,14 @@ pub fn run(args: &Args) -> Result {
              ring or LDAC timer, which the block PDOs are made of (docs/book/oversampling-loopback.md)"
                 .into(),
         );
+    }
+    if product.board.mcu() != firmware::platform::board::Mcu::Lpc1754 {
+        return Err(format!(
+            "{}: the host-compiled application runs the LPC1754 board (the ET1100 on SPI) \
+             only; `--image` runs the image for \"{}\" on the co-simulated STM32F103 \
+             (docs/book/stm32-cosim.md)",
+            product.name, product.board.name
+        ));
     }
     cli::run(
         &args.sim,

@@ -138,11 +138,19 @@ impl Blocks {
 
     /// The block of `size` bytes at `addr`; `bytes` reads its code when it is not in flash.
     pub fn get(&mut self, addr: u32, size: u32, bytes: impl FnOnce() -> Vec<u8>) -> &Block {
-        let slot = (addr / 2) as usize;
-        let in_flash = (addr as usize + size as usize) <= self.image.flash.len();
+        // Offset in the chip's flash (code runs from its flash base, the STM32's also from the
+        // alias at 0: both are the same blocks).
+        let off = addr.wrapping_sub(self.image.chip.flash().start);
+        let off = if off as usize >= self.image.flash.len() {
+            addr
+        } else {
+            off
+        };
+        let slot = (off / 2) as usize;
+        let in_flash = (off as usize + size as usize) <= self.image.flash.len();
         if in_flash {
             if self.flash[slot].as_ref().is_none_or(|b| b.size != size) {
-                let code = self.image.flash[addr as usize..(addr + size) as usize].to_vec();
+                let code = self.image.flash[off as usize..(off + size) as usize].to_vec();
                 let block = self.decode(addr, size, &code);
                 self.flash[slot] = Some(block);
             }

@@ -29,6 +29,9 @@ pub struct Options {
     /// From this virtual time on, interrupts stay disabled for ever (PRIMASK = 1 forced):
     /// a stuck critical section, for the watchdog test.
     pub lock_up_at_ns: Option<u64>,
+    /// The ET1100's BUSY times on its µC PDI (the STM32F103's FSMC) instead of the model's
+    /// `BusTiming::NO_CLASH` (both ends of the UNCONFIRMED range can be run).
+    pub esc_bus_timing: Option<virtual_board::models::esc::parallel::BusTiming>,
 }
 
 /// What the co-simulation shows about the image (the "image facts").
@@ -64,6 +67,11 @@ pub struct Facts {
     pub samples: SampleWatch,
     /// AD7689 frames lost to a full SSP1 RX FIFO.
     pub ssp1_overruns: u64,
+    /// FSMC bus cycles to the ET1100 (the STM32F103) and the time they took (ns, BUSY
+    /// included).
+    pub fsmc_cycles: u64,
+    /// See [`Facts::fsmc_cycles`].
+    pub fsmc_ns: u64,
     /// SYNC0 edges captured by CAP1.0 whose capture the CPU never read before the next one.
     pub sync0_unserved: u64,
     /// Problems the models reported.
@@ -225,6 +233,15 @@ impl Facts {
             t.can_sent,
             t.can_received
         );
+        if self.fsmc_cycles > 0 {
+            let _ = writeln!(
+                s,
+                "image: ET1100 on FSMC bank 1: {} bus cycles, {:.1} us of bus time ({:.0} ns each)",
+                self.fsmc_cycles,
+                self.fsmc_ns as f64 / 1e3,
+                self.fsmc_ns as f64 / self.fsmc_cycles as f64
+            );
+        }
         let w = &self.samples;
         let _ = writeln!(
             s,
@@ -248,6 +265,31 @@ impl Facts {
         }
         s
     }
+}
+
+/// The name of exception `n` on the STM32F103 (RM0008 table 63; the ones the image binds, the
+/// others by number).
+fn stm32_irq_name(irq: u32) -> Option<&'static str> {
+    use crate::stm32::irq;
+    Some(match irq {
+        irq::EXTI0 => "EXTI0",
+        irq::TIM3 => "TIM3",
+        irq::SPI1 => "SPI1",
+        irq::SPI2 => "SPI2",
+        irq::TIM8_CC => "TIM8_CC",
+        n if (irq::DMA1_CHANNEL1..irq::DMA1_CHANNEL1 + 7).contains(&n) => [
+            "DMA1_CH1", "DMA1_CH2", "DMA1_CH3", "DMA1_CH4", "DMA1_CH5", "DMA1_CH6", "DMA1_CH7",
+        ][(n - irq::DMA1_CHANNEL1) as usize],
+        _ => return None,
+    })
+}
+
+/// The name of exception `n` on `chip`.
+pub fn exception_name_on(chip: crate::chip::Chip, n: u32) -> String {
+    if chip == crate::chip::Chip::Stm32f103 && n >= exc::IRQ0 {
+        return stm32_irq_name(n - exc::IRQ0).map_or(format!("IRQ{}", n - exc::IRQ0), String::from);
+    }
+    exception_name(n)
 }
 
 /// The name of exception `n` on the LPC17xx.
@@ -291,6 +333,9 @@ impl Cosim {
         if let Some(p) = options.pconp_at_reset {
             machine.pconp_at_reset = p;
             machine.reset(ResetCause::SysResetReq);
+        }
+        if let (Some(t), Some(p)) = (options.esc_bus_timing, machine.stm32.as_mut()) {
+            p.esc_port.timing = t;
         }
         let machine = Rc::new(RefCell::new(machine));
         let core = Core::new(image.clone(), machine).map_err(ImageError::Elf)?;
@@ -346,7 +391,7 @@ impl Cosim {
             .iter()
             .enumerate()
             .filter(|(n, e)| *n == THREAD as usize || e.count > 0)
-            .map(|(n, e)| (n as u32, exception_name(n as u32), e.clone()))
+            .map(|(n, e)| (n as u32, exception_name_on(m.chip, n as u32), e.clone()))
             .collect();
         let priorities = m
             .profile
@@ -390,6 +435,8 @@ impl Cosim {
             traffic: m.traffic.clone(),
             samples: m.ahb_sram.watch.clone(),
             ssp1_overruns: m.ssp1_overruns(),
+            fsmc_cycles: m.stm32.as_ref().map_or(0, |p| p.fsmc_accesses),
+            fsmc_ns: m.stm32.as_ref().map_or(0, |p| p.fsmc_ns),
             sync0_unserved: m.sync0_unserved(),
             reports: m.reports.clone(),
             fault: self.core.fault.clone(),

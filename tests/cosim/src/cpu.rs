@@ -12,6 +12,7 @@
 //! instructions late, never inside an IT block).
 
 use crate::ahb_sram;
+use crate::chip::{Chip, Span};
 use crate::iap;
 use crate::image::Image;
 use crate::machine::{Machine, ResetCause, Stop, ENTRY_CYCLES, RETURN_CYCLES, TAIL_CHAIN_CYCLES};
@@ -27,7 +28,7 @@ pub type Shared = Rc<RefCell<Machine>>;
 /// The engine with the machine as its data.
 pub type Engine = Unicorn<'static, Shared>;
 
-/// Local SRAM (16 KB).
+/// The LPC1754's local SRAM (16 KB).
 pub const SRAM: (u32, u32) = (0x1000_0000, 0x4000);
 /// The pattern painted over the stack to find its deepest use.
 pub const STACK_PAINT: u32 = 0xC5C5_C5C5;
@@ -40,8 +41,8 @@ impl Memory for EngineMem<'_, '_> {
         self.0.mem_read(u64::from(addr), buf).is_ok()
     }
     fn write(&mut self, addr: u32, data: &[u8]) -> bool {
-        let in_sram = addr >= SRAM.0 && addr + data.len() as u32 <= SRAM.0 + SRAM.1;
-        in_sram && self.0.mem_write(u64::from(addr), data).is_ok()
+        let sram = self.0.get_data().borrow().chip.sram();
+        sram.contains(addr, data.len() as u32) && self.0.mem_write(u64::from(addr), data).is_ok()
     }
 }
 
@@ -138,6 +139,70 @@ impl Core {
         }
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine.clone())
             .map_err(err("open"))?;
+        if image.chip == Chip::Stm32f103 {
+            crate::stm32::map_memory(&mut uc, &image, &machine)?;
+        } else {
+            Self::map_lpc1754(&mut uc, &image, &machine)?;
+        }
+        uc.add_block_hook(1, 0, block_hook)
+            .map_err(err("block hook"))?;
+        if image.app_vectors != 0 {
+            // The stack is measured from the application's start: the bootloader before it
+            // runs on the same RAM.
+            let entry = u64::from(image.app_entry());
+            let (floor, top) = (image.stack_floor, image.initial_sp());
+            let sram = image.chip.sram();
+            uc.add_code_hook(entry, entry, move |uc: &mut Unicorn<'_, Shared>, _, _| {
+                paint(uc, sram, floor, top);
+            })
+            .map_err(err("application entry hook"))?;
+        }
+        uc.add_mem_hook(
+            HookType::MEM_UNMAPPED | HookType::MEM_PROT,
+            1,
+            0,
+            |uc: &mut Unicorn<'_, Shared>, kind: MemType, addr: u64, size: usize, value: i64| {
+                let what = match kind {
+                    MemType::READ_UNMAPPED => format!("read of unmapped {addr:#010x} ({size} B)"),
+                    MemType::WRITE_UNMAPPED => {
+                        format!("write of {value:#x} to unmapped {addr:#010x} ({size} B)")
+                    }
+                    MemType::FETCH_UNMAPPED | MemType::FETCH_PROT => {
+                        if (0x1FFF_0000..0x2000_0000).contains(&addr) {
+                            format!("call into the boot ROM at {addr:#010x} (IAP/ROM not modelled)")
+                        } else {
+                            format!("instruction fetch from {addr:#010x}")
+                        }
+                    }
+                    MemType::WRITE_PROT => format!("write of {value:#x} to flash at {addr:#010x}"),
+                    other => format!("{other:?} at {addr:#010x}"),
+                };
+                let m = uc.get_data().clone();
+                m.borrow_mut().stop = Some(Stop::Fault(what));
+                false
+            },
+        )
+        .map_err(err("memory hook"))?;
+        uc.add_intr_hook(intr_hook).map_err(err("interrupt hook"))?;
+        let mut core = Self {
+            uc,
+            machine,
+            sleeping: false,
+            fault: None,
+            resets: Vec::new(),
+            image,
+        };
+        core.paint_stack();
+        core.reset_core()?;
+        Ok(core)
+    }
+
+    /// The LPC1754's memory: flash at 0, the local SRAM, the AHB SRAM (the machine's), the
+    /// APB slots, FIO, GPDMA, SCS, and the IAP ROM's entry.
+    fn map_lpc1754(uc: &mut Engine, image: &Image, machine: &Shared) -> Result<(), String> {
+        fn err(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
+            move |e| format!("unicorn: {what}: {e:?}")
+        }
         uc.mem_map(0, image.flash.len() as u64, Prot::READ | Prot::EXEC)
             .map_err(err("flash"))?;
         uc.mem_write(0, &image.flash)
@@ -188,62 +253,14 @@ impl Core {
             )
             .map_err(err("peripheral map"))?;
         }
-        iap::map(&mut uc)?;
-        uc.add_block_hook(1, 0, block_hook)
-            .map_err(err("block hook"))?;
-        if image.app_vectors != 0 {
-            // The stack is measured from the application's start: the bootloader before it
-            // runs on the same RAM.
-            let entry = u64::from(image.app_entry());
-            let (floor, top) = (image.stack_floor, image.initial_sp());
-            uc.add_code_hook(entry, entry, move |uc: &mut Unicorn<'_, Shared>, _, _| {
-                paint(uc, floor, top);
-            })
-            .map_err(err("application entry hook"))?;
-        }
-        uc.add_mem_hook(
-            HookType::MEM_UNMAPPED | HookType::MEM_PROT,
-            1,
-            0,
-            |uc: &mut Unicorn<'_, Shared>, kind: MemType, addr: u64, size: usize, value: i64| {
-                let what = match kind {
-                    MemType::READ_UNMAPPED => format!("read of unmapped {addr:#010x} ({size} B)"),
-                    MemType::WRITE_UNMAPPED => {
-                        format!("write of {value:#x} to unmapped {addr:#010x} ({size} B)")
-                    }
-                    MemType::FETCH_UNMAPPED | MemType::FETCH_PROT => {
-                        if (0x1FFF_0000..0x2000_0000).contains(&addr) {
-                            format!("call into the boot ROM at {addr:#010x} (IAP/ROM not modelled)")
-                        } else {
-                            format!("instruction fetch from {addr:#010x}")
-                        }
-                    }
-                    MemType::WRITE_PROT => format!("write of {value:#x} to flash at {addr:#010x}"),
-                    other => format!("{other:?} at {addr:#010x}"),
-                };
-                let m = uc.get_data().clone();
-                m.borrow_mut().stop = Some(Stop::Fault(what));
-                false
-            },
-        )
-        .map_err(err("memory hook"))?;
-        uc.add_intr_hook(intr_hook).map_err(err("interrupt hook"))?;
-        let mut core = Self {
-            uc,
-            machine,
-            sleeping: false,
-            fault: None,
-            resets: Vec::new(),
-            image,
-        };
-        core.paint_stack();
-        core.reset_core()?;
-        Ok(core)
+        iap::map(uc)?;
+        Ok(())
     }
 
     fn paint_stack(&mut self) {
         paint(
             &mut self.uc,
+            self.image.chip.sram(),
             self.image.stack_floor,
             self.image.initial_sp(),
         );
@@ -258,7 +275,7 @@ impl Core {
     /// paint.
     pub fn stack_high_water(&self) -> u32 {
         let (floor, top) = (self.image.stack_floor, self.image.initial_sp());
-        if !stack_in_sram(floor, top) {
+        if !stack_in_sram(self.image.chip.sram(), floor, top) {
             return 0;
         }
         let n = (top - floor) as usize;
@@ -589,14 +606,14 @@ impl Core {
     }
 }
 
-/// Whether `floor..top` is a stack in the local SRAM.
-fn stack_in_sram(floor: u32, top: u32) -> bool {
-    floor >= SRAM.0 && top > floor && top <= SRAM.0 + SRAM.1
+/// Whether `floor..top` is a stack in the chip's SRAM.
+fn stack_in_sram(sram: Span, floor: u32, top: u32) -> bool {
+    top > floor && sram.contains(floor, top - floor)
 }
 
-/// Paints the local SRAM from `floor` up to `top` (a stack) with [`STACK_PAINT`].
-fn paint(uc: &mut Unicorn<'_, Shared>, floor: u32, top: u32) {
-    if stack_in_sram(floor, top) {
+/// Paints the SRAM from `floor` up to `top` (a stack) with [`STACK_PAINT`].
+fn paint(uc: &mut Unicorn<'_, Shared>, sram: Span, floor: u32, top: u32) {
+    if stack_in_sram(sram, floor, top) {
         let n = (top - floor) as usize;
         let bytes: Vec<u8> = STACK_PAINT
             .to_le_bytes()

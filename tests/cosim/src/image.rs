@@ -1,4 +1,5 @@
-//! The firmware as the LPC1754's flash holds it: the ELFs' loadable segments at their load
+//! The firmware as the microcontroller's flash holds it (the LPC1754's, or the STM32F103's,
+//! told by where the ELF is linked, [`Chip::of_load_address`]): the ELFs' loadable segments at their load
 //! addresses (`.data`'s initial values included), the symbols the co-simulator needs, and
 //! the boot ROM's checks (UM10360 32.3 and 32.6): the vector checksum (words 0..7 sum to 0,
 //! else the ROM stays in ISP and never starts the image) and the Code Read Protection word
@@ -9,6 +10,7 @@
 //! application slot ([`Image::from_programs`]). A single ELF from 0 also loads
 //! ([`Image::from_elf`], for tests of the boot ROM's checks).
 
+use crate::chip::Chip;
 use firmware::platform::boot::header::{Header, HeaderRepr, Target};
 use firmware::platform::boot::layout::{APP_SLOT, APP_VECTORS, HEADER_BLOCK};
 use object::elf::PT_LOAD;
@@ -56,6 +58,8 @@ pub enum ImageError {
     Elf(String),
     /// A segment outside the flash.
     OutsideFlash(u32, usize),
+    /// The programs are linked for different chips.
+    MixedChips,
     /// The boot ROM's vector checksum does not hold.
     Checksum {
         /// Sum of words 0..7 (must be 0).
@@ -73,8 +77,9 @@ impl fmt::Display for ImageError {
             ImageError::Elf(e) => write!(f, "cannot load the image: {e}"),
             ImageError::OutsideFlash(a, n) => write!(
                 f,
-                "a loadable segment of {n} bytes at {a:#010x} lies outside the 128 KB flash"
+                "a loadable segment of {n} bytes at {a:#010x} lies outside the chip's flash"
             ),
+            ImageError::MixedChips => write!(f, "the programs are linked for different chips"),
             ImageError::Checksum {
                 sum,
                 stored,
@@ -94,7 +99,12 @@ impl std::error::Error for ImageError {}
 /// A loaded image.
 #[derive(Clone)]
 pub struct Image {
-    /// Flash contents (erased bytes 0xFF).
+    /// The chip the image is linked for.
+    pub chip: Chip,
+    /// The product the image is, when the loader knows it ([`Image::product`] otherwise
+    /// reads the update file's header).
+    pub known_product: Option<&'static firmware::products::Product>,
+    /// Flash contents from the chip's flash base (erased bytes 0xFF).
     pub flash: Vec<u8>,
     /// Bytes of flash the segments occupy (highest end).
     pub flash_used: usize,
@@ -117,10 +127,26 @@ pub struct Image {
     pub stack_floor: u32,
 }
 
-/// The loadable segments of an ELF into `flash`; the highest end.
+/// The chip an ELF is linked for: the flash its lowest loadable segment is in.
+fn chip_of(data: &[u8]) -> Result<Chip, ImageError> {
+    let elf = ElfFile32::<Endianness>::parse(data).map_err(|e| ImageError::Elf(e.to_string()))?;
+    let e = elf.endian();
+    let lowest = elf
+        .elf_program_headers()
+        .iter()
+        .filter(|ph| ph.p_type(e) == PT_LOAD && ph.p_filesz(e) != 0)
+        .map(|ph| ph.p_paddr(e))
+        .min()
+        .ok_or_else(|| ImageError::Elf("no loadable segment".into()))?;
+    Chip::of_load_address(lowest).ok_or(ImageError::OutsideFlash(lowest, 0))
+}
+
+/// The loadable segments of an ELF into `flash` (the chip's flash from its base); the
+/// highest end (offset from the base).
 fn load_segments(data: &[u8], flash: &mut [u8]) -> Result<usize, ImageError> {
     let elf = ElfFile32::<Endianness>::parse(data).map_err(|e| ImageError::Elf(e.to_string()))?;
     let e = elf.endian();
+    let base = chip_of(data)?.flash().start as usize;
     let mut used = 0;
     for ph in elf.elf_program_headers() {
         if ph.p_type(e) != PT_LOAD || ph.p_filesz(e) == 0 {
@@ -129,10 +155,11 @@ fn load_segments(data: &[u8], flash: &mut [u8]) -> Result<usize, ImageError> {
         let bytes = ph
             .data(e, data)
             .map_err(|_| ImageError::Elf("bad program header".into()))?;
-        let at = ph.p_paddr(e) as usize;
-        let end = at + bytes.len();
-        if end > FLASH_SIZE {
-            return Err(ImageError::OutsideFlash(at as u32, bytes.len()));
+        let addr = ph.p_paddr(e);
+        let at = (addr as usize).wrapping_sub(base);
+        let end = at.wrapping_add(bytes.len());
+        if at > flash.len() || end > flash.len() {
+            return Err(ImageError::OutsideFlash(addr, bytes.len()));
         }
         flash[at..end].copy_from_slice(bytes);
         used = used.max(end);
@@ -165,11 +192,12 @@ impl Image {
         Self::from_elf(data)
     }
 
-    /// Loads an ELF image from bytes (a program linked at 0).
+    /// Loads an ELF image from bytes (a program linked at the start of its chip's flash).
     pub fn from_elf(data: Vec<u8>) -> Result<Self, ImageError> {
         let elf = ElfFile32::<Endianness>::parse(data.as_slice())
             .map_err(|e| ImageError::Elf(e.to_string()))?;
-        let mut flash = vec![0xFF; FLASH_SIZE];
+        let chip = chip_of(&data)?;
+        let mut flash = vec![0xFF; chip.flash().len as usize];
         let used = load_segments(&data, &mut flash)?;
         let rtt = elf
             .symbols()
@@ -195,8 +223,10 @@ impl Image {
         let stack_floor = elf
             .symbols()
             .find(|s| s.name() == Ok("__StackLimit"))
-            .map_or(crate::cpu::SRAM.0, |s| s.address() as u32);
+            .map_or(chip.sram().start, |s| s.address() as u32);
         Ok(Self {
+            chip,
+            known_product: None,
             flash,
             flash_used: used,
             flash_bytes,
@@ -219,6 +249,9 @@ impl Image {
         update_file: &[u8],
     ) -> Result<Self, ImageError> {
         let mut image = Self::from_elf(app_elf)?;
+        if chip_of(bootloader_elf)? != image.chip {
+            return Err(ImageError::MixedChips);
+        }
         let mut flash = vec![0xFF; FLASH_SIZE];
         load_segments(bootloader_elf, &mut flash)?;
         let slot = APP_SLOT.start as usize;
@@ -247,6 +280,9 @@ impl Image {
     /// The product whose update file the application slot holds (by its header's product
     /// code), if any.
     pub fn product(&self) -> Option<&'static firmware::products::Product> {
+        if self.known_product.is_some() {
+            return self.known_product;
+        }
         let slot = APP_SLOT.start as usize;
         let block = self.flash.get(slot..slot + HEADER_BLOCK as usize)?;
         let header = HeaderRepr::parse(&Header::new_unchecked(block)).ok()?;
@@ -261,8 +297,13 @@ impl Image {
         u32::from_le_bytes(self.flash[addr..addr + 4].try_into().expect("4 bytes"))
     }
 
-    /// The boot ROM's checks: the vector checksum must hold; returns the CRP level.
+    /// The boot ROM's checks: the vector checksum must hold; returns the CRP level. The
+    /// STM32 boots from its flash without a checksum (its read protection is an option
+    /// byte, not modelled: [`Crp::None`]).
     pub fn boot_rom_check(&self) -> Result<Crp, ImageError> {
+        if self.chip != Chip::Lpc1754 {
+            return Ok(Crp::None);
+        }
         let sum = (0..8).fold(0u32, |a, i| a.wrapping_add(self.word(4 * i)));
         if sum != 0 {
             let stored = self.word(0x1C);
@@ -361,6 +402,8 @@ mod tests {
     #[test]
     fn checksum_rule_and_crp() {
         let mut img = Image {
+            chip: Chip::Lpc1754,
+            known_product: None,
             flash: vec![0xFF; FLASH_SIZE],
             flash_used: 0,
             rtt: None,
@@ -369,7 +412,7 @@ mod tests {
             static_ram: 0,
             flash_bytes: 0,
             app_vectors: 0,
-            stack_floor: crate::cpu::SRAM.0,
+            stack_floor: Chip::Lpc1754.sram().start,
         };
         for i in 0..7 {
             img.flash[4 * i..4 * i + 4].copy_from_slice(&(0x1000_0000u32 + i as u32).to_le_bytes());

@@ -14,18 +14,23 @@
 //! | [`nvic`]     | NVIC, SCB, SysTick: pending, active, priorities, masks                |
 //! | [`periph`]   | SYSCON, PINSEL, GPIO, SPI, SSP, timers, GPDMA, WDT from UM10360        |
 //! | [`ahb_sram`] | the GPDMA's SRAM, watched for samples lost before the CPU read them    |
+//! | [`chip`]     | which microcontroller: memory map, NVIC, time model                   |
+//! | [`stm32`]    | the STM32F103's peripherals after RM0008 (the second board)            |
 //! | [`machine`]  | the bus, time, events, and the board wiring of the pin map            |
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
 //! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
 //! | [`profile`]  | cycles and stack per exception, instructions per function             |
 //! | [`thumb`]    | Thumb instruction length and how each moves SP                        |
 //! | [`bench`]    | the image's figures for `cargo xtask bench` (profile run, cycle sweep) |
+//! | [`boards`]   | both boards' images swept the same way, side by side                   |
 //! | [`cosim`]    | all of it as the virtual board's CPU ([`cosim::Cosim`])                |
 //! | [`peer`]     | other stacks on the same board (SOES): image, SII, figures, conformance |
 //! | [`traffic`]  | a real master's traffic in the DC runs: mailbox in OP, jitter, moving inputs |
 
 pub mod ahb_sram;
 pub mod bench;
+pub mod boards;
+pub mod chip;
 pub mod code;
 pub mod cosim;
 pub mod cpu;
@@ -39,5 +44,6 @@ pub mod periph;
 pub mod profile;
 pub mod rtt;
 pub mod run;
+pub mod stm32;
 pub mod thumb;
 pub mod traffic;

@@ -11,8 +11,14 @@
 //! in function 0 and PWM1.4 in function 1 (each PWM edge at its own time); CAN1 reaches the
 //! board's CAN bus only on P0.0/P0.1 (function 1) at the bus's bit rate. Anything else moves no data
 //! and is reported, as is any access to a peripheral whose PCONP bit is off.
+//!
+//! On the STM32F103 ([`Machine::stm32`]) the time, events, NVIC and profile are these, and
+//! the bus, the peripherals and the board wiring are [`stm32`]'s.
+
+pub mod stm32;
 
 use crate::ahb_sram::AhbSram;
+use crate::chip::{Chip, Cpi};
 use crate::code::Blocks;
 use crate::image::Image;
 use crate::nvic::{irq, Scs};
@@ -220,6 +226,12 @@ pub struct Traffic {
 
 /// The chip without the core.
 pub struct Machine {
+    /// Which chip it is.
+    pub chip: Chip,
+    cpi: Cpi,
+    /// The STM32F103's peripherals and board parts (None on the LPC1754, whose peripherals
+    /// are the fields below).
+    pub stm32: Option<Box<stm32::Stm32Parts>>,
     /// Board handles.
     pub io: BoardIo,
     now_ps: u64,
@@ -283,7 +295,15 @@ pub struct Machine {
 impl Machine {
     /// A chip at power-on with `image` in its flash, on `io`'s board.
     pub fn new(io: BoardIo, image: Rc<Image>) -> Self {
+        let chip = image.chip;
         let mut m = Self {
+            chip,
+            cpi: chip.cpi(),
+            stm32: (chip == Chip::Stm32f103).then(|| {
+                Box::new(stm32::Stm32Parts::new(
+                    virtual_board::models::esc::parallel::BusTiming::NO_CLASH,
+                ))
+            }),
             io,
             now_ps: 0,
             cycle_ps: 0,
@@ -295,7 +315,7 @@ impl Machine {
             check_preempt: false,
             next_event_ns: u64::MAX,
             event_ns: None,
-            scs: Scs::new(),
+            scs: Scs::with_spec(chip.nvic()),
             syscon: Syscon::new(PCONP_RESET, 1),
             pincon: PinConnect::new(),
             gpio: Gpio::new(),
@@ -337,7 +357,10 @@ impl Machine {
         let watchdog = cause == ResetCause::Watchdog;
         // RSID: WDTR b2 after a watchdog reset.
         self.syscon = Syscon::new(self.pconp_at_reset, if watchdog { 4 } else { 0 });
-        self.scs = Scs::new();
+        self.scs = Scs::with_spec(self.chip.nvic());
+        if self.stm32.is_some() {
+            self.stm32_reset(cause);
+        }
         self.pincon = PinConnect::new();
         self.gpio = Gpio::new();
         self.gpioint = GpioInt::new();
@@ -392,31 +415,40 @@ impl Machine {
     }
 
     fn update_cycle_time(&mut self) {
-        self.cycle_ps = 1_000_000_000_000 / self.syscon.cclk_hz().max(1);
+        self.cycle_ps = 1_000_000_000_000 / self.cclk_hz().max(1);
     }
 
     /// SYNC0 captures (CAP1.0) overwritten by the next edge before the CPU read them: edges
     /// the SYNC0 task never served.
     pub fn sync0_unserved(&self) -> u64 {
+        if self.stm32.is_some() {
+            return self.stm32_sync0_unserved();
+        }
         self.timers[1].captures_unread[0]
     }
 
-    /// Frames SSP1 lost to a full RX FIFO.
+    /// Frames SSP1 (the STM32's SPI1) lost to a full RX FIFO (an unread RX buffer).
     pub fn ssp1_overruns(&self) -> u64 {
-        self.ssp1.overruns
+        match &self.stm32 {
+            Some(p) => p.chip.spi1.overruns,
+            None => self.ssp1.overruns,
+        }
     }
 
     /// The CPU clock now.
     pub fn cclk_hz(&self) -> u64 {
+        if self.stm32.is_some() {
+            return self.stm32_hclk_hz();
+        }
         self.syscon.cclk_hz()
     }
 
     /// Accounts `n` instructions.
     pub fn run_instructions(&mut self, n: u64) {
         self.instructions += n;
-        let q = n * CPI_NUM + self.insn_rem;
-        self.insn_rem = q % CPI_DEN;
-        self.add_cycles(q / CPI_DEN);
+        let q = n * self.cpi.num + self.insn_rem;
+        self.insn_rem = q % self.cpi.den;
+        self.add_cycles(q / self.cpi.den);
     }
 
     /// Accounts `c` cycles (exception overhead) to the current context.
@@ -481,6 +513,7 @@ impl Machine {
             self.wdt.next_event(),
             self.scs.systick.next_wrap().map(|c| cycle_ns(c, self)),
             self.io.can.bus.borrow().next_event_ns(),
+            self.stm32.as_ref().and_then(|_| self.stm32_next_event()),
         ]
         .into_iter()
         .flatten()
@@ -514,6 +547,11 @@ impl Machine {
                 self.scs.set_pending(crate::nvic::exc::SYSTICK);
             }
         }
+        if self.stm32.is_some() {
+            self.stm32_service();
+            self.settle();
+            return;
+        }
         let t = self.tick_for(Region::Wdt);
         self.wdt.on_event(t);
         if self.wdt.take_reset_request() {
@@ -537,6 +575,11 @@ impl Machine {
 
     /// After any change: frames to the devices, pins, DMA, interrupt lines, schedule.
     pub fn settle(&mut self) {
+        if self.stm32.is_some() {
+            self.stm32_settle();
+            self.reschedule();
+            return;
+        }
         for _ in 0..16 {
             let mut moved = self.exchange_ssp0();
             moved |= self.exchange_ssp1();
@@ -602,6 +645,10 @@ impl Machine {
 
     /// Inputs from the board into the pins: ESC IRQ (active low), EEPROM_LOADED.
     pub fn refresh_inputs(&mut self) {
+        if self.stm32.is_some() {
+            self.stm32_refresh_inputs();
+            return;
+        }
         let (irq, loaded) = {
             let esc = self.io.esc.esc().borrow();
             (esc.irq(), esc.pdi_operational())
@@ -808,6 +855,10 @@ impl Machine {
 
     /// A SYNC0 rising edge from the ESC at the current time.
     pub fn sync0_edge(&mut self) {
+        if self.stm32.is_some() {
+            self.stm32_sync0_edge();
+            return;
+        }
         if self.func(pins::ESC_SYNC0) != 3 {
             let f = self.func(pins::ESC_SYNC0);
             self.report(format!(
@@ -1219,6 +1270,9 @@ impl Machine {
     /// A CPU access of `size` bytes at `addr` (sub-word accesses as the APB's byte lanes).
     pub fn cpu_read(&mut self, addr: u32, size: usize) -> u32 {
         self.service_due();
+        if self.stm32.is_some() {
+            return self.stm32_cpu_read(addr, size);
+        }
         let base = Self::slot(addr);
         let shift = 8 * (addr & 3);
         let v = self.bus_read_region(base, (addr - base) & !3) >> shift;
@@ -1233,6 +1287,10 @@ impl Machine {
     /// A CPU write.
     pub fn cpu_write(&mut self, addr: u32, size: usize, value: u32) {
         self.service_due();
+        if self.stm32.is_some() {
+            self.stm32_cpu_write(addr, size, value);
+            return;
+        }
         let base = Self::slot(addr);
         let offset = addr - base;
         if Region::of_base(base) == Region::Scs && size < 4 {
@@ -1268,6 +1326,8 @@ mod tests {
     fn machine() -> (Board, Machine) {
         let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
         let image = Image {
+            chip: crate::chip::Chip::Lpc1754,
+            known_product: None,
             flash: vec![0xFF; 0x8_0000],
             flash_used: 0,
             rtt: None,
@@ -1276,7 +1336,7 @@ mod tests {
             static_ram: 0,
             flash_bytes: 0,
             app_vectors: 0,
-            stack_floor: crate::cpu::SRAM.0,
+            stack_floor: crate::chip::Chip::Lpc1754.sram().start,
         };
         let m = Machine::new(board.io(), Rc::new(image));
         (board, m)

@@ -10,7 +10,7 @@
 
 use clap::{Parser, Subcommand};
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_path, image_target, load_image, CosimHandle};
+use lpc1754_cosim::run::{image_path, image_target, load_image, load_image_of, CosimHandle};
 use std::process::ExitCode;
 use virtual_board::tools::sim;
 use virtual_board::tools::sim::cli::{self, SimArgs};
@@ -67,6 +67,16 @@ enum Command {
         /// as JSON to FILE, for `cargo xtask bench`'s plot.
         #[arg(long, value_name = "FILE")]
         loopback_json: Option<std::path::PathBuf>,
+    },
+    /// Both boards' release images (the default product on the LPC1754, the STM32F103's
+    /// product) swept for the shortest sustained DC cycle, side by side (Markdown).
+    Boards {
+        /// The short form: fewer cycles per run, a coarser sweep.
+        #[arg(long)]
+        quick: bool,
+        /// The LPC1754 row from `bench --json`'s figures (its sweep) instead of a new sweep.
+        #[arg(long, value_name = "FILE")]
+        lpc_figures: Option<std::path::PathBuf>,
     },
     /// This project's image and a peer stack (SOES, `$SOES_IMAGE` or `cargo xtask peer
     /// soes`'s output) measured the same way, and the conformance checks of both.
@@ -160,6 +170,60 @@ fn bench(
         }
         None => print!("{}", lpc1754_cosim::bench::summary(&figures)),
     }
+    Ok(())
+}
+
+fn boards(quick: bool, lpc_figures: Option<&std::path::Path>) -> Result<(), String> {
+    use firmware::platform::board::Mcu;
+    use firmware::products::{default, PRODUCTS};
+    use lpc1754_cosim::boards::{measure, table, BoardFigures};
+    let stm32 = PRODUCTS
+        .iter()
+        .find(|p| p.board.mcu() == Mcu::Stm32f103vc)
+        .ok_or("no STM32F103 product")?;
+    let mut progress = |line: &str| eprintln!("[boards] {line}");
+    const LPC: &str = "LPC1754, ET1100 on SPI";
+    let lpc = match lpc_figures {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let f: virtual_board::tools::image_figures::ImageFigures = serde_json::from_str(&text)
+                .map_err(|e| format!("{}: not `bench --json`'s figures: {e}", path.display()))?;
+            BoardFigures {
+                board: LPC.into(),
+                product: default().name.into(),
+                cclk_hz: f.cclk_hz,
+                sweep: f.sweep,
+            }
+        }
+        None => measure(
+            LPC,
+            default().name,
+            &load_image()?,
+            quick,
+            false,
+            &mut progress,
+        ),
+    };
+    let image = load_image_of(stm32.name)?;
+    let mut rows = vec![lpc];
+    for (board, clash) in [
+        ("STM32F103VC, ET1100 on FSMC, BUSY 80 ns", false),
+        (
+            "STM32F103VC, ET1100 on FSMC, BUSY 260 ns (every access clashing)",
+            true,
+        ),
+    ] {
+        rows.push(measure(
+            board,
+            stm32.name,
+            &image,
+            quick,
+            clash,
+            &mut progress,
+        ));
+    }
+    print!("{}", table(&rows));
     Ok(())
 }
 
@@ -257,7 +321,7 @@ fn sim(args: &SimArgs, log: bool) -> Result<(), String> {
                     sim::DEFAULT_NODE_ID
                 ));
             }
-            let image = load_image()?;
+            let image = load_image_of(args.product()?.name)?;
             let options = Options {
                 echo_log: log,
                 ..Default::default()
@@ -296,6 +360,7 @@ fn main() -> ExitCode {
             cycle_us,
             also_cycle_us,
         } => bench(quick, json.as_deref(), cycle_us, also_cycle_us),
+        Command::Boards { quick, lpc_figures } => boards(quick, lpc_figures.as_deref()),
         Command::PeerBench {
             quick,
             json,

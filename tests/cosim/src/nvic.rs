@@ -1,7 +1,8 @@
-//! The Cortex-M3 system control space as the LPC1754 has it (ARMv7-M ARM B3; Cortex-M3 TRM
-//! chapters 6 and 8; UM10360 chapter 6 and 34): NVIC with 35 interrupts and 5 priority bits,
-//! SCB (ICSR, VTOR, AIRCR, SHPR, CCR), SysTick, and the exception state the harness keeps
-//! (pending and active exceptions, execution priority, interrupt lines).
+//! The Cortex-M3 system control space (ARMv7-M ARM B3; Cortex-M3 TRM chapters 6 and 8) with
+//! the chip's parameters ([`NvicSpec`]: the LPC1754's 35 interrupts and 5 priority bits, UM10360
+//! chapters 6 and 34; the STM32F103's 60 and 4, RM0008/PM0056): NVIC, SCB (ICSR, VTOR, AIRCR,
+//! SHPR, CCR), SysTick, and the exception state the harness keeps (pending and active
+//! exceptions, execution priority, interrupt lines).
 //!
 //! unicorn has none of this in M-profile mode: `cpu` does the stacking and the returns, this
 //! module decides what is pending, what may preempt and where the vector is.
@@ -55,7 +56,35 @@ pub const SYST_CALIB: u32 = 0x000F_423F;
 /// CPUID of the LPC17xx's Cortex-M3 r2p0.
 pub const CPUID: u32 = 0x412F_C230;
 
-const EXCEPTIONS: usize = (exc::IRQ0 + irq::COUNT) as usize;
+/// The NVIC and SCB as a chip implements them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NvicSpec {
+    /// External interrupts.
+    pub irqs: u32,
+    /// The implemented bits of a priority byte.
+    pub prio_mask: u8,
+    /// SYST_CALIB.
+    pub syst_calib: u32,
+    /// CPUID.
+    pub cpuid: u32,
+    /// CCR at reset (STKALIGN is 0 on r1p1, 1 from r2p0).
+    pub ccr_reset: u32,
+}
+
+impl NvicSpec {
+    /// The LPC1754 ([`irq::COUNT`], [`PRIO_MASK`], [`SYST_CALIB`], [`CPUID`]; r2p0, STKALIGN
+    /// set at reset).
+    pub const LPC1754: NvicSpec = NvicSpec {
+        irqs: irq::COUNT,
+        prio_mask: PRIO_MASK,
+        syst_calib: SYST_CALIB,
+        cpuid: CPUID,
+        ccr_reset: 0x200,
+    };
+}
+
+/// Exception numbers the state has room for (16 system + up to 64 external).
+const EXCEPTIONS: usize = 80;
 
 /// SysTick (ARMv7-M B3.3): counts CPU cycles down from RVR; an interrupt per wrap when
 /// TICKINT.
@@ -68,6 +97,7 @@ pub struct SysTick {
     /// CVR while stopped.
     cvr: u32,
     count_flag: bool,
+    calib: u32,
 }
 
 impl SysTick {
@@ -117,7 +147,7 @@ impl SysTick {
             }
             0x14 => self.rvr,
             0x18 => self.cvr_at(cycle),
-            0x1C => SYST_CALIB,
+            0x1C => self.calib,
             _ => 0,
         }
     }
@@ -176,12 +206,13 @@ pub struct ScsEffect {
 /// The NVIC, SCB and SysTick state.
 #[derive(Clone, Debug)]
 pub struct Scs {
-    enabled: u64,
-    pending: u64,
+    spec: NvicSpec,
+    enabled: u128,
+    pending: u128,
     /// Active exceptions, innermost last.
     active: Vec<u32>,
     /// Interrupt lines asserted by the peripherals (level).
-    lines: u64,
+    lines: u128,
     prio: [u8; EXCEPTIONS],
     vtor: u32,
     prigroup: u32,
@@ -201,14 +232,20 @@ impl Default for Scs {
     }
 }
 
-fn bit(e: u32) -> u64 {
-    1u64 << e
+fn bit(e: u32) -> u128 {
+    1u128 << e
 }
 
 impl Scs {
-    /// The reset state.
+    /// The reset state of the LPC1754's.
     pub fn new() -> Self {
+        Self::with_spec(NvicSpec::LPC1754)
+    }
+
+    /// The reset state of a chip's.
+    pub fn with_spec(spec: NvicSpec) -> Self {
         Self {
+            spec,
             enabled: 0,
             pending: 0,
             active: Vec::new(),
@@ -217,8 +254,11 @@ impl Scs {
             vtor: 0,
             prigroup: 0,
             scr: 0,
-            ccr: 0x200, // STKALIGN: 8-byte stack alignment on entry (r2p0 default)
-            systick: SysTick::default(),
+            ccr: spec.ccr_reset,
+            systick: SysTick {
+                calib: spec.syst_calib,
+                ..SysTick::default()
+            },
             taken: [0; EXCEPTIONS],
             unmodelled: Vec::new(),
         }
@@ -264,7 +304,7 @@ impl Scs {
         for &e in &self.active {
             p = p.min(self.group(self.priority(e)));
         }
-        let basepri = basepri & PRIO_MASK;
+        let basepri = basepri & self.spec.prio_mask;
         if basepri != 0 {
             p = p.min(self.group(i32::from(basepri)));
         }
@@ -314,7 +354,7 @@ impl Scs {
 
     /// Sets exception `e` pending.
     pub fn set_pending(&mut self, e: u32) {
-        if (e as usize) < EXCEPTIONS {
+        if e < exc::IRQ0 + self.spec.irqs {
             self.pending |= bit(e);
         }
     }
@@ -366,14 +406,14 @@ impl Scs {
         self.scr & 4 != 0
     }
 
-    fn word_of(bits: u64, first_irq: u32) -> u32 {
+    fn word_of(bits: u128, first_irq: u32) -> u32 {
         (bits >> (exc::IRQ0 + first_irq)) as u32
     }
 
-    fn mask_irqs(word_index: u32, value: u32) -> u64 {
+    fn mask_irqs(&self, word_index: u32, value: u32) -> u128 {
         let shift = exc::IRQ0 + 32 * word_index;
-        let valid = if irq::COUNT > 32 * word_index {
-            let n = (irq::COUNT - 32 * word_index).min(32);
+        let valid = if self.spec.irqs > 32 * word_index {
+            let n = (self.spec.irqs - 32 * word_index).min(32);
             if n == 32 {
                 u32::MAX
             } else {
@@ -382,28 +422,28 @@ impl Scs {
         } else {
             0
         };
-        u64::from(value & valid).checked_shl(shift).unwrap_or(0)
+        u128::from(value & valid).checked_shl(shift).unwrap_or(0)
     }
 
     /// A read of the SCS at `offset` from 0xE000_E000 (`cycle`: CPU cycles for SysTick).
     pub fn read(&mut self, offset: u32, cycle: u64) -> u32 {
         let nvic_word = |base: u32| (offset - base) / 4;
         match offset {
-            0x004 => (irq::COUNT - 1) / 32, // ICTR
+            0x004 => (self.spec.irqs - 1) / 32, // ICTR
             0x010..=0x01F => self.systick.read(offset, cycle),
             0x100..=0x11F => Self::word_of(self.enabled, 32 * nvic_word(0x100)),
             0x180..=0x19F => Self::word_of(self.enabled, 32 * nvic_word(0x180)),
             0x200..=0x21F => Self::word_of(self.pending, 32 * nvic_word(0x200)),
             0x280..=0x29F => Self::word_of(self.pending, 32 * nvic_word(0x280)),
             0x300..=0x31F => {
-                let active = self.active.iter().fold(0u64, |a, &e| a | bit(e));
+                let active = self.active.iter().fold(0u128, |a, &e| a | bit(e));
                 Self::word_of(active, 32 * nvic_word(0x300))
             }
             0x400..=0x4EF => {
                 let first = offset - 0x400;
                 (0..4).fold(0, |v, i| {
                     let e = exc::IRQ0 + first + i;
-                    let p = if e < EXCEPTIONS as u32 {
+                    let p = if e < exc::IRQ0 + self.spec.irqs {
                         self.prio[e as usize]
                     } else {
                         0
@@ -411,7 +451,7 @@ impl Scs {
                     v | u32::from(p) << (8 * i)
                 })
             }
-            0xD00 => CPUID,
+            0xD00 => self.spec.cpuid,
             0xD04 => self.icsr(),
             0xD08 => self.vtor,
             0xD0C => 0xFA05_0000 | self.prigroup << 8,
@@ -454,15 +494,15 @@ impl Scs {
         let nvic_word = |base: u32| (offset - base) / 4;
         match offset {
             0x010..=0x01F => self.systick.write(offset, value, cycle),
-            0x100..=0x11F => self.enabled |= Self::mask_irqs(nvic_word(0x100), value),
-            0x180..=0x19F => self.enabled &= !Self::mask_irqs(nvic_word(0x180), value),
-            0x200..=0x21F => self.pending |= Self::mask_irqs(nvic_word(0x200), value),
-            0x280..=0x29F => self.pending &= !Self::mask_irqs(nvic_word(0x280), value),
+            0x100..=0x11F => self.enabled |= self.mask_irqs(nvic_word(0x100), value),
+            0x180..=0x19F => self.enabled &= !self.mask_irqs(nvic_word(0x180), value),
+            0x200..=0x21F => self.pending |= self.mask_irqs(nvic_word(0x200), value),
+            0x280..=0x29F => self.pending &= !self.mask_irqs(nvic_word(0x280), value),
             0x400..=0x4EF => {
                 for i in 0..size as u32 {
                     let e = exc::IRQ0 + offset - 0x400 + i;
-                    if (e as usize) < EXCEPTIONS {
-                        self.prio[e as usize] = (value >> (8 * i)) as u8 & PRIO_MASK;
+                    if e < exc::IRQ0 + self.spec.irqs {
+                        self.prio[e as usize] = (value >> (8 * i)) as u8 & self.spec.prio_mask;
                     }
                 }
             }
@@ -498,10 +538,10 @@ impl Scs {
             0xD18..=0xD23 => {
                 for i in 0..size as u32 {
                     let e = 4 + offset - 0xD18 + i;
-                    self.prio[e as usize] = (value >> (8 * i)) as u8 & PRIO_MASK;
+                    self.prio[e as usize] = (value >> (8 * i)) as u8 & self.spec.prio_mask;
                 }
             }
-            0xF00 => self.set_pending(exc::IRQ0 + (value & 0x1FF).min(irq::COUNT - 1)),
+            0xF00 => self.set_pending(exc::IRQ0 + (value & 0x1FF).min(self.spec.irqs - 1)),
             _ => self.unmodelled.push((offset, value)),
         }
         effect

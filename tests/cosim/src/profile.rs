@@ -14,8 +14,8 @@
 //! - Per context and code chain ([`crate::code`]): instructions executed, so a function's
 //!   cycles can be told inlined or not.
 
-/// Exception numbers the profile keeps (the LPC17xx has 16 + 35).
-pub const EXCEPTIONS: usize = 64;
+/// Exception numbers the profile keeps (the LPC17xx has 16 + 35, the STM32F103 16 + 60).
+pub const EXCEPTIONS: usize = 80;
 /// The context of thread mode.
 pub const THREAD: u32 = 0;
 

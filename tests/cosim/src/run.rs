@@ -1,6 +1,7 @@
 //! Running the image on the virtual board: where the image is, the sim's [`Target`] for it,
 //! and a handle to the co-simulator for its facts while the board owns it.
 
+use crate::chip::Chip;
 use crate::cosim::{Cosim, Options};
 use crate::image::Image;
 use std::cell::RefCell;
@@ -54,10 +55,22 @@ pub fn load_image() -> Result<Image, String> {
     load_programs(&app, &app.with_extension("efw"))
 }
 
-/// [`load_image`] of the product `name`.
+/// [`load_image`] of the product `name`; a board without a bootloader (the STM32F103's)
+/// flashes the application's ELF alone.
 pub fn load_image_of(name: &str) -> Result<Image, String> {
     let app = image_path_of(name);
-    load_programs(&app, &app.with_extension("efw"))
+    let product = firmware::products::PRODUCTS
+        .iter()
+        .copied()
+        .find(|p| p.name == name);
+    match product {
+        Some(p) if !p.board.mcu().has_bootloader() => {
+            let mut image = Image::from_elf(read(&app)?).map_err(|e| e.to_string())?;
+            image.known_product = Some(p);
+            Ok(image)
+        }
+        _ => load_programs(&app, &app.with_extension("efw")),
+    }
 }
 
 /// The bootloader's ELF that goes with the application's `app_elf` (the bootloader of the
@@ -130,6 +143,17 @@ impl PdiCpu for BoardCpu {
 /// the boot ROM would (wrong vector checksum) before any board exists.
 pub fn image_target(image: Image, options: Options) -> Result<(Target, CosimHandle), String> {
     let product = image.product().unwrap_or(firmware::products::default());
+    if image.chip != Chip::Lpc1754 {
+        // The host-compiled harness runs the LPC1754's products only; the image needs the
+        // product's SII alone.
+        let sii = firmware_device::sii_image_with(product.device, product.oversampling)
+            .map_err(|e| e.to_string())?;
+        let description = format!(
+            "the firmware's {} ({}, generated SII image)",
+            product.name, product.device.names.device_name
+        );
+        return cosim_target(image, options, sii, "the release image", &description);
+    }
     let device = firmware_device::device_of(product, virtual_board::tools::sim::DEFAULT_NODE_ID)?;
     cosim_target(
         image,
@@ -155,7 +179,8 @@ pub fn cosim_target(
     let image = Rc::new(image);
     let target = Target {
         description: format!(
-            "{program} on the LPC1754 co-simulator ({} B flash, CRP {crp:?}), {device}",
+            "{program} on the {} co-simulator ({} B flash, CRP {crp:?}), {device}",
+            image.chip.name(),
             image.flash_used
         ),
         sii,

@@ -12,25 +12,17 @@
 
 mod common;
 
-use common::{run_script_against, run_script_against_image};
+use common::{run_script_against, run_script_against_image, step};
 use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::peer::soes;
-use serde_json::Value;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
 
 /// Process-data exchanges the script runs in OP (its default 4 ms DC cycle).
 const CYCLES: u32 = 2000;
-
-fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
-    lines
-        .iter()
-        .find(|l| l["step"] == name)
-        .unwrap_or_else(|| panic!("no step {name} in {lines:?}"))
-}
 
 #[test]
 #[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]

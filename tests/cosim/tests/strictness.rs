@@ -132,3 +132,33 @@ fn ssp1_power_bit_left_off() {
         "{reports:?}"
     );
 }
+
+/// The STM32 product's release ELF (no bootloader on its board).
+fn stm32_image() -> lpc1754_cosim::image::Image {
+    let product = firmware::products::PRODUCTS
+        .iter()
+        .find(|p| p.board.mcu() == firmware::platform::board::Mcu::Stm32f103vc)
+        .expect("an STM32 product");
+    lpc1754_cosim::run::load_image_of(product.name).expect("the STM32 image")
+}
+
+#[test]
+fn the_unpatched_stm32_image_reports_nothing() {
+    let reports = reports_after(stm32_image(), Options::default(), 20_000_000);
+    assert!(reports.is_empty(), "{reports:?}");
+}
+
+/// BCR1 without MUXEN (the board plan's 0x90D7): the latch never sees an address, so no
+/// access reaches the ET1100 and the report says why.
+#[test]
+fn stm32_fsmc_not_multiplexed() {
+    let mut image = stm32_image();
+    patch_constant(&mut image, 0x0000_90D7, 0x0000_90D5).expect("the BCR1 constant");
+    let reports = reports_after(image, Options::default(), 20_000_000);
+    assert!(
+        reports
+            .iter()
+            .any(|r| r.contains("MUXEN off") && r.contains("moves no data")),
+        "{reports:?}"
+    );
+}

@@ -32,7 +32,7 @@ pub fn measure(
 ) -> Result<ImageFigures> {
     let out = build::build(&build::Args::of(product))?;
     setup::cosim()?;
-    let json = build::target_dir().join("bench").join("image.json");
+    let json = json_path();
     if let Some(dir) = json.parent() {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -59,6 +59,11 @@ pub fn measure(
         .map_err(|e| format!("cannot read {}: {e}", json.display()))?;
     serde_json::from_str(&text)
         .map_err(|e| format!("{}: not the co-simulator's figures: {e}", json.display()))
+}
+
+/// Where [`measure`] leaves the image's figures (JSON).
+pub fn json_path() -> std::path::PathBuf {
+    build::target_dir().join("bench").join("image.json")
 }
 
 fn us(ns: f64) -> f64 {

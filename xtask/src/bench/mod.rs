@@ -18,8 +18,10 @@
 //!    SOEM (root only).
 
 mod advertised;
+mod boards;
 pub(crate) mod by_function;
 mod cm3;
+mod cosim_cmd;
 mod frames;
 mod image_rows;
 mod model;
@@ -172,6 +174,8 @@ pub fn run(args: &Args) -> Result {
     let frames = frames::rows(args.quick);
     eprintln!("[bench] input and output oversampling on the image (analog-io)");
     let (oversampled, oversampled_plot) = oversampling::lines(args.quick, &plot_dir)?;
+    eprintln!("[bench] both boards side by side (the STM32F103 image swept as in 7/7)");
+    let boards = boards::lines(args.quick, &image_rows::json_path())?;
 
     let mut rows = Vec::new();
     rows.extend(bus_rows(&bus));
@@ -202,6 +206,10 @@ pub fn run(args: &Args) -> Result {
     notes.push(image_rows::note(&on_image));
     println!("{}", report::markdown(&rows, &notes, args.quick, &cpu.qemu));
     print_oversampling(&oversampled);
+    println!("\nBoth boards, the same sweep (lpc1754-cosim boards, docs/book/stm32-cosim.md):");
+    for line in &boards {
+        println!("{line}");
+    }
     for f in figures {
         println!("figure: {}", f.display());
     }

@@ -6,7 +6,7 @@
 
 use super::plot;
 use crate::build;
-use crate::util::{cargo, Result};
+use crate::util::Result;
 use std::path::{Path, PathBuf};
 
 /// Cycles per configuration (the short form: fewer).
@@ -28,30 +28,23 @@ pub fn lines(quick: bool, plot_dir: &Path) -> Result<(Vec<String>, PathBuf)> {
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
     let json = scratch.join("loopback-oversampling.json");
-    let output = cargo()
-        .args(["run", "--quiet", "-p", "lpc1754-cosim", "--"])
-        .args(["oversampling", "--cycles", &cycles.to_string()])
-        .arg("--loopback-json")
-        .arg(&json)
-        .env("LPC1754_IMAGE", &out.elf)
-        .output()
-        .map_err(|e| format!("lpc1754-cosim oversampling: {e}"))?;
-    if !output.status.success() {
-        return Err(format!(
-            "lpc1754-cosim oversampling failed: {}",
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
+    let json_arg = json.to_string_lossy();
+    let lines = super::cosim_cmd::lines(
+        &[
+            "oversampling",
+            "--cycles",
+            &cycles.to_string(),
+            "--loopback-json",
+            &json_arg,
+        ],
+        &out.elf,
+    )?;
     let png = plot_dir.join(PLOT);
     plot::loopback(
         &png,
         "Loop-back AI1 -> master -> AO1 on the image with oversampling (every conversion in, 20 kHz out)",
         &traces(&json)?,
     )?;
-    let lines = String::from_utf8_lossy(&output.stdout)
-        .lines()
-        .map(str::to_string)
-        .collect();
     Ok((lines, png))
 }
 
