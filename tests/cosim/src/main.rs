@@ -57,7 +57,6 @@ enum Command {
     },
     /// Oversampling on the image (docs/book/oversampling.md): the block PDOs at 1 ms,
     /// 500 us and the advertised minimum, then the 1 kHz loop-back with oversampling at 1 ms
-    /// and 500 us
     /// (docs/book/oversampling-loopback.md), one line of figures each.
     Oversampling {
         /// Cycles per configuration.

@@ -1,6 +1,6 @@
 //! The oversampling group (docs/book/oversampling.md): the analog-io image on the
 //! co-simulator with the input block PDOs at 1 ms, 500 us and the advertised minimum, alone
-//! and with output update PDOs, and the 1 kHz loop-back with oversampling at 1 ms and 500 us
+//! and with output update PDOs, and the 1 kHz loop-back with oversampling at 1 ms
 //! (docs/book/oversampling-loopback.md) (`lpc1754-cosim oversampling`), one line of figures
 //! each, and the loop-back's plot.
 
