@@ -106,7 +106,9 @@ fn loop_back_through_the_firmware(name: &str) -> PathBuf {
         (a.amplitude_error - hold).abs() < 0.005,
         "{a} (hold {hold})"
     );
-    assert!((a.output_offset - 5.0).abs() < 0.01, "{a}");
+    // The staircase's mean over the analysed window, at 7.4 values a period: within 50 mV
+    // (runs gave -20 and +13 mV, by where the SYNC0 grid falls on the sine).
+    assert!((a.output_offset - 5.0).abs() < 0.05, "{a}");
     // AI sampled -> SM3 -> master -> SM2 -> LDAC at SYNC0: a few cycles.
     let cycle_ns = f64::from(cfg.cycle_us) * 1e3;
     assert!(
