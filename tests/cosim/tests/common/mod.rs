@@ -322,3 +322,16 @@ pub fn step<'a>(lines: &'a [Value], name: &str) -> &'a Value {
         .find(|l| l["step"] == name)
         .unwrap_or_else(|| panic!("no step {name} in {lines:?}"))
 }
+
+/// The pysoem master's process-data step: `cycles` exchanges, each with the expected working
+/// counter, but for those on cycles the master itself started late (the host did not run it
+/// for milliseconds: the exchange and SOEM's 2 ms receive timeout took more than a cycle).
+pub fn assert_every_exchange_answered(pd: &Value, cycles: u32) {
+    assert_eq!(pd["cycles"], cycles, "{pd}");
+    let good = pd["good_wkc"].as_u64().unwrap_or(0);
+    let late = pd["late_cycles"].as_u64().unwrap_or(0);
+    assert!(
+        good + late >= u64::from(cycles),
+        "working counters missed on cycles that were not late: {pd}"
+    );
+}
