@@ -86,6 +86,45 @@ pub fn check(out: &Path) -> Result<Checked> {
     }
 }
 
+/// Every chapter in `src` (the book's folder of chapters, not its subfolders, which hold
+/// included parts) is listed in its `SUMMARY.md`: mdbook renders only what is listed, and
+/// links to a chapter left out break only in the rendered book.
+pub fn check_summary(src: &Path) -> Result<usize> {
+    let summary_path = src.join("SUMMARY.md");
+    let summary = std::fs::read_to_string(&summary_path)
+        .map_err(|e| format!("cannot read {}: {e}", summary_path.display()))?;
+    let entries =
+        std::fs::read_dir(src).map_err(|e| format!("cannot read {}: {e}", src.display()))?;
+    let mut chapters = Vec::new();
+    for entry in entries {
+        let path = entry
+            .map_err(|e| format!("cannot read {}: {e}", src.display()))?
+            .path();
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if path.is_file() && name.ends_with(".md") && name != "SUMMARY.md" {
+            chapters.push(name.to_string());
+        }
+    }
+    chapters.sort();
+    let missing: Vec<&String> = chapters
+        .iter()
+        .filter(|c| !summary.contains(&format!("]({c})")))
+        .collect();
+    match missing.as_slice() {
+        [] => Ok(chapters.len()),
+        _ => Err(format!(
+            "{} chapters not in {} (mdbook leaves them out of the book): {}",
+            missing.len(),
+            summary_path.display(),
+            missing
+                .iter()
+                .map(|c| c.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
 /// The relative links and images of a markdown file outside the book (the README) must name
 /// files of the repository; returns how many there are.
 pub fn check_markdown(file: &Path) -> Result<usize> {
@@ -280,6 +319,22 @@ mod tests {
         assert!(err.contains("no anchor #nope in index.html"), "{err}");
         assert!(err.contains("no file a/c.html"), "{err}");
         std::fs::remove_dir_all(&out).unwrap();
+    }
+
+    #[test]
+    fn a_chapter_left_out_of_the_summary_is_named() {
+        let dir = std::env::temp_dir().join(format!("summary-check-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("generated")).unwrap();
+        std::fs::write(dir.join("SUMMARY.md"), "- [A](a.md)\n  - [B](b.md)\n").unwrap();
+        for f in ["a.md", "b.md", "generated/part.md"] {
+            std::fs::write(dir.join(f), "# x\n").unwrap();
+        }
+        assert_eq!(check_summary(&dir), Ok(2));
+        std::fs::write(dir.join("c.md"), "# c\n").unwrap();
+        let err = check_summary(&dir).unwrap_err();
+        assert!(err.contains("1 chapters not in"), "{err}");
+        assert!(err.ends_with(": c.md"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

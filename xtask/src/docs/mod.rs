@@ -31,6 +31,7 @@ const GENERATED: &str = "docs/book/generated";
 pub fn run() -> Result {
     setup::mdbook()?;
     let root = root();
+    links::check_summary(&root.join(BOOK).join("book"))?;
     generate(&root.join(GENERATED))?;
     let out = build::target_dir().join("book");
     exec(
