@@ -804,7 +804,13 @@ pub fn pysoem_missing() -> Option<String> {
 /// Moves the calling thread (and the threads it spawns from then on) into a new network
 /// namespace and creates the veth pair `a` <-> `b` there, both up: nothing shows on the host,
 /// and the pair goes with the namespace when the thread ends. For tests (root).
+///
+/// The thread also takes the machine's wall-clock slot ([`WALL_CLOCK_LOCK`]) until it ends:
+/// a board on the wall clock and its master need the cores they find, and two such runs
+/// side by side (two checkouts testing at once) starved each other's masters past SOEM's
+/// timeouts.
 pub fn veth_pair_in_new_namespace(a: &str, b: &str) -> Result<(), String> {
+    take_the_wall_clock_slot(WALL_CLOCK_WAIT)?;
     // SAFETY: affects only this thread (and threads it spawns from now on).
     if unsafe { libc::unshare(libc::CLONE_NEWNET) } != 0 {
         return Err(format!(
@@ -815,6 +821,59 @@ pub fn veth_pair_in_new_namespace(a: &str, b: &str) -> Result<(), String> {
     ip(&format!("link add {a} type veth peer name {b}"))?;
     ip(&format!("link set {a} up"))?;
     ip(&format!("link set {b} up"))
+}
+
+/// The lock file of the machine's wall-clock slot (`flock`, released when its holder ends).
+pub const WALL_CLOCK_LOCK: &str = "/tmp/virtual-board-wall-clock.lock";
+/// How long a test waits for the wall-clock slot: longer than the longest veth test.
+pub const WALL_CLOCK_WAIT: Duration = Duration::from_secs(15 * 60);
+
+thread_local! {
+    /// The slot's lock, held by the thread that took it until the thread ends.
+    static WALL_CLOCK_SLOT: std::cell::RefCell<Option<OwnedFd>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Takes the machine's wall-clock slot for the calling thread (until it ends), waiting up to
+/// `wait` for another process or thread holding it.
+pub fn take_the_wall_clock_slot(wait: Duration) -> Result<(), String> {
+    take_slot(WALL_CLOCK_LOCK, wait)
+}
+
+/// Takes the `flock` on `lock` for the calling thread (until it ends), waiting up to `wait`.
+fn take_slot(lock: &str, wait: Duration) -> Result<(), String> {
+    if WALL_CLOCK_SLOT.with(|s| s.borrow().is_some()) {
+        return Ok(());
+    }
+    let path = CString::new(lock).map_err(|e| e.to_string())?;
+    // SAFETY: plain open of a NUL-terminated path; the fd is owned below.
+    let fd = unsafe {
+        libc::open(
+            path.as_ptr(),
+            libc::O_CREAT | libc::O_RDWR | libc::O_CLOEXEC,
+            0o666,
+        )
+    };
+    if fd < 0 {
+        return Err(format!("cannot open {lock}: {}", last_err()));
+    }
+    // SAFETY: `fd` was just opened and is owned by nothing else.
+    let fd = unsafe { OwnedFd::from_raw_fd(fd) };
+    let deadline = Instant::now() + wait;
+    loop {
+        // SAFETY: flock on a valid fd.
+        if unsafe { libc::flock(fd.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
+            WALL_CLOCK_SLOT.with(|s| *s.borrow_mut() = Some(fd));
+            return Ok(());
+        }
+        if Instant::now() >= deadline {
+            return Err(format!(
+                "another board on the wall clock held {lock} for {} s",
+                wait.as_secs()
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
 }
 
 static CTRL_C: AtomicBool = AtomicBool::new(false);
@@ -841,6 +900,38 @@ pub fn ctrl_c_flag() -> &'static AtomicBool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_wall_clock_slot_is_one_threads_until_it_ends() {
+        let lock = std::env::temp_dir().join(format!("wall-clock-slot-{}", std::process::id()));
+        let lock = lock.to_str().unwrap().to_string();
+        let (taken_tx, taken_rx) = std::sync::mpsc::channel();
+        let (end_tx, end_rx) = std::sync::mpsc::channel::<()>();
+        let l = lock.clone();
+        let holder = std::thread::spawn(move || {
+            take_slot(&l, Duration::ZERO).unwrap();
+            taken_tx.send(()).unwrap();
+            end_rx.recv().unwrap();
+        });
+        taken_rx.recv().unwrap();
+        let l = lock.clone();
+        let err = std::thread::spawn(move || take_slot(&l, Duration::from_millis(100)))
+            .join()
+            .unwrap()
+            .unwrap_err();
+        assert!(
+            err.contains("another board on the wall clock held"),
+            "{err}"
+        );
+        end_tx.send(()).unwrap();
+        holder.join().unwrap();
+        let l = lock.clone();
+        std::thread::spawn(move || take_slot(&l, Duration::from_secs(5)))
+            .join()
+            .unwrap()
+            .unwrap();
+        std::fs::remove_file(&lock).unwrap();
+    }
 
     #[test]
     fn the_cpu_catches_up_by_a_quarter_of_the_time_since_its_last_edge() {

@@ -210,7 +210,13 @@ pub fn run_script_against(
         lines: run.scripts.iter().flat_map(|s| s.lines.clone()).collect(),
         stderr: run.scripts.iter().map(|s| s.stderr.as_str()).collect(),
         clean: facts.fault.is_none() && facts.reports.is_empty(),
-        facts: facts.summary(),
+        // The board's side too: a master's timeout after a quick answer was the host's.
+        facts: format!(
+            "{}\nboard: answers {}; lag behind the wall clock {}",
+            facts.summary(),
+            run.served.latency.summary("frames"),
+            run.served.lag.summary(run.served.elapsed)
+        ),
         pcap: run.pcap,
     })
 }
