@@ -388,9 +388,12 @@ fn update_and_reset(model: FlashModel, content: &[u8]) -> (FlashModel, Option<St
     (iap.into_entry(), (!cut).then_some(s))
 }
 
-/// After a cut: the bootloader region is intact, and the reset sequence (cut again at
-/// `second`, if given) leaves the old or the new application, or the bootloader waiting.
-fn reboot(mut model: FlashModel, second: Option<(u64, CutEffect)>) -> FlashModel {
+/// The reset sequence without a master after a cut (cut again at `second`, if given): the
+/// flash it leaves (the power back on), and its outcome unless the power failed during it.
+fn reboot(
+    mut model: FlashModel,
+    second: Option<(u64, CutEffect)>,
+) -> (FlashModel, Option<Startup>) {
     model.power_on();
     if let Some((at, effect)) = second {
         model.cut_power_at(at, effect);
@@ -398,16 +401,21 @@ fn reboot(mut model: FlashModel, second: Option<(u64, CutEffect)>) -> FlashModel
     let mut iap = Iap::new(model, CCLK_KHZ);
     let s = startup(&mut iap, &BOARD, false);
     let mut model = iap.into_entry();
+    let cut = !model.powered();
     model.power_on();
-    if second.is_none() || model.powered() {
-        let (_, old_header) = old();
-        let (_, new_header) = new();
-        match s.application {
-            Ok(h) => assert!(h == old_header || h == new_header, "{h:?}"),
-            Err(_) => assert!(matches!(s.stay, Some(Stay::NoApplication(_)))),
-        }
+    (model, (!cut).then_some(s))
+}
+
+/// Boots without a master until a reset sequence runs to its end (a reboot cut at
+/// `second` is followed by one that is not): which application starts.
+fn boot_alone(model: FlashModel, second: Option<(u64, CutEffect)>) -> (FlashModel, Startup) {
+    match reboot(model, second) {
+        (model, Some(s)) => (model, s),
+        (model, None) => match reboot(model, None) {
+            (model, Some(s)) => (model, s),
+            (_, None) => unreachable!("no cut was set"),
+        },
     }
-    model
 }
 
 #[test]
@@ -433,6 +441,7 @@ fn power_cut_at_every_erase_and_program_step() {
 
     let mut cuts = 0u64;
     let mut double_cuts = 0u64;
+    let mut installs_completed = 0u64;
     for effect in CutEffect::ALL {
         for k in 0..total {
             let mut model = module(&old_file);
@@ -448,21 +457,43 @@ fn power_cut_at_every_erase_and_program_step() {
                     "cut {effect:?} at download step {k}: the old application is intact"
                 );
             }
-            // Reboot, cut again at every step of the reset sequence (or not at all), then
-            // the master updates again: it must succeed every time.
+            // Reboot without a master, cut again at every step of the reset sequence (or not
+            // at all): an application starts by itself, the new one once its download was
+            // whole (a cut installation completes at the next boot), never the bootloader
+            // waiting for a master. Then the master updates again: it must succeed every time.
             let steps_of_reboot = {
-                let m = reboot(model.clone(), None);
+                let (m, _) = reboot(model.clone(), None);
                 m.steps() - model.steps()
             };
             for second in
                 core::iter::once(None).chain((0..steps_of_reboot).map(|j| Some((j, effect))))
             {
-                let rebooted = reboot(model.clone(), second);
+                let (rebooted, s) = boot_alone(model.clone(), second);
                 if second.is_some() {
                     double_cuts += 1;
-                    assert_eq!(&rebooted.flash()[..bootloader.len()], &bootloader[..]);
                 }
-                let (after, s) = update_and_reset(reboot(rebooted, None), &new_file);
+                assert_eq!(&rebooted.flash()[..bootloader.len()], &bootloader[..]);
+                assert_eq!(
+                    s.stay, None,
+                    "cut {effect:?} at step {k}, then {second:?}: {s:?}"
+                );
+                if k >= download {
+                    installs_completed += 1;
+                    assert_eq!(
+                        s.application,
+                        Ok(new_header),
+                        "cut {effect:?} at installation step {} of {}, then {second:?}: the \
+                         installation completes without a master",
+                        k - download,
+                        total - download
+                    );
+                } else {
+                    assert!(
+                        s.application == Ok(old_header) || s.application == Ok(new_header),
+                        "cut {effect:?} at download step {k}, then {second:?}: {s:?}"
+                    );
+                }
+                let (after, s) = update_and_reset(rebooted, &new_file);
                 assert_eq!(
                     s.map(|s| (s.application, s.stay)),
                     Some((Ok(new_header), None)),
@@ -476,7 +507,9 @@ fn power_cut_at_every_erase_and_program_step() {
     std::println!(
         "power-cut test: {total} erase/program steps per update ({download} in the download), \
          {cuts} single cuts ({} effects x {total} steps) and {double_cuts} second cuts during \
-         the reboot; the update succeeded after every one",
+         the reboot; an application started without a master after every one, the new one \
+         in all {installs_completed} boots after a cut installation; the update succeeded \
+         after every one",
         CutEffect::ALL.len()
     );
     assert_eq!(cuts, 3 * total);
