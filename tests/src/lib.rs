@@ -40,7 +40,8 @@
 //!   on a network interface, [`tools::iface`]), the PDI bus cost ([`tools::bus_cost`]), the
 //!   thesis loop-back ([`tools::loopback`]), the pcap writer ([`tools::pcap`]), the format
 //!   of the image co-simulator's bench figures ([`tools::image_figures`]) and the socketcand
-//!   server that brings the CAN bus to python-can ([`tools::socketcand`]).
+//!   server that brings the CAN bus to python-can ([`tools::socketcand`]), and the checks of
+//!   a master's analog process data against the converters ([`tools::analog_check`]).
 //!
 //! Time: in process nothing reads the wall clock. Each frame advances the board's virtual
 //! time by its wire time plus a configurable gap; SYNC edges, EEPROM busy time, the
@@ -78,6 +79,7 @@ pub mod rig {
 
 /// What `cargo xtask` runs on the board.
 pub mod tools {
+    pub mod analog_check;
     pub mod bus_cost;
     pub mod dwarf;
     pub mod iface;

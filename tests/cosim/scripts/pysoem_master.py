@@ -7,8 +7,9 @@ SOEM's default timeouts (2 ms per datagram), as a user runs it.
 PRE-OP (SOEM reads the SII), SDO uploads of the identity (0x1000, 0x1008, 0x1018:01..04), DC
 (config_dc, SYNC0 every CYCLE_US, default 4000), the process-data mapping (config_map, which
 asks for SAFE-OP), SAFE-OP, OP, CYCLES process-data exchanges (default 2000) in step with
-SYNC0: the master writes a new AO pair every cycle and reads the AI values back; the cycle
-monitor's counters (0x1C32:0B, 0x0C, 0x20) over SDO while the cycle goes on. Then the SM
+SYNC0: the master writes a new AO pair every cycle and reads the AI values back (it reports
+the pairs the module took and each input's lowest and highest value, for the caller to check
+against the board's DAC and ADC); the cycle monitor's counters (0x1C32:0B, 0x0C, 0x20) over SDO while the cycle goes on. Then the SM
 watchdog: back to PRE-OP, SYNC0 off, OP in SM-synchronous mode, and the master stops sending:
 the module must fall to SAFE-OP with the error flag and AL status code 0x001B. Then PRE-OP,
 the object dictionary through SDO Information, and INIT.
@@ -91,7 +92,13 @@ class Cyclic(threading.Thread):
     """The master's cyclic task: one process-data exchange every cycle, with DC in step with
     SYNC0: the frames pass the module half a cycle before each SYNC0 edge (SOEM's ec_sync
     control on the DC time the frames bring back). Counts the exchanges with the expected
-    working counter and the cycles it started late."""
+    working counter and the cycles it started late.
+
+    While `recording`, it keeps what a checker of the module's outputs and inputs needs:
+    each output pair the module took (an exchange with the expected working counter), once
+    however many exchanges carried it, with a flag when the module may rightly never have
+    put it out (a late cycle beside it: the next frame then followed at once and may have
+    replaced it before the SYNC0 edge); and the lowest and highest value of every input."""
 
     def __init__(self, master, slave, cycle_ns, dc):
         super().__init__(daemon=True)
@@ -102,17 +109,23 @@ class Cyclic(threading.Thread):
         self.outputs = (0, 0)
         self.inputs = []
         self.integral = 0
+        self.recording = False
+        self.taken = []
+        self.ai_min, self.ai_max = None, None
 
     def run(self):
         deadline = time.monotonic_ns() + self.cycle_ns
+        was_late = False
         while self.running:
             with self.lock:
-                self.slave.output = struct.pack("<hh", *self.outputs)
+                outputs = self.outputs
+                self.slave.output = struct.pack("<hh", *outputs)
             self.master.send_processdata()
             wkc = self.master.receive_processdata()
+            answered = wkc == self.master.expected_wkc
             with self.lock:
                 self.exchanges += 1
-                self.good += wkc == self.master.expected_wkc
+                self.good += answered
                 self.inputs = list(struct.unpack("<8h", bytes(self.slave.input[:16])))
             deadline += self.cycle_ns + self.offset()
             left = deadline - time.monotonic_ns()
@@ -120,6 +133,23 @@ class Cyclic(threading.Thread):
                 time.sleep(left / 1e9)
             else:
                 self.late += 1
+            late = left <= 0
+            if answered:
+                self.record(outputs, was_late or late)
+            was_late = late
+
+    def record(self, outputs, may_be_replaced):
+        with self.lock:
+            if not self.recording:
+                return
+            if self.taken and self.taken[-1][:2] == list(outputs):
+                self.taken[-1][2] = self.taken[-1][2] and may_be_replaced
+            else:
+                self.taken.append([*outputs, may_be_replaced])
+            if self.ai_min is None:
+                self.ai_min, self.ai_max = list(self.inputs), list(self.inputs)
+            self.ai_min = [min(a, b) for a, b in zip(self.ai_min, self.inputs)]
+            self.ai_max = [max(a, b) for a, b in zip(self.ai_max, self.inputs)]
 
     def offset(self):
         if not self.dc:
@@ -195,12 +225,18 @@ def run_op(master, slave, cycles, cycle_ns, monitor=True):
             return False
         start, good_before, late_before, _ = cyclic.figures()
         done = start
+        with cyclic.lock:
+            cyclic.recording = True
         while done < start + cycles:
             i = done - start
+            # A new pair every cycle, none repeated within 32 767 cycles (97 and 89 are
+            # prime to 0x7FFF), so each DAC code names the exchange that brought it.
             with cyclic.lock:
                 cyclic.outputs = ((i * 97) % 0x7FFF, 0x7FFF - (i * 89) % 0x7FFF)
             time.sleep(cyclic.cycle_ns / 4e9)
             done, good, late, ai = cyclic.figures()
+        with cyclic.lock:
+            cyclic.recording = False
         master.read_state()
         say(
             step="process_data",
@@ -209,6 +245,9 @@ def run_op(master, slave, cycles, cycle_ns, monitor=True):
             late_cycles=late - late_before,
             last_outputs=list(cyclic.outputs),
             ai=ai,
+            ai_min=cyclic.ai_min,
+            ai_max=cyclic.ai_max,
+            outputs_taken=cyclic.taken,
             state=slave.state,
             al_status_code=slave.al_status,
         )

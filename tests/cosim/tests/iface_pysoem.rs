@@ -5,6 +5,11 @@
 //! process-data exchanges in step with SYNC0, the cycle monitor over SDO, the SM watchdog in
 //! SM-synchronous mode (0x001B), the object dictionary through SDO Information, INIT.
 //!
+//! The process data are checked against the board's converters: each AD7689 input is held
+//! at its own voltage and every value the master read must be that voltage truncated to the
+//! 15 bits of 0x6401; every output pair the module took must reach the AD5663 model's
+//! registers as `AO << 1`, in order, with nothing between.
+//!
 //! Needs root (a network namespace, raw sockets), `ip` (iproute2), python3 with pysoem (the
 //! project's setup installs it) and tshark, so it is ignored by default; `cargo xtask test`
 //! runs it when it runs as root, and it fails, naming what is missing, when it cannot run.
@@ -12,17 +17,50 @@
 
 mod common;
 
-use common::{run_script_against, run_script_against_image, step};
+use common::{run_script_against, run_script_against_with_inputs, step};
 use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES};
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::peer::soes;
+use lpc1754_cosim::run::{image_target, load_image};
+use serde_json::Value;
 use std::path::PathBuf;
+use virtual_board::models::dac::DacUpdate;
+use virtual_board::tools::analog_check::{check_inputs, check_outputs, OutputsTaken, AI_LEVELS_V};
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
 
 /// Process-data exchanges the script runs in OP (its default 4 ms DC cycle).
 const CYCLES: u32 = 2000;
+
+/// The pysoem master's process-data step checked against the board's converters: every
+/// value it read at the inputs (the lowest and the highest per channel) is the input's
+/// voltage truncated to a 0x6401 step, and every output pair the module took reached the
+/// DAC, in order (`tools::analog_check`).
+fn assert_analog_values(pd: &Value, updates: &[DacUpdate]) {
+    for which in ["ai_min", "ai_max"] {
+        let values: Vec<i16> = serde_json::from_value(pd[which].clone())
+            .unwrap_or_else(|e| panic!("{which}: {e}: {pd}"));
+        if let Err(e) = check_inputs(&AI_LEVELS_V, &values) {
+            panic!("{e} ({which})");
+        }
+    }
+    let taken: Vec<(i16, i16, bool)> = serde_json::from_value(pd["outputs_taken"].clone())
+        .unwrap_or_else(|e| panic!("outputs_taken: {e}: {pd}"));
+    let taken: Vec<OutputsTaken> = taken
+        .into_iter()
+        .map(|(a, b, may_be_replaced)| OutputsTaken {
+            values: [a, b],
+            may_be_replaced,
+        })
+        .collect();
+    let on_dac = check_outputs(&taken, updates).unwrap_or_else(|e| panic!("{e}"));
+    assert!(on_dac.pairs > 100, "only {} output pairs", on_dac.pairs);
+    eprintln!(
+        "{} output pairs on the DAC in order ({} values beside a late master cycle missing)",
+        on_dac.pairs, on_dac.missing
+    );
+}
 
 #[test]
 #[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]
@@ -36,7 +74,14 @@ fn pysoem_drives_the_image_over_a_veth_pair() {
     let o = common::unless_the_master_was_late(|| {
         let (script, args) = (script.clone(), args.clone());
         std::thread::spawn(move || {
-            run_script_against_image(script, args, "iface-pysoem-image.pcap", 120.0)
+            run_script_against_with_inputs(
+                || image_target(load_image()?, Options::default()),
+                script,
+                vec![args],
+                "iface-pysoem-image.pcap",
+                120.0,
+                AI_LEVELS_V.map(Some),
+            )
         })
         .join()
         .expect("namespace thread")
@@ -77,6 +122,7 @@ fn pysoem_drives_the_image_over_a_veth_pair() {
     let pd = step(&o.lines, "process_data");
     common::assert_every_exchange_answered(pd, CYCLES);
     assert_eq!(pd["state"], 8, "still in OP after the exchanges");
+    assert_analog_values(pd, &o.dac_updates);
     assert_eq!(step(&o.lines, "sync_monitor")["sync_error"], 0);
     let wd = step(&o.lines, "watchdog");
     assert_eq!(wd["sync_mode"], 1, "SM-synchronous");

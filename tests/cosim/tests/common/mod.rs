@@ -18,6 +18,7 @@ use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use virtual_board::models::dac::DacUpdate;
 use virtual_board::rig::master::tx_rx_task;
 use virtual_board::tools::iface::{veth_pair_in_new_namespace, ServeStats};
 use virtual_board::tools::sim::{self, Line, SimConfig, Target};
@@ -38,6 +39,8 @@ pub struct ScriptRun {
     pub clean: bool,
     /// The capture of the run.
     pub pcap: PathBuf,
+    /// Every load of a DAC register on the board, in order.
+    pub dac_updates: Vec<DacUpdate>,
 }
 
 /// A master script: `python3 PATH vb0 ARGS`.
@@ -66,6 +69,8 @@ pub struct BoardRun {
     pub served: ServeStats,
     /// The capture of the run.
     pub pcap: PathBuf,
+    /// Every load of a DAC register on the board, in order.
+    pub dac_updates: Vec<DacUpdate>,
 }
 
 /// Serves `target` on vb1 of a veth pair in a new network namespace (of the calling thread),
@@ -79,12 +84,25 @@ pub fn run_scripts_on_veth(
     pcap_name: &str,
     seconds: f64,
 ) -> Result<BoardRun, String> {
+    run_scripts_on_veth_with_inputs(target, scripts, pcap_name, seconds, [None; 8])
+}
+
+/// [`run_scripts_on_veth`] with constant voltages at the analog inputs where `ai_levels_v`
+/// gives one ([`SimConfig::ai_levels_v`]).
+pub fn run_scripts_on_veth_with_inputs(
+    target: Target,
+    scripts: Vec<Script>,
+    pcap_name: &str,
+    seconds: f64,
+    ai_levels_v: [Option<f64>; 8],
+) -> Result<BoardRun, String> {
     veth_pair_in_new_namespace("vb0", "vb1")?;
     let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(pcap_name);
     let cfg = SimConfig {
         iface: Some("vb1".into()),
         seconds: Some(seconds),
         pcap: Some(pcap.clone()),
+        ai_levels_v,
         ..Default::default()
     };
     let ready = Arc::new(AtomicBool::new(false));
@@ -143,6 +161,7 @@ pub fn run_scripts_on_veth(
         scripts,
         served: served.ecat,
         pcap,
+        dac_updates: served.dac_updates,
     })
 }
 
@@ -191,6 +210,19 @@ pub fn run_script_against(
     pcap_name: &str,
     seconds: f64,
 ) -> Result<ScriptRun, String> {
+    run_script_against_with_inputs(target, script, runs, pcap_name, seconds, [None; 8])
+}
+
+/// [`run_script_against`] with constant voltages at the analog inputs where `ai_levels_v`
+/// gives one.
+pub fn run_script_against_with_inputs(
+    target: impl FnOnce() -> Result<(Target, CosimHandle), String>,
+    script: PathBuf,
+    runs: Vec<Vec<OsString>>,
+    pcap_name: &str,
+    seconds: f64,
+    ai_levels_v: [Option<f64>; 8],
+) -> Result<ScriptRun, String> {
     let (target, handle) = target()?;
     let expected = runs.len();
     let scripts = runs
@@ -200,7 +232,7 @@ pub fn run_script_against(
             args,
         })
         .collect();
-    let run = run_scripts_on_veth(target, scripts, pcap_name, seconds)?;
+    let run = run_scripts_on_veth_with_inputs(target, scripts, pcap_name, seconds, ai_levels_v)?;
     let facts = handle
         .with(|c| c.facts())
         .ok_or("the co-simulator did not start")?;
@@ -218,6 +250,7 @@ pub fn run_script_against(
             run.served.lag.summary(run.served.elapsed)
         ),
         pcap: run.pcap,
+        dac_updates: run.dac_updates,
     })
 }
 

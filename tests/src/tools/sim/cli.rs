@@ -124,6 +124,7 @@ impl SimArgs {
             offset_v: self.offset,
             ai_channel: self.ai,
             ao_channel: self.ao,
+            ai_levels_v: [None; 8],
             pcap: self.pcap.clone(),
             iface: self.iface.clone(),
             can_port: self.can_port,

@@ -20,6 +20,7 @@ pub mod responder;
 pub mod tshark;
 
 use crate::models::adc::Signal;
+use crate::models::dac::DacUpdate;
 use crate::rig::board::{BoardConfig, BoardIo, PdiCpu, VirtualBoard};
 use crate::rig::master::tx_rx_task;
 use crate::tools::iface::{self, RawSocket, ServeOptions, ServeStats};
@@ -77,6 +78,10 @@ pub struct SimConfig {
     pub ai_channel: u8,
     /// Analog output the master copies it to (0..=1, i.e. 0x6411:01..02).
     pub ao_channel: u8,
+    /// On the wall clock: constant voltages at the analog inputs (V, 0..10), channel by
+    /// channel, in place of the sine on its own channel; `None` leaves a channel as it is
+    /// (the sine's, or 0 V). A master outside the process can then check every input's value.
+    pub ai_levels_v: [Option<f64>; 8],
     /// Write the traffic to this pcap file.
     pub pcap: Option<PathBuf>,
     /// Attach to this network interface instead of the in-process master.
@@ -99,6 +104,7 @@ impl Default for SimConfig {
             offset_v: DEFAULT_OFFSET_V,
             ai_channel: 0,
             ao_channel: 0,
+            ai_levels_v: [None; 8],
             pcap: None,
             iface: None,
             can_port: None,
@@ -185,6 +191,15 @@ impl SimConfig {
                 "analog input {} does not exist (0..=7)",
                 self.ai_channel
             ));
+        }
+        for (ch, v) in self.ai_levels_v.iter().enumerate() {
+            if let Some(v) = *v {
+                if !(0.0..=10.0).contains(&v) {
+                    return err(format!(
+                        "analog input {ch}: {v} V is outside the 0..10 V input range"
+                    ));
+                }
+            }
         }
         if self.ao_channel > 1 {
             return err(format!(
@@ -939,6 +954,8 @@ pub struct WallClockReport {
     pub ecat: ServeStats,
     /// CAN side, if served: connections and frames through socketcand, frames on the bus.
     pub can: Option<(crate::tools::socketcand::ServerStats, u64)>,
+    /// Every load of a DAC register, in order (what the outputs the master wrote became).
+    pub dac_updates: Vec<DacUpdate>,
 }
 
 /// Serves the board on the wall clock until Ctrl-C (or `cfg.seconds`): on the network
@@ -975,6 +992,11 @@ pub fn run_wall_clock(
         freq_hz: cfg.freqs_hz[0],
         phase: 0.0,
     };
+    for (ch, v) in cfg.ai_levels_v.iter().enumerate() {
+        if let Some(v) = *v {
+            board.adc().borrow_mut().inputs[ch] = Signal::Constant(v);
+        }
+    }
     let until = match cfg.seconds {
         Some(s) => format!(" for {s} s"),
         None => " until Ctrl-C".into(),
@@ -1027,6 +1049,7 @@ pub fn run_wall_clock(
         can: server
             .as_ref()
             .map(|s| (s.stats.clone(), can_frames(&board))),
+        dac_updates: board.dac().borrow().updates.clone(),
     };
     out(Line::Result(format!(
         "served {:.1} s: {} EtherCAT frames ({} dropped), AL status {:#06x}; DAC outputs A {:.4} V, B {:.4} V",
@@ -1108,6 +1131,7 @@ mod tests {
             "{e}"
         );
         assert!(bad(&|c| c.node_id = 0).contains("1..=127"));
+        assert!(bad(&|c| c.ai_levels_v[3] = Some(10.5)).contains("analog input 3"));
         // On an interface --seconds is wall time and may be long.
         let c = SimConfig {
             seconds: Some(3600.0),
