@@ -1,5 +1,6 @@
 //! The image on the co-simulator under ethercrab: the in-process sim run (ESM walk, SDO
-//! identity and OD summary, the loop-back) as `cargo xtask sim --image` does it.
+//! identity and OD summary, the loop-back and its figures) as `cargo xtask sim --image` does
+//! it.
 
 use lpc1754_cosim::cosim::Options;
 use lpc1754_cosim::run::{image_target, load_image};
@@ -11,7 +12,7 @@ fn sim_reaches_op_and_loops_back() {
     let (target, handle) = image_target(image, Options::default()).unwrap();
     let cfg = SimConfig {
         freqs_hz: vec![500.0],
-        seconds: Some(0.01),
+        seconds: Some(0.02),
         ..Default::default()
     };
     let mut out = |l: Line| match l {
@@ -28,4 +29,9 @@ fn sim_reaches_op_and_loops_back() {
         report.states
     );
     assert!(facts.fault.is_none() && facts.reports.is_empty());
+    // 10 periods of 500 Hz at the default cycle (the advertised minimum, 270 us): amplitude
+    // (the hold's sinc), offset, latency, THD and THD+N against the zero-order hold's, as
+    // the host-compiled firmware's loop-back is judged (system_sim).
+    let figures = report.check_loopback(&cfg).unwrap();
+    assert_eq!(figures.len(), 1);
 }

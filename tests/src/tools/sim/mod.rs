@@ -419,6 +419,40 @@ pub struct SimReport {
     pub dac_updates: Vec<crate::models::dac::DacUpdate>,
 }
 
+impl SimReport {
+    /// Every loop-back of the run (made with `cfg`) judged against the zero-order hold
+    /// ([`loopback::check_loopback`]); the figures and the first failure, if any.
+    pub fn check_loopback(&self, cfg: &SimConfig) -> Result<Vec<Analysis>, String> {
+        if self.loopback.is_empty() {
+            return Err("no loop-back was run".into());
+        }
+        self.loopback
+            .iter()
+            .map(|(freq, a)| {
+                let a = a
+                    .as_ref()
+                    .map_err(|e| format!("loop-back {freq} Hz: {e}"))?;
+                let input = Signal::Sine {
+                    amplitude: cfg.amplitude_v,
+                    offset: cfg.offset_v,
+                    freq_hz: *freq,
+                    phase: 0.0,
+                };
+                let ideal = loopback::ideal_hold_analysis(
+                    &input,
+                    &self.dac_updates,
+                    cfg.ao_channel,
+                    a,
+                    cfg.cycle_ns(),
+                )
+                .map_err(|e| format!("the ideal hold at {freq} Hz: {e}"))?;
+                loopback::check_loopback(a, &ideal, cfg.cycle_ns())?;
+                Ok(a.clone())
+            })
+            .collect()
+    }
+}
+
 /// A failure that ends a run.
 #[derive(Debug)]
 pub struct SimError(pub String);
