@@ -19,12 +19,13 @@ const PYTHON_CAN_TESTS: [&str; 2] = [
 /// The tests ignored by default because they need tshark: their names end so.
 const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// The tests ignored by default because they need root (a network namespace, raw sockets):
-/// ethercrab and the virtual board, SOEM (pysoem) and the image (and SOES) on the
+/// ethercrab and the firmware on the virtual board (and the echo responder), SOEM (pysoem) and the image (and SOES) on the
 /// co-simulator (the LPC1754 and the STM32 images), SOEM assigning the input oversampling PDOs
 /// on the image, SOEM updating the module's firmware on the virtual board and on the image, and
 /// the CAN product's image after refused files, each on a veth pair.
-const ROOT_TESTS: [&str; 8] = [
-    "ethercrab_drives_the_board_over_a_veth_pair",
+const ROOT_TESTS: [&str; 9] = [
+    "ethercrab_drives_the_firmware_over_a_veth_pair",
+    "ethercrab_gets_its_words_echoed_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
     "pysoem_drives_the_stm32_image_over_a_veth_pair",
     "pysoem_assigns_the_oversampling_pdos_and_reaches_op_over_a_veth_pair",
