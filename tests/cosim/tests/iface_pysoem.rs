@@ -36,13 +36,14 @@ const CYCLES: u32 = 2000;
 /// The pysoem master's process-data step checked against the board's converters: every
 /// value it read at the inputs (the lowest and the highest per channel) is the input's
 /// voltage truncated to a 0x6401 step, and every output pair the module took reached the
-/// DAC, in order (`tools::analog_check`).
-fn assert_analog_values(pd: &Value, updates: &[DacUpdate]) {
+/// DAC, in order (`tools::analog_check`). `facts` (the board's lag behind the wall clock among
+/// them) go with a failure.
+fn assert_analog_values(pd: &Value, updates: &[DacUpdate], facts: &str) {
     for which in ["ai_min", "ai_max"] {
         let values: Vec<i16> = serde_json::from_value(pd[which].clone())
             .unwrap_or_else(|e| panic!("{which}: {e}: {pd}"));
         if let Err(e) = check_inputs(&AI_LEVELS_V, &values) {
-            panic!("{e} ({which})");
+            panic!("{e} ({which})\n{facts}");
         }
     }
     let taken: Vec<(i16, i16, bool)> = serde_json::from_value(pd["outputs_taken"].clone())
@@ -54,10 +55,10 @@ fn assert_analog_values(pd: &Value, updates: &[DacUpdate]) {
             may_be_replaced,
         })
         .collect();
-    let on_dac = check_outputs(&taken, updates).unwrap_or_else(|e| panic!("{e}"));
+    let on_dac = check_outputs(&taken, updates).unwrap_or_else(|e| panic!("{e}\n{facts}"));
     assert!(on_dac.pairs > 100, "only {} output pairs", on_dac.pairs);
     eprintln!(
-        "{} output pairs on the DAC in order ({} values beside a late master cycle missing)",
+        "{} output pairs on the DAC in order ({} values beside a late master cycle missing)\n{facts}",
         on_dac.pairs, on_dac.missing
     );
 }
@@ -122,7 +123,7 @@ fn pysoem_drives_the_image_over_a_veth_pair() {
     let pd = step(&o.lines, "process_data");
     common::assert_every_exchange_answered(pd, CYCLES);
     assert_eq!(pd["state"], 8, "still in OP after the exchanges");
-    assert_analog_values(pd, &o.dac_updates);
+    assert_analog_values(pd, &o.dac_updates, &o.facts);
     assert_eq!(step(&o.lines, "sync_monitor")["sync_error"], 0);
     let wd = step(&o.lines, "watchdog");
     assert_eq!(wd["sync_mode"], 1, "SM-synchronous");
