@@ -32,8 +32,9 @@ pub fn check_input(ch: usize, volts: f64, value: i16) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "AI{ch} at {volts} V read as {value}: {:.1} uV below the voltage, a step is {:.1} uV",
-            below * 1e6,
+            "AI{ch} at {volts} V read as {value} ({:.6} V): must be the voltage truncated to a \
+             step of {:.1} uV",
+            f64::from(value) * PV_STEP_V,
             PV_STEP_V * 1e6
         ))
     }
