@@ -488,11 +488,18 @@ impl PdiCpu for Cosim {
         true
     }
 
-    fn run_until(&mut self, _io: &mut BoardIo, t_ns: u64) {
+    fn run_until(&mut self, io: &mut BoardIo, t_ns: u64) {
+        // A SYNC edge then: the core reaches it exactly, so that its capture and interrupt
+        // come at the edge's time.
+        let edge = io.esc.esc().borrow().next_sync_edge_ns() == Some(t_ns);
         let mut t = self.inject(t_ns);
         loop {
             self.keep_locked();
-            self.core.run_until(t);
+            if edge && t == t_ns {
+                self.core.run_until_exactly(t);
+            } else {
+                self.core.run_until(t);
+            }
             if t >= t_ns {
                 break;
             }

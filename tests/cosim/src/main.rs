@@ -47,7 +47,8 @@ enum Command {
         /// `virtual_board::tools::image_figures`) instead of printing them as text.
         #[arg(long, value_name = "FILE")]
         json: Option<std::path::PathBuf>,
-        /// Only judge this DC cycle (us), with the plan's cycles, and print the verdict.
+        /// Only judge this DC cycle (us), with the plan's cycles under a real master's traffic
+        /// (as the sweep judges), and print the verdict.
         #[arg(long, value_name = "US")]
         cycle_us: Option<u64>,
         /// Let the sweep try this DC cycle (us) too (the cycle a rule on its figure turns
@@ -150,8 +151,15 @@ fn bench(
     let image = load_image()?;
     if let Some(us) = cycle_us {
         let plan = lpc1754_cosim::bench::Plan::new(quick);
-        let run =
-            lpc1754_cosim::bench::dc_run(&image, us * 1000, plan.sweep_cycles(us * 1000), false)?;
+        // Judged as the sweep judges: under a real master's traffic.
+        let run = lpc1754_cosim::bench::dc_run_traffic(
+            &lpc1754_cosim::bench::Program::release(&image),
+            us * 1000,
+            plan.sweep_cycles(us * 1000),
+            false,
+            None,
+            &lpc1754_cosim::traffic::Traffic::REAL_MASTER,
+        )?;
         println!("{us} us: {} ({:?})", run.check.verdict(), run.check);
         print!("{}", run.after.summary());
         return Ok(());
