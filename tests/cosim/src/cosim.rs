@@ -32,6 +32,8 @@ pub struct Options {
     /// The ET1100's BUSY times on its µC PDI (the STM32F103's FSMC) instead of the model's
     /// `BusTiming::NO_CLASH` (both ends of the UNCONFIRMED range can be run).
     pub esc_bus_timing: Option<virtual_board::models::esc::parallel::BusTiming>,
+    /// The time model's cycles per instruction instead of the chip's (a sensitivity run).
+    pub cpi: Option<crate::chip::Cpi>,
 }
 
 /// What the co-simulation shows about the image (the "image facts").
@@ -333,6 +335,9 @@ impl Cosim {
         if let Some(p) = options.pconp_at_reset {
             machine.pconp_at_reset = p;
             machine.reset(ResetCause::SysResetReq);
+        }
+        if let Some(cpi) = options.cpi {
+            machine.set_cpi(cpi);
         }
         if let (Some(t), Some(p)) = (options.esc_bus_timing, machine.stm32.as_mut()) {
             p.esc_port.timing = t;

@@ -466,6 +466,12 @@ impl Machine {
         }
     }
 
+    /// The time model's cycles per instruction from now on.
+    pub fn set_cpi(&mut self, cpi: Cpi) {
+        self.cpi = cpi;
+        self.insn_rem = 0;
+    }
+
     /// The next scheduled event (ns).
     pub fn next_event_ns(&self) -> u64 {
         self.next_event_ns
@@ -1464,14 +1470,20 @@ mod tests {
         assert!(m.scs.preempting(false, 0, false).is_some());
         let cycle_ns = 1_000_000_000 / m.cclk_hz();
         let now = m.now_ns();
-        assert!(now >= due && now < due + cycle_ns, "at the event: {now}, {due}");
+        assert!(
+            now >= due && now < due + cycle_ns,
+            "at the event: {now}, {due}"
+        );
         assert_eq!(m.instructions, before.0, "the block has not run");
         // It runs after the handler, with all its cycles.
         let c0 = m.cycles;
         assert!(m.run_block(at, size, 0x1000_4000, Vec::new, (true, 0, false)));
         assert_eq!(m.instructions, before.0 + 100);
         assert_eq!(m.cycles - c0, 125, "100 NOPs at CPI 5/4");
-        assert!(m.cycles - before.1 > 125, "the wait before the handler is a stall");
+        assert!(
+            m.cycles - before.1 > 125,
+            "the wait before the handler is a stall"
+        );
     }
 
     #[test]
@@ -1495,7 +1507,11 @@ mod tests {
         m.exact_deadline = false;
         let c0 = m.cycles;
         assert!(m.run_block(at, size, 0x1000_4000, Vec::new, UNMASKED));
-        assert_eq!(m.cycles - c0, 125, "a slice ends with the block that reaches it");
+        assert_eq!(
+            m.cycles - c0,
+            125,
+            "a slice ends with the block that reaches it"
+        );
         let t = m.now_ns() + 500;
         m.deadline_ns = t;
         m.exact_deadline = true;
@@ -1503,7 +1519,10 @@ mod tests {
         assert_eq!(m.stop, Some(Stop::Deadline));
         let cycle_ns = 1_000_000_000 / m.cclk_hz();
         let now = m.now_ns();
-        assert!(now >= t && now < t + cycle_ns, "at the deadline: {now}, {t}");
+        assert!(
+            now >= t && now < t + cycle_ns,
+            "at the deadline: {now}, {t}"
+        );
     }
 
     #[test]
