@@ -484,7 +484,7 @@ pub fn check_stream(run: &OsRun) -> StreamCheck {
     };
     let scan_ns = PERIOD_NS * CHANNELS as u64;
     let mut expected: Option<u32> = None;
-    // Each block's time from the first's, by the counter's distance (it may start anywhere).
+    // Each block's time from the first's, by the counter's distance (it wraps).
     let first = run.blocks.first().map(|b| (b.time_dc, b.counter));
     for b in &run.blocks {
         c.samples += b.samples.len() as u64;

@@ -98,8 +98,8 @@ pub struct LoopbackMaster {
     cycle_ns: u64,
     delay_ns: u64,
     /// DC time and scan counter of the first block's first scan (AI1): the place of every
-    /// other scan, by the counter's distance from it (the counter may start anywhere and
-    /// wrap; the module starts it at 0 only when its first block closes in time).
+    /// other scan, by the counter's distance from it (a master may join a running stream,
+    /// and the counter wraps after 2^32 scans).
     t0_dc: Option<(u64, u32)>,
     /// Scan counter of `history[0]`.
     base: u32,
