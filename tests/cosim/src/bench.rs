@@ -10,6 +10,7 @@
 //! The format of the figures is the virtual board's ([`virtual_board::tools::image_figures`]),
 //! so xtask reads them without linking this crate.
 
+use crate::chip::Cpi;
 use crate::cosim::{Facts, Options};
 use crate::image::Image;
 use crate::profile::THREAD;
@@ -34,8 +35,8 @@ use virtual_board::rig::can_master::CanMaster;
 use virtual_board::rig::master::{in_process_timeouts, tx_rx_task};
 use virtual_board::rig::sdo_client::SdoClient;
 use virtual_board::tools::image_figures::{
-    shares_text, DcCheck, HotCode, ImageFigures, Latency, Longest, ProfileRun, SamplerShare, Sweep,
-    Vector,
+    shares_text, CpiSweep, DcCheck, HotCode, ImageFigures, Latency, Longest, ProfileRun,
+    SamplerShare, Sweep, Vector,
 };
 
 /// A board shared between the master's rig and the measurement.
@@ -315,6 +316,8 @@ pub struct Program<'a> {
     /// Virtual time the master waits before its first frame (the slave's boot, so the
     /// ESM rows time the transitions alone).
     pub boot_ns: u64,
+    /// The time model's cycles per instruction instead of the chip's (a sensitivity run).
+    pub cpi: Option<Cpi>,
 }
 
 impl<'a> Program<'a> {
@@ -325,6 +328,7 @@ impl<'a> Program<'a> {
             target: image_target,
             min_cycle_ns: u64::from(MIN_CYCLE_TIME_NS),
             boot_ns: 0,
+            cpi: None,
         }
     }
 }
@@ -381,7 +385,11 @@ pub fn dc_run_traffic(
     can_load: Option<CanLoad>,
     traffic: &Traffic,
 ) -> Result<DcRun, String> {
-    let (target, handle) = (program.target)(program.image.clone(), Options::default())?;
+    let options = Options {
+        cpi: program.cpi,
+        ..Options::default()
+    };
+    let (target, handle) = (program.target)(program.image.clone(), options)?;
     let board = Rc::new(RefCell::new(target.into_board(|cfg| cfg.capture = false)));
     {
         let adc = board.borrow().adc().clone();
@@ -952,24 +960,12 @@ pub fn sweep_program(
     traffic: &Traffic,
     progress: &mut dyn FnMut(&DcCheck),
 ) -> Sweep {
-    let mut points: Vec<DcCheck> = Vec::new();
-    let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| -> bool {
-        let cycles = plan.sweep_cycles(cycle_ns);
-        let check = match dc_run_traffic(program, cycle_ns, cycles, false, None, traffic) {
-            Ok(r) => r.check,
-            Err(e) => DcCheck {
-                cycle_ns,
-                planned: cycles,
-                failure: Some(e),
-                ..Default::default()
-            },
-        };
+    let mut points = search_program(program, plan, traffic, progress);
+    let mut run = |cycle_ns: u64, points: &mut Vec<DcCheck>| {
+        let check = judge_cycle(program, plan, cycle_ns, traffic);
         progress(&check);
-        let ok = check.sustained();
         points.push(check);
-        ok
     };
-    search(plan.resolution_ns, |ns| run(ns, &mut points));
     // A shorter cycle sustained says nothing of a longer one (the firmware's periodic work
     // falls elsewhere in the cycle): every cycle up to 1 ms, at log-spaced steps.
     let shortest = points
@@ -1002,6 +998,85 @@ pub fn sweep_program(
             LOG_STEPS
         ),
     }
+}
+
+/// `cycle_ns` judged under `traffic` with the plan's cycles (a run that could not be made
+/// is a failure of that cycle time).
+fn judge_cycle(program: &Program, plan: &Plan, cycle_ns: u64, traffic: &Traffic) -> DcCheck {
+    let cycles = plan.sweep_cycles(cycle_ns);
+    match dc_run_traffic(program, cycle_ns, cycles, false, None, traffic) {
+        Ok(r) => r.check,
+        Err(e) => DcCheck {
+            cycle_ns,
+            planned: cycles,
+            failure: Some(e),
+            ..Default::default()
+        },
+    }
+}
+
+/// The cycle times [`search`] tries for `program`, each judged under `traffic`.
+fn search_program(
+    program: &Program,
+    plan: &Plan,
+    traffic: &Traffic,
+    progress: &mut dyn FnMut(&DcCheck),
+) -> Vec<DcCheck> {
+    let mut points = Vec::new();
+    search(plan.resolution_ns, |ns| {
+        let check = judge_cycle(program, plan, ns, traffic);
+        progress(&check);
+        let ok = check.sustained();
+        points.push(check);
+        ok
+    });
+    points
+}
+
+/// The time model's sensitivity: cycles per instruction 20 % below and above the chip's
+/// (5/4 on the LPC1754: 1/1 and 3/2). The co-simulator counts every instruction at the
+/// same CPI, with no flash-accelerator misses or APB wait states; the shortest sustained
+/// cycle at the dearer CPI is what the advertised minimum must cover.
+pub const CPI_SENSITIVITY: [Cpi; 2] = [Cpi { num: 1, den: 1 }, Cpi { num: 3, den: 2 }];
+
+/// The shortest sustained DC cycle searched again at each of [`CPI_SENSITIVITY`] (as
+/// [`sweep`] searches it, without the steps up to 1 ms), then the advertised minimum
+/// judged at each if the search did not try it.
+pub fn cpi_sensitivity(
+    image: &Image,
+    plan: &Plan,
+    progress: &mut dyn FnMut(Cpi, &DcCheck),
+) -> Vec<CpiSweep> {
+    let traffic = Traffic::REAL_MASTER;
+    CPI_SENSITIVITY
+        .iter()
+        .map(|&cpi| {
+            let program = Program {
+                cpi: Some(cpi),
+                ..Program::release(image)
+            };
+            let mut points = search_program(&program, plan, &traffic, &mut |c| progress(cpi, c));
+            let min = u64::from(MIN_CYCLE_TIME_NS);
+            if !points.iter().any(|p| p.cycle_ns == min) {
+                let check = judge_cycle(&program, plan, min, &traffic);
+                progress(cpi, &check);
+                points.push(check);
+            }
+            CpiSweep {
+                cpi: (cpi.num, cpi.den),
+                sweep: Sweep {
+                    points,
+                    method: format!(
+                        "CPI {}/{}: the sweep's search under {}, then {} us",
+                        cpi.num,
+                        cpi.den,
+                        traffic.describe(),
+                        min / 1000
+                    ),
+                },
+            }
+        })
+        .collect()
 }
 
 /// Steps of the sweep above the shortest sustained cycle, up to 1 ms.
@@ -1056,6 +1131,16 @@ pub fn measure(
             100.0 * c.cpu_load
         ))
     });
+    let cpi_sensitivity = cpi_sensitivity(image, &plan, &mut |cpi, c| {
+        progress(&format!(
+            "CPI {}/{}, cycle {:.1} us: {} (CPU load {:.1} %)",
+            cpi.num,
+            cpi.den,
+            c.cycle_ns as f64 / 1e3,
+            c.verdict(),
+            100.0 * c.cpu_load
+        ))
+    });
     Ok(ImageFigures {
         quick,
         elf: elf.to_string(),
@@ -1066,6 +1151,7 @@ pub fn measure(
         cclk_hz,
         profile,
         sweep,
+        cpi_sensitivity,
     })
 }
 
@@ -1179,7 +1265,47 @@ pub fn summary(f: &ImageFigures) -> String {
             );
         }
     }
+    for c in &f.cpi_sensitivity {
+        let _ = writeln!(s, "{}", cpi_line(c, f.cpi));
+    }
     s
+}
+
+/// "at CPI 3/2 (x1.20): shortest sustained 262 us (261 us is not: ...); 270 us sustained".
+pub fn cpi_line(c: &CpiSweep, nominal: (u64, u64)) -> String {
+    let nominal = nominal.0 as f64 / nominal.1 as f64;
+    let us = |ns: u64| ns as f64 / 1e3;
+    let shortest = match c.sweep.shortest_sustained() {
+        Some(p) => format!(
+            "shortest sustained {:.0} us{}",
+            us(p.cycle_ns),
+            c.sweep.first_failing().map_or(String::new(), |b| format!(
+                " ({:.0} us is not: {})",
+                us(b.cycle_ns),
+                b.verdict()
+            ))
+        ),
+        None => "none of the cycle times tried sustained".to_string(),
+    };
+    let min = u64::from(MIN_CYCLE_TIME_NS);
+    let at_min = c
+        .sweep
+        .points
+        .iter()
+        .find(|p| p.cycle_ns == min)
+        .map_or(String::new(), |p| {
+            format!(
+                "; {:.0} us (the advertised minimum): {}",
+                us(min),
+                p.verdict()
+            )
+        });
+    format!(
+        "time model at CPI {}/{} (x{:.2}): {shortest}{at_min}",
+        c.cpi.0,
+        c.cpi.1,
+        c.cpi.0 as f64 / c.cpi.1 as f64 / nominal
+    )
 }
 
 #[cfg(test)]

@@ -32,6 +32,8 @@ pub struct Options {
     /// The ET1100's BUSY times on its µC PDI (the STM32F103's FSMC) instead of the model's
     /// `BusTiming::NO_CLASH` (both ends of the UNCONFIRMED range can be run).
     pub esc_bus_timing: Option<virtual_board::models::esc::parallel::BusTiming>,
+    /// The time model's cycles per instruction instead of the chip's (a sensitivity run).
+    pub cpi: Option<crate::chip::Cpi>,
 }
 
 /// What the co-simulation shows about the image (the "image facts").
@@ -334,6 +336,9 @@ impl Cosim {
             machine.pconp_at_reset = p;
             machine.reset(ResetCause::SysResetReq);
         }
+        if let Some(cpi) = options.cpi {
+            machine.set_cpi(cpi);
+        }
         if let (Some(t), Some(p)) = (options.esc_bus_timing, machine.stm32.as_mut()) {
             p.esc_port.timing = t;
         }
@@ -488,11 +493,18 @@ impl PdiCpu for Cosim {
         true
     }
 
-    fn run_until(&mut self, _io: &mut BoardIo, t_ns: u64) {
+    fn run_until(&mut self, io: &mut BoardIo, t_ns: u64) {
+        // A SYNC edge then: the core reaches it exactly, so that its capture and interrupt
+        // come at the edge's time.
+        let edge = io.esc.esc().borrow().next_sync_edge_ns() == Some(t_ns);
         let mut t = self.inject(t_ns);
         loop {
             self.keep_locked();
-            self.core.run_until(t);
+            if edge && t == t_ns {
+                self.core.run_until_exactly(t);
+            } else {
+                self.core.run_until(t);
+            }
             if t >= t_ns {
                 break;
             }

@@ -7,9 +7,10 @@
 //!
 //! Time: every block adds its instructions x CPI ([`crate::machine::CPI_NUM`]) before it
 //! runs; peripherals' events due by then are served in the block hook (without leaving the
-//! engine), which also stops the engine at the slice's end or when an exception becomes
-//! takeable. Pended interrupts are thus taken at the next block boundary (a few
-//! instructions late, never inside an IT block).
+//! engine), each at its own time, which also stops the engine at the slice's end or when an
+//! exception becomes takeable. An event inside a block's time that makes an exception
+//! takeable stops the block before it runs, so the exception is entered at the event's time
+//! as on the core (never inside an IT block); the block runs after the handler.
 
 use crate::ahb_sram;
 use crate::chip::{Chip, Span};
@@ -464,7 +465,17 @@ impl Core {
         }
     }
 
-    /// Runs until virtual time `t_ns` (or a fault).
+    /// Runs until virtual time `t_ns` exactly (or a fault): something outside happens then
+    /// (a SYNC0 edge) that the core must see at its time, not at the end of the block that
+    /// reached it (see [`Machine::exact_deadline`]).
+    pub fn run_until_exactly(&mut self, t_ns: u64) {
+        self.machine.borrow_mut().exact_deadline = true;
+        self.run_until(t_ns);
+        self.machine.borrow_mut().exact_deadline = false;
+    }
+
+    /// Runs until virtual time `t_ns` (or a fault): the slice ends with the first block that
+    /// reaches it.
     pub fn run_until(&mut self, t_ns: u64) {
         for _ in 0..10_000_000u64 {
             {
@@ -648,16 +659,28 @@ fn block_hook(uc: &mut Unicorn<'_, Shared>, addr: u64, size: u32) {
             }
         }
     }
+    let sp = reg(uc, RegisterARM::SP);
+    let masks = masks(uc);
+    let runs = machine.borrow_mut().run_block(
+        addr as u32,
+        size,
+        sp,
+        || uc.mem_read_as_vec(addr, size as usize).unwrap_or_default(),
+        masks,
+    );
+    if !runs {
+        // An event inside the block's time made an exception takeable (or stopped the core).
+        let mut m = machine.borrow_mut();
+        m.stop.get_or_insert(Stop::Preempt);
+        let _ = uc.emu_stop();
+        return;
+    }
     // Only a block that runs carries out the IAP command: a block stopped above starts
     // again later, and the command must happen once.
     if addr == u64::from(iap::ENTRY) {
         iap::call(uc);
     }
-    let sp = reg(uc, RegisterARM::SP);
     let mut m = machine.borrow_mut();
-    m.run_block(addr as u32, size, sp, || {
-        uc.mem_read_as_vec(addr, size as usize).unwrap_or_default()
-    });
     if m.next_event_ns() <= m.now_ns() {
         m.service_due();
     }

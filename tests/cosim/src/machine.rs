@@ -243,6 +243,10 @@ pub struct Machine {
     pub instructions: u64,
     /// When the current slice ends.
     pub deadline_ns: u64,
+    /// The slice ends exactly at `deadline_ns` (something outside happens then, a SYNC0
+    /// edge): a block that would cross it waits, the time up to it a stall. Else the slice
+    /// ends with the first block that reaches it.
+    pub exact_deadline: bool,
     /// Why the CPU must stop at the next block boundary.
     pub stop: Option<Stop>,
     /// Something is pending: the block hook checks the masks.
@@ -313,6 +317,7 @@ impl Machine {
             deadline_ns: 0,
             stop: None,
             check_preempt: false,
+            exact_deadline: false,
             next_event_ns: u64::MAX,
             event_ns: None,
             scs: Scs::with_spec(chip.nvic()),
@@ -443,14 +448,6 @@ impl Machine {
         self.syscon.cclk_hz()
     }
 
-    /// Accounts `n` instructions.
-    pub fn run_instructions(&mut self, n: u64) {
-        self.instructions += n;
-        let q = n * self.cpi.num + self.insn_rem;
-        self.insn_rem = q % self.cpi.den;
-        self.add_cycles(q / self.cpi.den);
-    }
-
     /// Accounts `c` cycles (exception overhead) to the current context.
     pub fn add_cycles(&mut self, c: u64) {
         self.cycles += c;
@@ -469,6 +466,12 @@ impl Machine {
         }
     }
 
+    /// The time model's cycles per instruction from now on.
+    pub fn set_cpi(&mut self, cpi: Cpi) {
+        self.cpi = cpi;
+        self.insn_rem = 0;
+    }
+
     /// The next scheduled event (ns).
     pub fn next_event_ns(&self) -> u64 {
         self.next_event_ns
@@ -476,12 +479,68 @@ impl Machine {
 
     /// A block of `size` bytes at `addr` is about to run with SP `sp`: its instructions are
     /// counted and profiled, with the deepest SP it reaches. `bytes` reads its code when it is
-    /// not in the image's flash.
-    pub fn run_block(&mut self, addr: u32, size: u32, sp: u32, bytes: impl FnOnce() -> Vec<u8>) {
-        let b = self.blocks.get(addr, size, bytes);
+    /// not in the image's flash. `masks` are PRIMASK, BASEPRI and FAULTMASK, which stay as
+    /// they are through a block (writing them ends one).
+    ///
+    /// The events due inside the block's time are served at their own times, in order. One
+    /// that makes an exception takeable stops the block before it runs: the core takes the
+    /// exception at the event's time, as a Cortex-M3 does at the next instruction, and the
+    /// block runs after the handler. The time up to the event is then a stall of the
+    /// interrupted code (at most one block: a little pessimistic for it, exact for the
+    /// handler). An exact deadline ([`Self::exact_deadline`]) inside the block stops it the
+    /// same way. Returns whether the block runs.
+    pub fn run_block(
+        &mut self,
+        addr: u32,
+        size: u32,
+        sp: u32,
+        bytes: impl FnOnce() -> Vec<u8>,
+        masks: (bool, u8, bool),
+    ) -> bool {
+        let n = self.blocks.get(addr, size, bytes).instructions;
+        let q = n * self.cpi.num + self.insn_rem;
+        let block_cycles = q / self.cpi.den;
+        let end_ps = self.now_ps + block_cycles * self.cycle_ps;
+        let mut passed = 0;
+        loop {
+            let event_ps = self.next_event_ns.saturating_mul(1000);
+            let deadline_ps = match self.exact_deadline {
+                true => self.deadline_ns.saturating_mul(1000),
+                false => u64::MAX,
+            };
+            let due_ps = event_ps.min(deadline_ps);
+            if due_ps >= end_ps {
+                break;
+            }
+            if due_ps > self.now_ps {
+                let c = (due_ps - self.now_ps)
+                    .div_ceil(self.cycle_ps)
+                    .min(block_cycles - passed);
+                self.add_cycles(c);
+                passed += c;
+            }
+            self.service_due();
+            let (primask, basepri, faultmask) = masks;
+            let takeable =
+                self.check_preempt && self.scs.preempting(primask, basepri, faultmask).is_some();
+            if takeable || self.stop.is_some() {
+                return false;
+            }
+            if deadline_ps <= self.now_ps {
+                self.stop = Some(Stop::Deadline);
+                return false;
+            }
+            if self.next_event_ns.saturating_mul(1000) <= self.now_ps {
+                // Serving reached its limit with events still due: the rest after the block.
+                break;
+            }
+        }
+        let b = self.blocks.get(addr, size, Vec::new);
         self.profile.block(&b.runs, sp.saturating_sub(b.sp_dip));
-        let n = b.instructions;
-        self.run_instructions(n);
+        self.instructions += n;
+        self.insn_rem = q % self.cpi.den;
+        self.add_cycles(block_cycles.saturating_sub(passed));
+        true
     }
 
     // ------------------------------------------------------------------ events
@@ -1324,11 +1383,20 @@ mod tests {
 
     /// A chip with blank flash on a board (no CPU: the tests drive the bus and the time).
     fn machine() -> (Board, Machine) {
+        machine_with_flash(vec![0xFF; 0x8_0000])
+    }
+
+    /// A chip whose flash is all NOPs (16-bit: one instruction per 2 bytes).
+    fn machine_of_nops() -> (Board, Machine) {
+        machine_with_flash([0x00, 0xBF].repeat(0x4_0000))
+    }
+
+    fn machine_with_flash(flash: Vec<u8>) -> (Board, Machine) {
         let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
         let image = Image {
             chip: crate::chip::Chip::Lpc1754,
             known_product: None,
-            flash: vec![0xFF; 0x8_0000],
+            flash,
             flash_used: 0,
             rtt: None,
             elf: Vec::new(),
@@ -1369,6 +1437,92 @@ mod tests {
             m.service_due();
         }
         m.sleep_until(t_ns);
+    }
+
+    const NVIC_ISER0: u32 = 0xE000_E100;
+    const UNMASKED: (bool, u8, bool) = (false, 0, false);
+
+    /// PWM1's MR4 interrupt enabled in the NVIC; returns the time of its first MR4 match.
+    fn pwm1_interrupt(m: &mut Machine) -> u64 {
+        m.cpu_write(NVIC_ISER0, 4, 1 << crate::nvic::irq::PWM1);
+        ldac_pwm(m, 1);
+        let start = m.now_ns();
+        let tick = 1_000_000_000 / m.syscon.pclk_hz(Clocked::Pwm1);
+        run_to(m, start + 70 * tick);
+        assert!(!m.pwm1.irq(), "no match before MR4");
+        start + 80 * tick
+    }
+
+    /// A block of NOPs that spans the time `t`: `(address, size)`.
+    fn block_across(m: &Machine, t: u64, instructions: u32) -> (u32, u32) {
+        assert!(m.now_ns() < t, "the block starts before {t}");
+        (0x100, 2 * instructions)
+    }
+
+    #[test]
+    fn an_interrupt_inside_a_block_is_taken_at_its_time_and_the_block_waits() {
+        let (_board, mut m) = machine_of_nops();
+        let due = pwm1_interrupt(&mut m);
+        m.sleep_until(due - 1_000);
+        let (at, size) = block_across(&m, due, 100);
+        let before = (m.instructions, m.cycles);
+        assert!(!m.run_block(at, size, 0x1000_4000, Vec::new, UNMASKED));
+        assert!(m.scs.preempting(false, 0, false).is_some());
+        let cycle_ns = 1_000_000_000 / m.cclk_hz();
+        let now = m.now_ns();
+        assert!(
+            now >= due && now < due + cycle_ns,
+            "at the event: {now}, {due}"
+        );
+        assert_eq!(m.instructions, before.0, "the block has not run");
+        // It runs after the handler, with all its cycles.
+        let c0 = m.cycles;
+        assert!(m.run_block(at, size, 0x1000_4000, Vec::new, (true, 0, false)));
+        assert_eq!(m.instructions, before.0 + 100);
+        assert_eq!(m.cycles - c0, 125, "100 NOPs at CPI 5/4");
+        assert!(
+            m.cycles - before.1 > 125,
+            "the wait before the handler is a stall"
+        );
+    }
+
+    #[test]
+    fn a_masked_interrupt_inside_a_block_costs_the_block_nothing() {
+        let (_board, mut m) = machine_of_nops();
+        let due = pwm1_interrupt(&mut m);
+        m.sleep_until(due - 1_000);
+        let (at, size) = block_across(&m, due, 100);
+        let c0 = m.cycles;
+        assert!(m.run_block(at, size, 0x1000_4000, Vec::new, (true, 0, false)));
+        assert_eq!(m.cycles - c0, 125, "the block's own cycles only");
+        assert!(m.pwm1.irq(), "the event was served on the way");
+    }
+
+    #[test]
+    fn an_exact_deadline_inside_a_block_stops_it_there() {
+        let (_board, mut m) = machine_of_nops();
+        let t = m.now_ns() + 500;
+        m.deadline_ns = t;
+        let (at, size) = block_across(&m, t, 100);
+        m.exact_deadline = false;
+        let c0 = m.cycles;
+        assert!(m.run_block(at, size, 0x1000_4000, Vec::new, UNMASKED));
+        assert_eq!(
+            m.cycles - c0,
+            125,
+            "a slice ends with the block that reaches it"
+        );
+        let t = m.now_ns() + 500;
+        m.deadline_ns = t;
+        m.exact_deadline = true;
+        assert!(!m.run_block(at, size, 0x1000_4000, Vec::new, UNMASKED));
+        assert_eq!(m.stop, Some(Stop::Deadline));
+        let cycle_ns = 1_000_000_000 / m.cclk_hz();
+        let now = m.now_ns();
+        assert!(
+            now >= t && now < t + cycle_ns,
+            "at the deadline: {now}, {t}"
+        );
     }
 
     #[test]

@@ -47,13 +47,18 @@ enum Command {
         /// `virtual_board::tools::image_figures`) instead of printing them as text.
         #[arg(long, value_name = "FILE")]
         json: Option<std::path::PathBuf>,
-        /// Only judge this DC cycle (us), with the plan's cycles, and print the verdict.
+        /// Only judge this DC cycle (us), with the plan's cycles under a real master's traffic
+        /// (as the sweep judges), and print the verdict.
         #[arg(long, value_name = "US")]
         cycle_us: Option<u64>,
         /// Let the sweep try this DC cycle (us) too (the cycle a rule on its figure turns
         /// on).
         #[arg(long, value_name = "US")]
         also_cycle_us: Option<u64>,
+        /// With --cycle-us: the time model's cycles per instruction instead of the chip's
+        /// (NUM/DEN, e.g. 3/2: 20 % above the LPC1754's 5/4).
+        #[arg(long, value_name = "NUM/DEN", value_parser = parse_cpi, requires = "cycle_us")]
+        cpi: Option<lpc1754_cosim::chip::Cpi>,
     },
     /// Oversampling on the image (docs/book/oversampling.md): the block PDOs at 1 ms,
     /// 500 us and the advertised minimum, then the 1 kHz loop-back with oversampling at 1 ms
@@ -141,17 +146,43 @@ fn oversampling(cycles: u64, loopback_json: Option<&std::path::Path>) -> Result<
 /// Periods of the sine in each panel of the loop-back plot.
 const LOOPBACK_PLOT_PERIODS: f64 = 3.0;
 
+/// "3/2" -> CPI 3/2.
+fn parse_cpi(s: &str) -> Result<lpc1754_cosim::chip::Cpi, String> {
+    let bad = || format!("{s:?} is not a CPI as NUM/DEN with both > 0 (e.g. 3/2)");
+    let (num, den) = s.split_once('/').ok_or_else(bad)?;
+    let (num, den) = (
+        num.trim().parse::<u64>().map_err(|_| bad())?,
+        den.trim().parse::<u64>().map_err(|_| bad())?,
+    );
+    if num == 0 || den == 0 {
+        return Err(bad());
+    }
+    Ok(lpc1754_cosim::chip::Cpi { num, den })
+}
+
 fn bench(
     quick: bool,
     json: Option<&std::path::Path>,
     cycle_us: Option<u64>,
     also_cycle_us: Option<u64>,
+    cpi: Option<lpc1754_cosim::chip::Cpi>,
 ) -> Result<(), String> {
     let image = load_image()?;
     if let Some(us) = cycle_us {
         let plan = lpc1754_cosim::bench::Plan::new(quick);
-        let run =
-            lpc1754_cosim::bench::dc_run(&image, us * 1000, plan.sweep_cycles(us * 1000), false)?;
+        // Judged as the sweep judges: under a real master's traffic.
+        let program = lpc1754_cosim::bench::Program {
+            cpi,
+            ..lpc1754_cosim::bench::Program::release(&image)
+        };
+        let run = lpc1754_cosim::bench::dc_run_traffic(
+            &program,
+            us * 1000,
+            plan.sweep_cycles(us * 1000),
+            false,
+            None,
+            &lpc1754_cosim::traffic::Traffic::REAL_MASTER,
+        )?;
         println!("{us} us: {} ({:?})", run.check.verdict(), run.check);
         print!("{}", run.after.summary());
         return Ok(());
@@ -358,7 +389,8 @@ fn main() -> ExitCode {
             json,
             cycle_us,
             also_cycle_us,
-        } => bench(quick, json.as_deref(), cycle_us, also_cycle_us),
+            cpi,
+        } => bench(quick, json.as_deref(), cycle_us, also_cycle_us, cpi),
         Command::Boards { quick, lpc_figures } => boards(quick, lpc_figures.as_deref()),
         Command::PeerBench {
             quick,

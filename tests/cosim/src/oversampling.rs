@@ -484,10 +484,8 @@ pub fn check_stream(run: &OsRun) -> StreamCheck {
     };
     let scan_ns = PERIOD_NS * CHANNELS as u64;
     let mut expected: Option<u32> = None;
-    let t0 = run
-        .blocks
-        .first()
-        .map(|b| b.time_dc.wrapping_sub(u64::from(b.counter) * scan_ns));
+    // Each block's time from the first's, by the counter's distance (it wraps).
+    let first = run.blocks.first().map(|b| (b.time_dc, b.counter));
     for b in &run.blocks {
         c.samples += b.samples.len() as u64;
         if let Some(e) = expected {
@@ -501,8 +499,8 @@ pub fn check_stream(run: &OsRun) -> StreamCheck {
         expected = Some(b.counter.wrapping_add(u32::from(b.scans)));
         c.flagged_blocks += u64::from(b.status != 0);
         c.scans_range = (c.scans_range.0.min(b.scans), c.scans_range.1.max(b.scans));
-        if let Some(t0) = t0 {
-            let want = t0 + u64::from(b.counter) * scan_ns;
+        if let Some((t0, c0)) = first {
+            let want = t0.wrapping_add(u64::from(b.counter.wrapping_sub(c0)) * scan_ns);
             c.time_jitter_ns = c.time_jitter_ns.max(b.time_dc.abs_diff(want));
         }
     }

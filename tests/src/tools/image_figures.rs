@@ -29,6 +29,19 @@ pub struct ImageFigures {
     pub profile: ProfileRun,
     /// The shortest DC cycle.
     pub sweep: Sweep,
+    /// The shortest DC cycle searched again with the time model's CPI 20 % below and above
+    /// [`ImageFigures::cpi`] (the margin the advertised minimum needs).
+    #[serde(default)]
+    pub cpi_sensitivity: Vec<CpiSweep>,
+}
+
+/// The sweep's search at another CPI of the time model.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct CpiSweep {
+    /// Cycles per instruction, numerator and denominator.
+    pub cpi: (u64, u64),
+    /// The cycle times tried.
+    pub sweep: Sweep,
 }
 
 /// One run from reset: INIT -> PRE-OP, mailbox traffic (SDO uploads and downloads, SDO

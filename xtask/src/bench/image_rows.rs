@@ -99,6 +99,22 @@ fn pdi_share(f: &ImageFigures, label_start: &str) -> f64 {
         .map_or(0.0, |w| w.1)
 }
 
+/// The sensitivity run with the highest CPI of the time model.
+pub fn dearer_cpi(f: &ImageFigures) -> Option<super::advertised::DearerCpi> {
+    let ratio = |c: &(u64, u64)| c.0 as f64 / c.1 as f64;
+    let dearest = f
+        .cpi_sensitivity
+        .iter()
+        .max_by(|a, b| ratio(&a.cpi).total_cmp(&ratio(&b.cpi)))?;
+    (ratio(&dearest.cpi) > ratio(&f.cpi)).then(|| super::advertised::DearerCpi {
+        cpi: dearest.cpi,
+        measured_us: dearest
+            .sweep
+            .shortest_sustained()
+            .map(|c| us(c.cycle_ns as f64)),
+    })
+}
+
 fn cycle_row(f: &ImageFigures) -> Row {
     let best = f.sweep.shortest_sustained();
     let below = f.sweep.first_failing();
@@ -402,7 +418,7 @@ pub fn note(f: &ImageFigures) -> String {
          late input, with a moving signal on every ADC channel), no AD7689 result is lost \
          (overwritten unread in the GPDMA ring, an SSP1 overrun, tCYC) and the slave stays in \
          OP; SYNC0 lies half a cycle after the frame, give or take the master's jitter \
-         (docs/book/traffic.md). Sweep: {}.",
+         (docs/book/traffic.md). Sweep: {}.{}",
         elf.display(),
         if f.quick { " --quick" } else { "" },
         f.cpi.0,
@@ -410,6 +426,37 @@ pub fn note(f: &ImageFigures) -> String {
         f.cclk_hz / 1_000_000,
         f.profile.dc.planned,
         us(f.profile.dc.cycle_ns as f64),
-        f.sweep.method
+        f.sweep.method,
+        sensitivity_text(f)
+    )
+}
+
+/// " Time model sensitivity: at CPI 1/1 the shortest sustained DC cycle is ..., at CPI 3/2
+/// ...".
+fn sensitivity_text(f: &ImageFigures) -> String {
+    if f.cpi_sensitivity.is_empty() {
+        return String::new();
+    }
+    let each: Vec<String> = f
+        .cpi_sensitivity
+        .iter()
+        .map(|c| {
+            format!(
+                "at CPI {}/{} {}",
+                c.cpi.0,
+                c.cpi.1,
+                c.sweep.shortest_sustained().map_or(
+                    "none of the cycle times tried".into(),
+                    |p| format!("{:.0} us", us(p.cycle_ns as f64))
+                )
+            )
+        })
+        .collect();
+    format!(
+        " Time model sensitivity (the same search with every instruction's cycles 20 % below \
+         and above CPI {}/{}), shortest sustained DC cycle: {}.",
+        f.cpi.0,
+        f.cpi.1,
+        each.join(", ")
     )
 }

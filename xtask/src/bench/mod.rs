@@ -241,7 +241,9 @@ fn image_and_rule(
     let on_image = image_rows::measure(quick, advertised::MinCycle::product_allows_us(), product)?;
     let image_min_us = image_rows::min_cycle_us(&on_image)
         .ok_or("the image sustains none of the DC cycle times tried: see group 7")?;
-    Ok((on_image, advertised::MinCycle::of_product(image_min_us)))
+    let rule = advertised::MinCycle::of_product(image_min_us)
+        .with_dearer_cpi(image_rows::dearer_cpi(&on_image));
+    Ok((on_image, rule))
 }
 
 /// `--min-cycle`: the rule alone, for re-running after a change of the process-data path.

@@ -393,7 +393,10 @@ impl SampleStream {
         let Some(word0) = self.word0_ns else {
             return;
         };
-        let edge_ns = now_ns.wrapping_sub(u64::from((now_ns as u32).wrapping_sub(edge_lo)));
+        // Signed: the SYNC0 task may have captured the edge after the caller read `now_ns`
+        // (it preempts the PDI task in between).
+        let behind = (now_ns as u32).wrapping_sub(edge_lo) as i32;
+        let edge_ns = now_ns.wrapping_add_signed(-i64::from(behind));
         let edge_dc = self.edge_dc(edge_lo);
         let mut end = self.cut_word(word0, edge_ns);
         // Not converted yet (the lead keeps this from happening): the rest comes next time.

@@ -77,5 +77,6 @@ pub fn program(image: &Image) -> Result<crate::bench::Program<'_>, String> {
         target,
         min_cycle_ns: min_cycle_ns()?,
         boot_ns: 0,
+        cpi: None,
     })
 }

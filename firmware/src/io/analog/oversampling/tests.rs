@@ -239,6 +239,30 @@ fn a_lapped_ring_is_an_overrun_and_the_stream_goes_on() {
 }
 
 #[test]
+fn an_edge_captured_after_the_callers_time_starts_the_stream_at_counter_0() {
+    // The SYNC0 task preempted the PDI task between its time read and the edge's read: the
+    // edge is 2 us after `now`.
+    let mut s = SampleStream::new();
+    let cycle = 500_000;
+    s.restart(blocks(4));
+    s.set_dc_reference(cycle as u32, FIRST_EDGE + DC_OFFSET, None);
+    s.set_word0(WORD0);
+    for c in 0..4 {
+        let edge = FIRST_EDGE + c * cycle;
+        let now = if c == 0 {
+            edge - 2_000
+        } else {
+            edge + POLL_DELAY
+        };
+        s.set_written(written_at(now));
+        s.on_edge(now, edge as u32);
+    }
+    let b = *s.block();
+    assert_eq!(b.status, 0, "no overrun: {b:?}");
+    assert_eq!(u64::from(b.counter), 2 * cycle / SCAN_NS, "{b:?}");
+}
+
+#[test]
 fn no_stream_without_oversampling_pdos_or_adc() {
     let mut s = SampleStream::new();
     s.set_word0(WORD0);
