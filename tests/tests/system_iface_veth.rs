@@ -6,7 +6,8 @@
 //!   generated SII, with every analog input held at its own voltage: ethercrab reads the
 //!   identity (SII and SDO), walks it to OP and exchanges process data; every input value it
 //!   read is that voltage truncated to a 0x6401 step, and every output pair it wrote reached the
-//!   DAC model, in order ([`virtual_board::tools::analog_check`]).
+//!   DAC model, in order, but for any the board's CPU skipped while it ran far behind the wall
+//!   clock ([`virtual_board::tools::analog_check`]).
 //! - [`ethercrab_gets_its_words_echoed_over_a_veth_pair`]: the transport alone, with the echo
 //!   responder (`cargo xtask sim --iface vb1 --echo`, no CoE): every word that comes back is one
 //!   the master sent before, never an older one after a newer, and the last comes back exactly.
@@ -36,7 +37,9 @@ use virtual_board::models::adc::Signal;
 use virtual_board::models::dac::DacUpdate;
 use virtual_board::rig::board::{BoardConfig, VirtualBoard};
 use virtual_board::rig::sii_builder::minimal_io_device;
-use virtual_board::tools::analog_check::{check_inputs, check_outputs, OutputsTaken, AI_LEVELS_V};
+use virtual_board::tools::analog_check::{
+    check_inputs, check_outputs_on_the_wall_clock, OutputsTaken, AI_LEVELS_V,
+};
 use virtual_board::tools::iface::{
     ip, serve, veth_missing, veth_pair_in_new_namespace, RawSocket, ServeOptions, ServeStats,
 };
@@ -134,8 +137,8 @@ fn assert_capture_clean(pcap: &[u8], name: &str) {
 /// Output pairs the master sends in OP, each for [`EXCHANGES_PER_PAIR`] exchanges.
 const PAIRS: u16 = 100;
 /// Exchanges that carry the same output pair, [`EXCHANGE_GAP`] apart: the pair stays in SM2
-/// for 10 ms, far longer than the board's CPU lags behind the wall clock (a few ms at most
-/// on a loaded host), so the firmware sees every pair.
+/// for 10 ms, longer than the host-compiled firmware's CPU usually lags behind the wall clock
+/// (1.3 ms at most here), so the firmware sees every pair.
 const EXCHANGES_PER_PAIR: u16 = 5;
 /// Wall time between two exchanges.
 const EXCHANGE_GAP: Duration = Duration::from_millis(2);
@@ -281,10 +284,18 @@ fn ethercrab_drives_the_firmware_over_a_veth_pair() {
     for values in &run.inputs {
         check_inputs(&AI_LEVELS_V, values).unwrap();
     }
-    // Every output pair reached the DAC, in order, none missing.
-    let on_dac = check_outputs(&run.taken, &board.dac_updates).unwrap();
-    assert_eq!(on_dac.pairs, usize::from(PAIRS));
-    assert_eq!(on_dac.missing, 0);
+    // Every output pair reached the DAC, in order, but for a pair the board's CPU skipped
+    // while it ran behind the wall clock for longer than the pair stayed in SM2.
+    assert_eq!(run.taken.len(), usize::from(PAIRS));
+    let held = EXCHANGE_GAP * u32::from(EXCHANGES_PER_PAIR);
+    let on_dac = check_outputs_on_the_wall_clock(
+        &run.taken,
+        &board.dac_updates,
+        &stats.lag,
+        held.as_nanos() as u64,
+    )
+    .unwrap();
+    eprintln!("{on_dac}");
     assert_capture_clean(&board.pcap, "system-iface-veth-firmware.pcap");
 }
 

@@ -10,6 +10,11 @@
 //! converters' resolution: an input value is its voltage truncated to a 0x6401 step (the
 //! AD7689 model converts with `floor` and has no noise; the value keeps the top 15 of its 16
 //! bits), and an output's voltage is the one its value asks for to within half a DAC code.
+//!
+//! On the wall clock the board's CPU may run behind ([`crate::tools::iface`]): it then reads SM2 after
+//! the next frame has arrived and an output value never reaches the DAC, as on a CPU that
+//! slow. [`check_outputs`] reports each value missing with where it was due, and
+//! [`unexplained`] keeps those the board's lag there does not explain.
 
 use crate::models::dac::{DacUpdate, GAIN, VREF};
 
@@ -67,22 +72,37 @@ pub struct OutputsTaken {
     pub may_be_replaced: bool,
 }
 
-/// What [`check_outputs`] found.
+/// An output value the master sent that never reached the DAC.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MissingOutput {
+    /// Index of the pair in the checked pairs.
+    pub pair: usize,
+    /// DAC channel.
+    pub channel: usize,
+    /// The board's virtual time between the DAC loads before and after it (ns): where the
+    /// module had to take it.
+    pub between_ns: (u64, u64),
+}
+
+/// What [`check_outputs`] found.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OutputsOnTheDac {
     /// Pairs checked.
     pub pairs: usize,
-    /// Values (of both channels) that were allowed to be missing and were.
-    pub missing: usize,
+    /// Values (of both channels) flagged [`OutputsTaken::may_be_replaced`] that were missing.
+    pub replaced: usize,
+    /// Values not flagged that were missing: for the caller to explain (a board whose CPU
+    /// ran behind the wall clock reads SM2 after the next frame arrived) or to fail.
+    pub missing: Vec<MissingOutput>,
 }
 
-/// Every pair of `taken` (in the order the master sent them, each once) reached the DAC
-/// model's register of its channel (`updates`, every load in order) as the code whose voltage
-/// is the value's to within half a code, in that order and with no other code between; only a
-/// pair flagged [`OutputsTaken::may_be_replaced`] may be missing. The check starts at the
-/// first pair found on the DAC and ends with the last pair; the leading pairs whose first
-/// value is 0 are left out (code 0 is what the DAC holds before OP too, so it names no
-/// exchange).
+/// Checks that the DAC model's registers (`updates`, every load in order) took the pairs of
+/// `taken` (in the order the master sent them, each once, the values of a channel all
+/// different): every code loaded from the first of the master's values to the last is the
+/// code whose voltage is one of them to within half a code, in the order sent, never an older
+/// one after a newer. A value that never arrived is reported ([`OutputsOnTheDac`]), not an
+/// error. The leading pairs whose first value is 0 are left out (code 0 is what the DAC holds
+/// before OP too, so it names no exchange).
 pub fn check_outputs(
     taken: &[OutputsTaken],
     updates: &[DacUpdate],
@@ -91,47 +111,142 @@ pub fn check_outputs(
     if taken.is_empty() {
         return Err("no output pair to check".into());
     }
-    let mut missing = 0;
+    let mut found = OutputsOnTheDac {
+        pairs: taken.len(),
+        replaced: 0,
+        missing: Vec::new(),
+    };
     for ch in 0..2usize {
-        let mut codes: Vec<u16> = updates
-            .iter()
-            .filter(|u| usize::from(u.channel) == ch)
-            .map(|u| u.code)
-            .collect();
-        // A register loaded again with the same code (an output event without a new frame)
-        // is one value on the output.
-        codes.dedup();
-        let is = |code: u16, value: i16| {
-            let asked = f64::from(value.max(0)) * PV_STEP_V;
-            (f64::from(code) * DAC_CODE_V - asked).abs() < DAC_CODE_V / 2.0
-        };
-        let Some(mut at) = taken
-            .iter()
-            .find_map(|t| codes.iter().position(|&c| is(c, t.values[ch])))
-        else {
-            return Err(format!("no output value of the master on DAC channel {ch}"));
-        };
+        // The code of each value (the one whose voltage is within half a code of it).
+        let mut index = std::collections::HashMap::new();
         for (i, t) in taken.iter().enumerate() {
-            let value = t.values[ch];
-            if codes.get(at).is_some_and(|&c| is(c, value)) {
-                at += 1;
-            } else if t.may_be_replaced {
-                missing += 1;
-            } else {
+            let code = (f64::from(t.values[ch].max(0)) * PV_STEP_V / DAC_CODE_V).round() as u16;
+            if index.insert(code, i).is_some() {
                 return Err(format!(
-                    "DAC channel {ch}: pair {i} of {} (value {value}, {:.5} V) is not next on the \
-                     DAC, which shows codes {:x?} around there",
-                    taken.len(),
-                    f64::from(value) * PV_STEP_V,
-                    codes.get(at.saturating_sub(2)..(at + 3).min(codes.len()))
+                    "DAC channel {ch}: value {} sent twice",
+                    t.values[ch]
                 ));
             }
         }
+        let mut loads: Vec<(u64, u16)> = updates
+            .iter()
+            .filter(|u| usize::from(u.channel) == ch)
+            .map(|u| (u.time_ns, u.code))
+            .collect();
+        // A register loaded again with the same code (an output event without a new frame)
+        // is one value on the output.
+        loads.dedup_by_key(|l| l.1);
+        let ours = |l: &(u64, u16)| index.contains_key(&l.1);
+        let (Some(first), Some(last)) = (loads.iter().position(ours), loads.iter().rposition(ours))
+        else {
+            return Err(format!("no output value of the master on DAC channel {ch}"));
+        };
+        let mut next = 0;
+        let mut before_ns = loads[first].0;
+        let mut miss = |from: usize, to: usize, between_ns: (u64, u64)| {
+            for (pair, t) in taken.iter().enumerate().take(to).skip(from) {
+                if t.may_be_replaced {
+                    found.replaced += 1;
+                } else {
+                    found.missing.push(MissingOutput {
+                        pair,
+                        channel: ch,
+                        between_ns,
+                    });
+                }
+            }
+        };
+        for &(at_ns, code) in &loads[first..=last] {
+            match index.get(&code) {
+                Some(&k) if k >= next => {
+                    miss(next, k, (before_ns, at_ns));
+                    next = k + 1;
+                }
+                Some(&k) => {
+                    return Err(format!(
+                        "DAC channel {ch}: pair {k} of {} (code {code:#06x}) came back at {at_ns} \
+                         ns, after pair {}",
+                        taken.len(),
+                        next - 1
+                    ))
+                }
+                None => {
+                    return Err(format!(
+                        "DAC channel {ch}: code {code:#06x} at {at_ns} ns, between the master's \
+                         pairs {} and {}, is none of the master's values",
+                        next.saturating_sub(1),
+                        next
+                    ))
+                }
+            }
+            before_ns = at_ns;
+        }
+        let after_ns = loads.get(last + 1).map_or(before_ns, |l| l.0);
+        miss(next, taken.len(), (before_ns, after_ns));
     }
-    Ok(OutputsOnTheDac {
-        pairs: taken.len(),
-        missing,
-    })
+    Ok(found)
+}
+
+/// The values of `missing` that the board's lag behind the wall clock does not explain: where
+/// the CPU was less than `lag_that_skips_ns` behind (the time from a pair's first frame to
+/// the next pair's, less the time from a frame to the output event), per `lag_between(from,
+/// to)`, the largest lag while the board's virtual time was in `[from, to]`
+/// ([`crate::tools::iface::Lag::max_between`]).
+pub fn unexplained(
+    missing: &[MissingOutput],
+    lag_that_skips_ns: u64,
+    lag_between: impl Fn(u64, u64) -> u64,
+) -> Vec<MissingOutput> {
+    missing
+        .iter()
+        .filter(|m| lag_between(m.between_ns.0, m.between_ns.1) < lag_that_skips_ns)
+        .copied()
+        .collect()
+}
+
+/// Of the values the master sent, the share that must reach the DAC however far the board's
+/// CPU ran behind: below it, the run checked too little to be a test.
+pub const MIN_SHARE_ON_THE_DAC: f64 = 0.9;
+
+/// [`check_outputs`] for a board served on the wall clock ([`crate::tools::iface`]): every
+/// value missing must be flagged or explained by the board's `lag` where it was due (at least
+/// `lag_that_skips_ns`, [`unexplained`]), and at least [`MIN_SHARE_ON_THE_DAC`] of the values
+/// must have reached the DAC. A line that says what was found, or what failed.
+pub fn check_outputs_on_the_wall_clock(
+    taken: &[OutputsTaken],
+    updates: &[DacUpdate],
+    lag: &crate::tools::iface::Lag,
+    lag_that_skips_ns: u64,
+) -> Result<String, String> {
+    let found = check_outputs(taken, updates)?;
+    let values = 2 * found.pairs;
+    let reached = values - found.replaced - found.missing.len();
+    let summary = format!(
+        "{reached} of {values} output values on the DAC in order ({} beside a late master \
+         cycle and {} where the board's CPU was {:.1} ms or more behind the wall clock missing)",
+        found.replaced,
+        found.missing.len(),
+        lag_that_skips_ns as f64 * 1e-6
+    );
+    let wrong = unexplained(&found.missing, lag_that_skips_ns, |a, b| {
+        lag.max_between(a, b)
+    });
+    if let Some(m) = wrong.first() {
+        return Err(format!(
+            "{summary}; {} not explained, the first: pair {} on channel {}, due between {} and \
+             {} ns, where the CPU was {:.2} ms behind",
+            wrong.len(),
+            m.pair,
+            m.channel,
+            m.between_ns.0,
+            m.between_ns.1,
+            lag.max_between(m.between_ns.0, m.between_ns.1) as f64 * 1e-6
+        ));
+    }
+    if (reached as f64) < MIN_SHARE_ON_THE_DAC * values as f64 {
+        return Err(format!("{summary}: too few to check"));
+    }
+    Ok(summary)
 }
 
 #[cfg(test)]
@@ -174,7 +289,7 @@ mod tests {
     }
 
     #[test]
-    fn outputs_must_all_reach_the_dac_in_order() {
+    fn outputs_reach_the_dac_in_order_or_are_reported_missing() {
         let taken = [
             pair(0, 0, false),
             pair(100, 30_000, false),
@@ -194,14 +309,24 @@ mod tests {
             load(0, 600),
             load(1, 56_000),
         ];
+        // A pair's two loads at the same time, 1 us after the pair before.
+        let all: Vec<DacUpdate> = all
+            .iter()
+            .enumerate()
+            .map(|(i, u)| DacUpdate {
+                time_ns: i as u64 / 2 * 1000,
+                ..*u
+            })
+            .collect();
         assert_eq!(
             check_outputs(&taken, &all),
             Ok(OutputsOnTheDac {
                 pairs: 3,
-                missing: 0
+                replaced: 0,
+                missing: vec![]
             })
         );
-        // The flagged pair may be missing, no other.
+        // A flagged pair missing is counted; any other is reported with where it was due.
         let without = |code_a: u16, code_b: u16| -> Vec<DacUpdate> {
             all.iter()
                 .copied()
@@ -210,20 +335,37 @@ mod tests {
                 })
                 .collect()
         };
+        let o = check_outputs(&taken, &without(400, 58_000)).unwrap();
+        assert_eq!((o.replaced, o.missing.len()), (2, 0));
+        let o = check_outputs(&taken, &without(200, 60_000)).unwrap();
+        assert_eq!(o.missing.len(), 2);
+        assert_eq!(o.missing[0].pair, 0);
+        let o = check_outputs(&taken, &without(600, 56_000)).unwrap();
+        assert_eq!(o.missing.len(), 2);
+        assert_eq!((o.missing[0].pair, o.missing[0].channel), (2, 0));
+        // Due after the load at 3 us: explained by a lag of 3 ms there, or not.
+        assert_eq!(o.missing[0].between_ns, (3000, 3000));
+        assert!(unexplained(&o.missing, 2_000_000, |_, _| 3_000_000).is_empty());
         assert_eq!(
-            check_outputs(&taken, &without(400, 58_000)).map(|o| o.missing),
-            Ok(2)
+            unexplained(&o.missing, 2_000_000, |_, _| 1_000_000),
+            o.missing
         );
-        assert!(check_outputs(&taken, &without(600, 56_000))
+        // An older value after a newer one.
+        let mut back = all.to_vec();
+        back.push(load(0, 400));
+        back.push(load(0, 600));
+        assert!(check_outputs(&taken, &back)
             .unwrap_err()
-            .contains("pair 2"));
+            .contains("came back"));
         // A code the master never sent, between two of its pairs.
         let mut extra = all.to_vec();
         extra.insert(6, load(0, 1234));
-        assert!(check_outputs(&taken, &extra).is_err());
+        assert!(check_outputs(&taken, &extra)
+            .unwrap_err()
+            .contains("none of the master's"));
         // A code one off.
         let mut off = all.to_vec();
-        off[8] = load(0, 601);
+        off[6] = load(0, 401);
         assert!(check_outputs(&taken, &off).is_err());
         assert!(check_outputs(&taken, &[]).is_err());
     }

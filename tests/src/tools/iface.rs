@@ -331,11 +331,38 @@ pub struct Lag {
     pub mean_ns: u64,
     /// Virtual time the board advanced (ns).
     pub virtual_ns: u64,
+    /// The largest lag in each millisecond of the board's virtual time that was sampled:
+    /// `(start of the millisecond, lag)` (ns), in order; what a check of the outputs needs to
+    /// tell a slow CPU from a wrong one.
+    pub trace: Vec<(u64, u64)>,
     weighted: u128,
     last: Option<(Instant, u64)>,
 }
 
+/// The stretch of virtual time one entry of [`Lag::trace`] covers (ns).
+const LAG_TRACE_NS: u64 = 1_000_000;
+
 impl Lag {
+    /// The largest lag sampled while the board's virtual time was in `[from_ns, to_ns]`
+    /// (to the [`Lag::trace`]'s millisecond).
+    pub fn max_between(&self, from_ns: u64, to_ns: u64) -> u64 {
+        let first = from_ns / LAG_TRACE_NS * LAG_TRACE_NS;
+        self.trace
+            .iter()
+            .filter(|(t, _)| (first..=to_ns).contains(t))
+            .map(|&(_, lag)| lag)
+            .max()
+            .unwrap_or(0)
+    }
+
+    fn trace(&mut self, virtual_ns: u64, lag_ns: u64) {
+        let at = virtual_ns / LAG_TRACE_NS * LAG_TRACE_NS;
+        match self.trace.last_mut() {
+            Some((t, lag)) if *t == at => *lag = (*lag).max(lag_ns),
+            _ => self.trace.push((at, lag_ns)),
+        }
+    }
+
     fn sample(&mut self, now: Instant, lag_ns: u64, served: Duration) {
         if let Some((at, lag)) = self.last {
             self.weighted += (now - at).as_nanos() * u128::from(lag);
@@ -608,6 +635,7 @@ fn run_cpu(
         let wall = wall_ns(now);
         let v = board.now_ns();
         stats.lag.sample(now, wall.saturating_sub(v), stats.elapsed);
+        stats.lag.trace(v, wall.saturating_sub(v));
         let limit = pace.limit(wall);
         let continuous = board.cpu().runs_continuously();
         // Something came from outside: a frame (its thread also wakes this one) or a SYNC

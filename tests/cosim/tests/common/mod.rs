@@ -20,7 +20,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use virtual_board::models::dac::DacUpdate;
 use virtual_board::rig::master::tx_rx_task;
-use virtual_board::tools::iface::{veth_pair_in_new_namespace, ServeStats};
+use virtual_board::tools::iface::{veth_pair_in_new_namespace, Lag, ServeStats};
 use virtual_board::tools::sim::{self, Line, SimConfig, Target};
 
 /// What a master script did against the image served on a veth pair.
@@ -41,6 +41,8 @@ pub struct ScriptRun {
     pub pcap: PathBuf,
     /// Every load of a DAC register on the board, in order.
     pub dac_updates: Vec<DacUpdate>,
+    /// How far the board's CPU ran behind the wall clock, over its virtual time.
+    pub lag: Lag,
 }
 
 /// A master script: `python3 PATH vb0 ARGS`.
@@ -251,6 +253,7 @@ pub fn run_script_against_with_inputs(
         ),
         pcap: run.pcap,
         dac_updates: run.dac_updates,
+        lag: run.served.lag,
     })
 }
 
