@@ -459,7 +459,10 @@ pub fn dc_run_traffic(
             .configure_dc_sync(
                 &md,
                 DcConfiguration {
-                    start_delay: Duration::from_millis(1),
+                    // ethercrab rounds the first pulse down to a whole cycle: with a delay
+                    // of one cycle only it can fall before the activation's write, and the
+                    // unit never starts.
+                    start_delay: Duration::from_nanos(1_000_000 + checked_ns),
                     sync0_period: Duration::from_nanos(checked_ns),
                     sync0_shift: Duration::from_nanos(checked_ns / 2),
                 },

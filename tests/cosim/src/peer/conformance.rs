@@ -466,7 +466,8 @@ async fn flow_check(
                 .configure_dc_sync(
                     md,
                     DcConfiguration {
-                        start_delay: Duration::from_millis(1),
+                        // One cycle more: ethercrab rounds the first pulse down.
+                        start_delay: Duration::from_nanos(1_000_000 + cycle),
                         sync0_period: Duration::from_nanos(cycle),
                         sync0_shift: Duration::ZERO,
                     },

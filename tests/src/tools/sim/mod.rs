@@ -829,7 +829,9 @@ async fn master(
         .configure_dc_sync(
             md,
             DcConfiguration {
-                start_delay: Duration::from_millis(1),
+                // ethercrab rounds the first pulse down to a whole cycle: a delay of one
+                // cycle more keeps it after the activation's write.
+                start_delay: Duration::from_millis(1) + cycle,
                 sync0_period: cycle,
                 // The master sends each frame half a cycle after a SYNC0 edge (below:
                 // `next_cycle_wait`), so the outputs reach SM2 half a cycle before the edge
