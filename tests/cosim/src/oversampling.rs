@@ -338,16 +338,13 @@ pub fn run_with(
             if i >= WARM_UP_CYCLES {
                 blocks.push(block);
             }
-            // The frames: at the SYNC0 edges (shift T/2) for the input blocks alone; half a
-            // cycle after them with output blocks, whose block must be in before the last
-            // update interval of the cycle.
+            // The frames half a cycle after the SYNC0 edges (shift T/2): the PDI task has
+            // written the edge's input block by then, and an output block is in before the
+            // last update interval of the cycle. (Frames right at the edges raced with the
+            // block's write: each block was read twice or not at all, depending on a few
+            // instructions.)
             let phase = resp.extra.dc_system_time % cycle_ns;
-            let frame_phase = if config.update_pdos > 0 {
-                0
-            } else {
-                cycle_ns / 2
-            };
-            step_to(&board, t0 + (cycle_ns - phase) + frame_phase);
+            step_to(&board, t0 + (cycle_ns - phase));
         }
         Ok::<(), String>(())
     };
