@@ -92,7 +92,8 @@ class Cyclic(threading.Thread):
     """The master's cyclic task: one process-data exchange every cycle, with DC in step with
     SYNC0: the frames pass the module half a cycle before each SYNC0 edge (SOEM's ec_sync
     control on the DC time the frames bring back). Counts the exchanges with the expected
-    working counter and the cycles it started late.
+    working counter and the cycles it started late (no sleep before the frame, or the frame
+    sent a quarter cycle or more after its time).
 
     While `recording`, it keeps what a checker of the module's outputs and inputs needs:
     each output pair the module took (an exchange with the expected working counter), once
@@ -114,29 +115,33 @@ class Cyclic(threading.Thread):
         self.ai_min, self.ai_max = None, None
 
     def run(self):
-        deadline = time.monotonic_ns() + self.cycle_ns
-        was_late = False
+        due = time.monotonic_ns()
+        was_late = skipped = False
         while self.running:
             with self.lock:
                 outputs = self.outputs
                 self.slave.output = struct.pack("<hh", *outputs)
             self.master.send_processdata()
+            # The frame left before the send returned. Sent a quarter cycle or more after its
+            # time (a sleep that overslept on a stalled host, or no sleep at all), it may
+            # have passed the module after the SYNC0 edge it was meant for, and the next
+            # frame then replaces its outputs before they are put out.
+            late = skipped or time.monotonic_ns() - due >= self.cycle_ns // 4
             wkc = self.master.receive_processdata()
             answered = wkc == self.master.expected_wkc
             with self.lock:
                 self.exchanges += 1
                 self.good += answered
+                self.late += late
                 self.inputs = list(struct.unpack("<8h", bytes(self.slave.input[:16])))
-            deadline += self.cycle_ns + self.offset()
-            left = deadline - time.monotonic_ns()
-            if left > 0:
-                time.sleep(left / 1e9)
-            else:
-                self.late += 1
-            late = left <= 0
             if answered:
                 self.record(outputs, was_late or late)
             was_late = late
+            due += self.cycle_ns + self.offset()
+            left = due - time.monotonic_ns()
+            skipped = left <= 0
+            if not skipped:
+                time.sleep(left / 1e9)
 
     def record(self, outputs, may_be_replaced):
         with self.lock:
