@@ -29,8 +29,9 @@ const CR1_CEN: u32 = 1 << 0;
 
 /// What woke the DAC task.
 pub enum Tim8Event {
-    /// A SYNC0 edge, captured at this cycle count.
-    Sync0(u64),
+    /// A SYNC0 edge: TIM8's 16-bit capture of it, for [`Sync0Capture::capture_ns`] once
+    /// LDAC is done.
+    Sync0(u16),
     /// Pended by software (apply or preload outputs).
     Pended,
 }
@@ -55,22 +56,24 @@ pub fn init(tim: pac::TIM8) -> (Sync0Capture, LdacPin) {
 }
 
 impl Sync0Capture {
-    /// Reads the capture (which clears its flag) or tells a software pend.
+    /// Reads the capture (which clears its flag) or tells a software pend. Only the
+    /// registers: the edge's place on the time base waits until after LDAC.
     pub fn on_interrupt(&mut self) -> Tim8Event {
         if read(self.tim.sr()) & SR_CC1IF == 0 {
             return Tim8Event::Pended;
         }
         let captured = read(self.tim.ccr1()) as u16;
-        let counter = read(self.tim.cnt()) as u16;
-        let now = time::now_cycles();
         // rc_w0: clears the over-capture flag only.
         write(self.tim.sr(), !SR_CC1OF & 0xFFFF);
-        Tim8Event::Sync0(capture_cycles(now, counter, captured))
+        Tim8Event::Sync0(captured)
     }
 
-    /// The time base (ns) of a capture.
-    pub fn capture_ns(&self, cycles: u64) -> u64 {
-        cycles_to_ns(cycles)
+    /// The time base (ns) of a capture taken less than 65 536 cycles (0.9 ms) ago: the
+    /// counter's 16 bits place it against the time base's cycles now.
+    pub fn capture_ns(&self, captured: u16) -> u64 {
+        let counter = read(self.tim.cnt()) as u16;
+        let now = time::now_cycles();
+        cycles_to_ns(capture_cycles(now, counter, captured))
     }
 }
 
