@@ -3,31 +3,20 @@
 //! co-simulated STM32F103 (`lpc1754_cosim::stm32`: RCC, FLASH_ACR, GPIO/AFIO, EXTI, TIM3/8,
 //! SPI1/2, DMA1, IWDG, DWT, and FSMC bank 1 on the ET1100 model's µC front end), and
 //! ethercrab (in process) drives it with the LPC1754 image tests' helpers: the identity and
-//! OP with process data to the DAC (`common::boot_to_op`), then DC SYNC0 cycles judged as
-//! `cargo xtask bench` judges them (`lpc1754_cosim::bench::dc_run`: every DAC pair latched at
-//! its SYNC0 edge, no AD7689 result lost, the AI values the ADC model's inputs).
+//! OP with process data to the DAC (`common::boot_to_op`); SOEM drives it over a veth pair.
+//! The system tests of `system_image.rs` run on this image too (its module `stm32f103`).
 
 mod common;
 
-use firmware::platform::board::Mcu;
-use firmware::products::{Product, PRODUCTS};
 use lpc1754_cosim::chip::Chip;
 use lpc1754_cosim::run::load_image_of;
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
 
-fn stm32_product() -> &'static Product {
-    PRODUCTS
-        .iter()
-        .copied()
-        .find(|p| p.board.mcu() == Mcu::Stm32f103vc)
-        .expect("an STM32F103 product")
-}
-
 #[test]
 fn stm32_image_boots_shows_its_identity_and_reaches_op() {
-    let product = stm32_product();
+    let product = common::stm32_product();
     assert_eq!(product.device.identity.product_code, 0xF103);
     let image = load_image_of(product.name).expect("the product's release ELF");
     assert_eq!(image.chip, Chip::Stm32f103, "linked for the STM32's flash");
@@ -46,47 +35,6 @@ fn stm32_image_boots_shows_its_identity_and_reaches_op() {
     );
 }
 
-/// INIT -> OP with DC SYNC0 at the product's advertised minimum cycle and 2 000 judged
-/// process-data cycles: AO pairs reach the DAC at their SYNC0 edges, AI values come from the
-/// ADC model's inputs, nothing lost; no fault, no reported problem.
-#[test]
-fn stm32_image_dc_op_with_dac_and_adc_checked() {
-    let product = stm32_product();
-    let image = load_image_of(product.name).expect("the product's release ELF");
-    let cycle_ns = u64::from(firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS);
-    let run = lpc1754_cosim::bench::dc_run(&image, cycle_ns, 2_000, true).unwrap();
-    let c = &run.check;
-    assert!(
-        c.sustained(),
-        "{}: {c:?}\n{}",
-        c.verdict(),
-        run.after.summary()
-    );
-    assert_eq!(c.stale_inputs, 0, "AI values off the ADC inputs");
-    assert!(
-        c.sync0_to_ldac.min_ns > 0 && c.sync0_to_ldac.max_ns <= 2_000,
-        "LDAC after the edge (the capture interrupt), within 2 us: {:?}",
-        c.sync0_to_ldac
-    );
-    let facts = &run.after;
-    assert!(
-        facts.fault.is_none() && facts.reports.is_empty(),
-        "{}",
-        facts.summary()
-    );
-    println!("{}", facts.summary());
-    // The ESC on the FSMC: per judged cycle the PDI task's bus cycles (SM2 event, outputs,
-    // inputs) and their time.
-    let before = run
-        .before
-        .as_ref()
-        .expect("facts at the first judged cycle");
-    let per_cycle = (facts.fsmc_cycles - before.fsmc_cycles) as f64 / c.edges as f64;
-    let ns_per_cycle = (facts.fsmc_ns - before.fsmc_ns) as f64 / c.edges as f64;
-    println!("FSMC per DC cycle: {per_cycle:.1} bus cycles, {ns_per_cycle:.0} ns");
-    assert!(per_cycle >= 10.0, "{per_cycle} FSMC cycles per DC cycle");
-}
-
 /// SOEM (pysoem, `scripts/pysoem_master.py`, in its own process) drives the STM32 image
 /// served on a veth pair, as `iface_pysoem.rs` drives the LPC1754's: the SII, SDO identity,
 /// DC, the mapping, SAFE-OP, OP with 2 000 exchanges in step with SYNC0, the cycle monitor,
@@ -98,7 +46,7 @@ fn pysoem_drives_the_stm32_image_over_a_veth_pair() {
         panic!("this test cannot run here: {why}");
     }
     const CYCLES: u32 = 2000;
-    let product = stm32_product();
+    let product = common::stm32_product();
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_master.py");
     let runs = vec![vec![CYCLES.to_string().into()]];
     let o = common::unless_the_master_was_late(|| {

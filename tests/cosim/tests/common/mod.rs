@@ -288,6 +288,15 @@ pub fn new_update_file_of(product: &Product, version: &str, target: &UpdateTarge
     file
 }
 
+/// The product on the STM32F103 board (issue 30).
+pub fn stm32_product() -> &'static Product {
+    firmware::products::PRODUCTS
+        .iter()
+        .copied()
+        .find(|p| p.board.mcu() == firmware::platform::board::Mcu::Stm32f103vc)
+        .expect("an STM32F103 product")
+}
+
 /// Boots `product`'s image, reads its identity (SII and SDO) and walks it to OP; the DAC code
 /// of AO 1 after `value` went out in the process data, and the board. The core did not fault
 /// and no model reported a problem.
