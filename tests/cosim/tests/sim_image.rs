@@ -1,14 +1,26 @@
 //! The image on the co-simulator under ethercrab: the in-process sim run (ESM walk, SDO
-//! identity and OD summary, the loop-back and its figures) as `cargo xtask sim --image` does
-//! it.
+//! identity and OD summary, the loop-back and its figures) as `cargo xtask sim --image
+//! [--product NAME]` does it, on both boards.
 
+mod common;
+
+use firmware::products::Product;
 use lpc1754_cosim::cosim::Options;
-use lpc1754_cosim::run::{image_target, load_image};
+use lpc1754_cosim::run::{image_target, load_image_of};
 use virtual_board::tools::sim::{self, Line, SimConfig};
 
 #[test]
 fn sim_reaches_op_and_loops_back() {
-    let image = load_image().unwrap();
+    sim_run(firmware::products::default());
+}
+
+#[test]
+fn sim_reaches_op_and_loops_back_on_the_stm32() {
+    sim_run(common::stm32_product());
+}
+
+fn sim_run(product: &Product) {
+    let image = load_image_of(product.name).unwrap();
     let (target, handle) = image_target(image, Options::default()).unwrap();
     let cfg = SimConfig {
         freqs_hz: vec![500.0],
