@@ -5,10 +5,10 @@
 //! In process (one thread, virtual time) the lock is never contended and the ESC's time is
 //! moved by the board ([`Esc::advance`]). On the wall clock ([`SharedEsc::follow_wall_clock`])
 //! the ESC keeps its own time, as the chip does with its own crystal: every lock first brings
-//! it to the time elapsed on the wall clock, whoever takes it (a frame, an SPI byte, the
-//! board), so a frame is answered from the ESC's state at its arrival without waiting for
-//! the CPU, and DC system time, SYNC edges, the SM watchdog and EEPROM busy times run at real
-//! speed. The SYNC edges this produces wait in the ESC for the board to hand them to the CPU
+//! it to the time elapsed on the wall clock ([`WallClock`], slowed down or not), whoever
+//! takes it (a frame, an SPI byte, the board), so a frame is answered from the ESC's state at
+//! its arrival without waiting for the CPU, and DC system time, SYNC edges, the SM watchdog
+//! and EEPROM busy times run at the clock's speed. The SYNC edges this produces wait in the ESC for the board to hand them to the CPU
 //! ([`SharedEsc::take_edges`]).
 
 use crate::models::esc::{Esc, SyncEdge};
@@ -29,16 +29,57 @@ struct Held {
     edges: Vec<SyncEdge>,
 }
 
-/// The ESC's time on the wall clock: `at_start_ns` at `start`, then the time elapsed.
+/// The board's time on the wall clock: `at_start_ns` at `start`, then the time elapsed,
+/// divided by `slowdown` (1: real time). A board slowed down N times is the module a master
+/// sees at full speed when the master's own cycle and timeouts are N times as long: a
+/// co-simulator slower than real time then keeps up with its clock.
 #[derive(Clone, Copy, Debug)]
-struct WallClock {
+pub struct WallClock {
     start: Instant,
     at_start_ns: u64,
+    slowdown: u32,
 }
 
 impl WallClock {
-    fn now_ns(&self) -> u64 {
-        self.at_start_ns + self.start.elapsed().as_nanos() as u64
+    /// `at_start_ns` (board time) at `start`; `slowdown` wall nanoseconds per board
+    /// nanosecond from then on (at least 1).
+    pub fn new(start: Instant, at_start_ns: u64, slowdown: u32) -> Self {
+        Self {
+            start,
+            at_start_ns,
+            slowdown: slowdown.max(1),
+        }
+    }
+
+    /// The board's time now.
+    pub fn now_ns(&self) -> u64 {
+        self.at(Instant::now())
+    }
+
+    /// The board's time at wall time `at` (`at_start_ns` before the start).
+    pub fn at(&self, at: Instant) -> u64 {
+        let elapsed = at.saturating_duration_since(self.start).as_nanos() as u64;
+        self.at_start_ns + elapsed / u64::from(self.slowdown)
+    }
+
+    /// The wall time `board_ns` of board time takes.
+    pub fn wall_time(&self, board_ns: u64) -> std::time::Duration {
+        std::time::Duration::from_nanos(board_ns.saturating_mul(u64::from(self.slowdown)))
+    }
+
+    /// The board time that passes in wall time `wall`.
+    pub fn board_time(&self, wall: std::time::Duration) -> u64 {
+        (wall.as_nanos() / u128::from(self.slowdown)).min(u128::from(u64::MAX)) as u64
+    }
+
+    /// When the clock started (wall).
+    pub fn start(&self) -> Instant {
+        self.start
+    }
+
+    /// Wall nanoseconds per board nanosecond.
+    pub fn slowdown(&self) -> u32 {
+        self.slowdown
     }
 }
 
@@ -92,17 +133,16 @@ impl SharedEsc {
         self.borrow()
     }
 
-    /// From now on the ESC's time follows the wall clock: `at_start_ns` at `start` (the ESC
-    /// is brought there first if it is behind), plus the time elapsed since. Its SYNC edges
-    /// collect for [`SharedEsc::take_edges`].
-    pub fn follow_wall_clock(&self, start: Instant, at_start_ns: u64) {
+    /// From now on the ESC's time follows the wall clock `clock` (the ESC is brought to its
+    /// start first if it is behind). Its SYNC edges collect for [`SharedEsc::take_edges`].
+    pub fn follow_wall_clock(&self, clock: WallClock) {
         let mut g = self.borrow();
         let now = g.now_ns();
-        if at_start_ns > now {
-            let edges = g.advance(at_start_ns - now);
+        if clock.at_start_ns > now {
+            let edges = g.advance(clock.at_start_ns - now);
             g.held.edges.extend(edges);
         }
-        g.held.wall = Some(WallClock { start, at_start_ns });
+        g.held.wall = Some(clock);
     }
 
     /// Back to the board's virtual time (the ESC keeps the time it reached).
@@ -145,7 +185,7 @@ mod tests {
         let esc = esc();
         esc.borrow_mut().advance(5_000);
         let start = Instant::now();
-        esc.follow_wall_clock(start, 5_000);
+        esc.follow_wall_clock(WallClock::new(start, 5_000, 1));
         std::thread::sleep(Duration::from_millis(2));
         let t = esc.borrow().now_ns();
         let elapsed = start.elapsed().as_nanos() as u64;
@@ -154,6 +194,30 @@ mod tests {
         let t2 = esc.borrow().now_ns();
         std::thread::sleep(Duration::from_millis(1));
         assert_eq!(esc.borrow().now_ns(), t2, "virtual time stands still");
+    }
+
+    #[test]
+    fn a_slowed_down_clock_runs_that_many_times_slower_than_the_wall_clock() {
+        let start = Instant::now();
+        let clock = WallClock::new(start, 7, 10);
+        assert_eq!(clock.at(start + Duration::from_millis(5)), 7 + 500_000);
+        assert_eq!(
+            clock.at(start - Duration::from_millis(1)),
+            7,
+            "not before its start"
+        );
+        assert_eq!(clock.wall_time(500_000), Duration::from_millis(5));
+        assert_eq!(clock.board_time(Duration::from_millis(5)), 500_000);
+        assert_eq!(WallClock::new(start, 0, 0).slowdown(), 1, "never stopped");
+        let esc = esc();
+        esc.follow_wall_clock(WallClock::new(start, 0, 10));
+        std::thread::sleep(Duration::from_millis(4));
+        let t = esc.borrow().now_ns();
+        let elapsed = start.elapsed().as_nanos() as u64;
+        assert!(
+            t >= 400_000 && t <= elapsed / 10,
+            "{t} ns of ESC time in {elapsed} ns"
+        );
     }
 
     #[test]
@@ -167,7 +231,7 @@ mod tests {
             e.ecat_write(regs::DC_START_TIME, &start.to_le_bytes());
             e.ecat_write(regs::DC_ACTIVATION, &[0x03]);
         }
-        esc.follow_wall_clock(Instant::now(), 0);
+        esc.follow_wall_clock(WallClock::new(Instant::now(), 0, 1));
         std::thread::sleep(Duration::from_millis(2));
         let edges = esc.take_edges();
         assert!(edges.len() >= 15, "{} edges", edges.len());

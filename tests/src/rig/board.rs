@@ -18,6 +18,7 @@ use crate::models::adc::{Ad7689, AdcSpi, SharedAdc};
 use crate::models::can::{CanBus, PortId, SharedCanBus};
 use crate::models::dac::{Ad5663, DacSpi, LdacPin, SharedDac};
 use crate::models::esc::{Esc, EscConfig, SyncEdge, SyncSignal};
+use crate::models::shared_esc::WallClock;
 use crate::models::spi::{EscSpi, SharedEsc};
 use crate::rig::clock::Clock;
 use crate::tools::pcap::PcapWriter;
@@ -294,11 +295,14 @@ impl VirtualBoard {
     }
 
     /// From now on the ESC keeps the wall clock's time (the board's time at `start` plus the
-    /// time elapsed since); its SYNC edges wait for [`VirtualBoard::take_wall_edges`]. The
-    /// board's clock stays the CPU's: the caller steps it towards the wall clock.
-    pub fn follow_wall_clock(&mut self, start: Instant) {
-        self.esc.follow_wall_clock(start, self.now_ns());
+    /// time elapsed since, divided by `slowdown`: [`WallClock`]), which it returns; its SYNC
+    /// edges wait for [`VirtualBoard::take_wall_edges`]. The board's clock stays the CPU's:
+    /// the caller steps it towards the wall clock.
+    pub fn follow_wall_clock(&mut self, start: Instant, slowdown: u32) -> WallClock {
+        let clock = WallClock::new(start, self.now_ns(), slowdown);
+        self.esc.follow_wall_clock(clock);
         self.on_wall_clock = true;
+        clock
     }
 
     /// Back to virtual time (after serving on the wall clock; SYNC edges not yet handed to

@@ -12,14 +12,16 @@
 //! when run as root. The CPU (the firmware compiled for the host, or the image on the
 //! co-simulator) runs in the calling thread on the board's virtual time, stepped towards
 //! the wall clock in short slices ([`ServeOptions::slice`]) and never ahead of it; it sees
-//! the ESC's IRQ line and the SYNC edges at the first step after they change, at its own
-//! time. A CPU slower than real time falls behind the wall clock (the lag, [`Lag`]): the
-//! master then sees a slow CPU (a mailbox answered later, inputs older), never a late or
-//! missing frame. SYNC0, the process-data watchdog and DC system time run at real speed;
-//! the ADC and the DAC at the CPU's. `docs/book/frame-serving.md` tells the whole of it.
+//! the ESC's IRQ line at the first step after it changes, and each SYNC edge at the edge's
+//! own time. A CPU slower than real time falls behind the wall clock (the lag, [`Lag`]):
+//! the master then sees a slow CPU (a mailbox answered later, inputs older), never a late
+//! or missing frame. SYNC0, the process-data watchdog and DC system time run at the wall
+//! clock's speed, or N times slower ([`ServeOptions::slowdown`]); the ADC and the DAC at
+//! the CPU's. `docs/book/frame-serving.md` tells the whole of it.
 //!
 //! Needs `CAP_NET_RAW` (root). Linux only.
 
+use crate::models::shared_esc::WallClock;
 use crate::models::spi::SharedEsc;
 use crate::rig::board::{wire_time_ns, VirtualBoard};
 use crate::tools::latency::Latency;
@@ -269,16 +271,22 @@ pub struct ServeOptions {
     /// Longest wait of the CPU's thread once the CPU has caught up with the wall clock (a
     /// frame, a SYNC edge or the CPU's own next event ends it earlier).
     pub tick: Duration,
-    /// The stretch of virtual time a continuously running CPU (the image) is stepped by: at
-    /// most this much between two looks at the wall clock (SYNC edges and the ESC's IRQ
-    /// line reach it at this granularity), and, once it has caught up, at least this much
-    /// when it runs again unless something comes from outside first.
+    /// The stretch of the wall clock a continuously running CPU (the image) is stepped by
+    /// (on a slowed-down board, [`ServeOptions::slowdown`], that many times less of its
+    /// time): at most this much between two looks at the wall clock (SYNC edges and the
+    /// ESC's IRQ line reach it at this granularity), and, once it has caught up, at least
+    /// this much when it runs again unless something comes from outside first.
     pub slice: Duration,
     /// How often the progress callback is called.
     pub progress_every: Duration,
     /// When allowed (root): the thread that answers frames at real-time priority
     /// ([`ANSWER_PRIORITY`]), the CPU's thread too, below it ([`CPU_PRIORITY`]).
     pub raise_priorities: bool,
+    /// Wall nanoseconds per nanosecond of the board's time (1: real time): the whole board,
+    /// its ESC's DC time, SYNC edges and watchdog included, runs this many times slower
+    /// than the wall clock ([`WallClock`]), for a co-simulator that cannot keep up at full
+    /// speed; its master then runs with a cycle this many times as long.
+    pub slowdown: u32,
 }
 
 impl Default for ServeOptions {
@@ -289,6 +297,7 @@ impl Default for ServeOptions {
             slice: Duration::from_micros(100),
             progress_every: Duration::from_secs(1),
             raise_priorities: true,
+            slowdown: 1,
         }
     }
 }
@@ -420,7 +429,7 @@ pub fn serve_ports(
     progress: &mut dyn FnMut(&ServeStats),
 ) -> io::Result<ServeStats> {
     let start = Instant::now();
-    board.follow_wall_clock(start);
+    let clock = board.follow_wall_clock(start, opts.slowdown);
     let esc = board.esc().clone();
     let done = AtomicBool::new(false);
     let frames = AtomicU64::new(0);
@@ -440,7 +449,7 @@ pub fn serve_ports(
         };
         let answering = server.is_some();
         let stats = run_cpu(
-            board, can, answering, stop, &done, &frames, opts, start, progress,
+            board, can, answering, stop, &done, &frames, opts, clock, progress,
         );
         done.store(true, Ordering::Relaxed);
         let answered = server.map(|h| {
@@ -543,49 +552,11 @@ fn answer_frames(
 }
 
 /// Shortest wait of the CPU's thread: below it, waiting costs more than it saves.
-const MIN_WAIT_NS: u64 = 5_000;
+const MIN_WAIT: Duration = Duration::from_micros(5);
 /// Longest wait while socketcand clients may be waiting.
 const CAN_WAIT: Duration = Duration::from_millis(1);
 /// How often socketcand's clients are looked at while the CPU runs.
 const CAN_EVERY: Duration = Duration::from_micros(250);
-
-/// How far the CPU may run: never ahead of the wall clock, and since the last SYNC edge it
-/// received at most 5/4 of the wall time since that edge. A CPU behind the wall clock (the
-/// emulation was slow, or its thread did not run for a while) so catches up by at most a
-/// quarter of the time that passes: the SYNC0 cycle it sees stays within 5/4 of the true one
-/// (its SYNC0 watchdog allows twice), and its own timers keep their pace against the edges.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct Pace {
-    /// Virtual and wall time (ns) when the last SYNC edge reached the CPU.
-    anchor: Option<(u64, u64)>,
-}
-
-impl Pace {
-    /// Where the CPU may be at wall time `wall`.
-    fn limit(&self, wall: u64) -> u64 {
-        match self.anchor {
-            Some((v, w)) => {
-                wall.min(v.saturating_add(wall.saturating_sub(w).saturating_mul(5) / 4))
-            }
-            None => wall,
-        }
-    }
-
-    /// The wall time at which the CPU may be at `virt`.
-    fn wall_for(&self, virt: u64) -> u64 {
-        match self.anchor {
-            Some((v, w)) => {
-                virt.max(w.saturating_add(virt.saturating_sub(v).saturating_mul(4).div_ceil(5)))
-            }
-            None => virt,
-        }
-    }
-
-    /// A SYNC edge of wall time `wall` reached the CPU at virtual time `virt`.
-    fn edges_delivered(&mut self, virt: u64, wall: u64) {
-        self.anchor = Some((virt, wall));
-    }
-}
 
 /// Steps the board's CPU towards the wall clock until `stop`, `done` or the duration, with
 /// the CAN bus served through socketcand if given; returns the figures of this side.
@@ -598,18 +569,20 @@ fn run_cpu(
     done: &AtomicBool,
     frames: &AtomicU64,
     opts: &ServeOptions,
-    start: Instant,
+    clock: WallClock,
     progress: &mut dyn FnMut(&ServeStats),
 ) -> ServeStats {
+    let start = clock.start();
     let t0 = board.now_ns();
-    let slice = (opts.slice.as_nanos() as u64).max(1);
-    let tick = (opts.tick.as_nanos() as u64).max(1);
+    // The options' durations are wall time; the loop below counts in the board's.
+    let slice = clock.board_time(opts.slice).max(1);
+    let tick = clock.board_time(opts.tick).max(1);
+    let min_wait = clock.board_time(MIN_WAIT).max(1);
     let mut stats = ServeStats::default();
     let mut next_progress = start + opts.progress_every;
     let mut next_can = start;
-    let mut pace = Pace::default();
     let mut seen_frames = 0;
-    let wall_ns = |at: Instant| t0 + (at - start).as_nanos() as u64;
+    let wall_ns = |at: Instant| clock.at(at);
     loop {
         let now = Instant::now();
         stats.elapsed = now - start;
@@ -636,7 +609,6 @@ fn run_cpu(
         let v = board.now_ns();
         stats.lag.sample(now, wall.saturating_sub(v), stats.elapsed);
         stats.lag.trace(v, wall.saturating_sub(v));
-        let limit = pace.limit(wall);
         let continuous = board.cpu().runs_continuously();
         // Something came from outside: a frame (its thread also wakes this one) or a SYNC
         // edge. It is handed over at once, even to a CPU that has to wait.
@@ -647,34 +619,38 @@ fn run_cpu(
         let need = board.cpu_next_wake_ns().max(v);
         let run = news
             || if continuous {
-                need <= limit && limit >= v + slice
+                need <= wall && wall >= v + slice
             } else {
                 wall >= v + tick
             };
         if run {
             seen_frames = answered;
-            // Each SYNC edge reaches the CPU where it may have been when the edge came on the
-            // wall clock: a CPU with nothing to do gets there first, one still busy behind
-            // takes it where it is.
+            // Each SYNC edge reaches the CPU at its own time, as the pin sees it: a CPU with
+            // nothing to do sleeps up to it, one still busy behind runs up to it first (the
+            // steps below stop at the next edge, so none is passed).
             for e in board.take_wall_edges() {
-                board.idle_until(pace.limit(e.time_ns));
-                pace.edges_delivered(board.now_ns(), e.time_ns);
+                board.idle_until(e.time_ns);
+                let v = board.now_ns();
+                if v < e.time_ns {
+                    board.step(e.time_ns - v);
+                }
                 board.deliver_wall_edge(e);
             }
-            let limit = pace.limit(wall);
             if news {
                 // An idle CPU sleeps up to now first: it sees what came when it came.
-                board.idle_until(limit);
+                board.idle_until(wall);
             }
             let v = board.now_ns();
             let most = if continuous { slice } else { u64::MAX };
-            board.step(limit.saturating_sub(v).min(most));
+            let to_edge = next_edge.map_or(u64::MAX, |t| t.saturating_sub(v));
+            // Up to the wall clock, never ahead of it.
+            board.step(wall.saturating_sub(v).min(most).min(to_edge));
             continue;
         }
         // Nothing to run: wait for a frame (its thread wakes this one), the next SYNC edge,
         // the time the CPU's next need may run (a slice ahead at least), or a tick.
         let cpu = if continuous {
-            pace.wall_for(need.max(v + slice))
+            need.max(v + slice)
         } else {
             v + tick
         };
@@ -683,8 +659,8 @@ fn run_cpu(
             .flatten()
             .min()
             .unwrap_or(wall + tick)
-            .max(wall + MIN_WAIT_NS);
-        let wait = Duration::from_nanos(until - wall);
+            .max(wall + min_wait);
+        let wait = clock.wall_time(until - wall);
         match can.as_deref() {
             // socketcand waits in whole milliseconds; its clients are served at least once a
             // millisecond.
@@ -959,24 +935,6 @@ mod tests {
             .unwrap()
             .unwrap();
         std::fs::remove_file(&lock).unwrap();
-    }
-
-    #[test]
-    fn the_cpu_catches_up_by_a_quarter_of_the_time_since_its_last_edge() {
-        let mut pace = Pace::default();
-        assert_eq!(pace.limit(1_000), 1_000, "no edge yet: the wall clock");
-        // An edge of wall time 10 ms reached a CPU 4 ms behind.
-        pace.edges_delivered(6_000_000, 10_000_000);
-        assert_eq!(pace.limit(10_000_000), 6_000_000);
-        assert_eq!(pace.limit(14_000_000), 11_000_000);
-        assert_eq!(
-            pace.limit(30_000_000),
-            30_000_000,
-            "never ahead of the wall clock"
-        );
-        assert_eq!(pace.wall_for(11_000_000), 14_000_000);
-        assert_eq!(pace.wall_for(u64::MAX), u64::MAX);
-        assert_eq!(pace.wall_for(5_000_000), 10_000_000);
     }
 
     #[test]

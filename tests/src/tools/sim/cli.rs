@@ -62,6 +62,12 @@ pub struct SimArgs {
     /// The module's CANopen node-ID (1..=127).
     #[arg(long, value_name = "N", default_value_t = super::DEFAULT_NODE_ID)]
     pub node_id: u8,
+    /// With --iface: the board's clock runs N times slower than the wall clock (DC time,
+    /// SYNC0, the watchdogs, the CPU): for a co-simulated image too slow for real time, such
+    /// as the image serving the 250 kSPS oversampling stream. Give the master an N times
+    /// longer cycle (it then sees the module as at full speed) and timeouts that allow it.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub slowdown: u32,
     /// The 1 kHz loop-back with oversampling, on the image only (with `--image`): N output
     /// updates per cycle (a multiple of 5, the update PDOs carry 5 each), every conversion
     /// in (the sample PDOs the cycle needs), the master resampling AI1 onto AO1's update
@@ -130,6 +136,7 @@ impl SimArgs {
             can_port: self.can_port,
             can_bit_rate: self.can_bit_rate,
             node_id: self.node_id,
+            slowdown: self.slowdown,
         }
     }
 }

@@ -44,6 +44,8 @@ use std::time::{Duration, Instant};
 pub const MIN_CYCLE_US: u32 = 25;
 /// Longest cycle time accepted (us): 0x1C32:02 and 0x09A0 are 32-bit nanoseconds.
 pub const MAX_CYCLE_US: u32 = 4_000_000;
+/// Largest `--slowdown`: a 1 ms cycle is then a 1 s cycle on the wall clock.
+pub const MAX_SLOWDOWN: u32 = 1000;
 /// Default cycle time (us): the module's advertised minimum (0x1C32:05), the shortest DC
 /// cycle it accepts.
 pub const DEFAULT_CYCLE_US: u32 = firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS / 1000;
@@ -92,6 +94,9 @@ pub struct SimConfig {
     pub can_bit_rate: u32,
     /// The module's CANopen node-ID (1..=127).
     pub node_id: u8,
+    /// On the wall clock: the board's time runs this many times slower than the wall clock
+    /// (1: real time; [`ServeOptions::slowdown`]).
+    pub slowdown: u32,
 }
 
 impl Default for SimConfig {
@@ -110,6 +115,7 @@ impl Default for SimConfig {
             can_port: None,
             can_bit_rate: crate::rig::board::DEFAULT_CAN_BIT_RATE,
             node_id: DEFAULT_NODE_ID,
+            slowdown: 1,
         }
     }
 }
@@ -221,6 +227,19 @@ impl SimConfig {
             return err(format!(
                 "--node-id {}: a CANopen node-ID is 1..=127",
                 self.node_id
+            ));
+        }
+        if !(1..=MAX_SLOWDOWN).contains(&self.slowdown) {
+            return err(format!(
+                "--slowdown {}: 1 (real time) ..= {MAX_SLOWDOWN}",
+                self.slowdown
+            ));
+        }
+        if self.slowdown > 1 && self.iface.is_none() {
+            return err(format!(
+                "--slowdown {}: slows the board for a master on --iface; in process the \
+                 board's time is virtual anyway",
+                self.slowdown
             ));
         }
         Ok(())
@@ -1042,8 +1061,15 @@ pub fn run_wall_clock(
         description, cfg.ai_channel, cfg.offset_v, cfg.amplitude_v, cfg.freqs_hz[0],
     )));
     if let (Some(sock), Some(name)) = (&sock, cfg.iface.as_deref()) {
+        let slowed = match cfg.slowdown {
+            1 => String::new(),
+            n => format!(
+                "; the board's clock runs {n} times slower than the wall clock (give the \
+                 master a cycle {n} times as long)"
+            ),
+        };
         out(Line::Result(format!(
-            "EtherCAT: interface `{name}` (ifindex {}), waiting for frames",
+            "EtherCAT: interface `{name}` (ifindex {}){slowed}, waiting for frames",
             sock.ifindex()
         )));
     }
@@ -1059,6 +1085,7 @@ pub fn run_wall_clock(
     }
     let opts = ServeOptions {
         duration: cfg.seconds.map(Duration::from_secs_f64),
+        slowdown: cfg.slowdown,
         ..Default::default()
     };
     let can_frames = |b: &VirtualBoard| b.can().borrow().stats.frames;
@@ -1168,13 +1195,18 @@ mod tests {
         );
         assert!(bad(&|c| c.node_id = 0).contains("1..=127"));
         assert!(bad(&|c| c.ai_levels_v[3] = Some(10.5)).contains("analog input 3"));
-        // On an interface --seconds is wall time and may be long.
-        let c = SimConfig {
+        assert!(bad(&|c| c.slowdown = 4).contains("for a master on --iface"));
+        // On an interface --seconds is wall time and may be long, and the board may be
+        // slowed down.
+        let mut c = SimConfig {
             seconds: Some(3600.0),
             iface: Some("vb1".into()),
+            slowdown: 16,
             ..Default::default()
         };
         c.validate().unwrap();
+        c.slowdown = 0;
+        assert!(c.validate().unwrap_err().0.contains("1 (real time)"));
     }
 
     #[test]
