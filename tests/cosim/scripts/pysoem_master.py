@@ -101,9 +101,17 @@ class Cyclic(threading.Thread):
     put it out (a late cycle beside it: the next frame then followed at once and may have
     replaced it before the SYNC0 edge); and the lowest and highest value of every input."""
 
-    def __init__(self, master, slave, cycle_ns, dc):
+    def __init__(self, master, slave, cycle_ns, dc, slowdown=1):
         super().__init__(daemon=True)
         self.master, self.slave, self.cycle_ns, self.dc = master, slave, cycle_ns, dc
+        # A board slowed down N times (`--slowdown N`) runs its DC clock N times slower than
+        # the wall clock: the cycle on the wall clock is N DC cycles long.
+        self.slowdown = slowdown
+        self.wall_cycle_ns = cycle_ns * slowdown
+        # Where the frames pass the module after each SYNC0 edge (DC ns), and a shift of the
+        # next deadline still to make when it moves (wall ns).
+        self.phase_ns = cycle_ns // 2
+        self.shift_ns = 0
         self.running = True
         self.lock = threading.Lock()
         self.exchanges = self.good = self.late = 0
@@ -126,7 +134,7 @@ class Cyclic(threading.Thread):
             # time (a sleep that overslept on a stalled host, or no sleep at all), it may
             # have passed the module after the SYNC0 edge it was meant for, and the next
             # frame then replaces its outputs before they are put out.
-            late = skipped or time.monotonic_ns() - due >= self.cycle_ns // 4
+            late = skipped or time.monotonic_ns() - due >= self.wall_cycle_ns // 4
             wkc = self.master.receive_processdata()
             answered = wkc == self.master.expected_wkc
             with self.lock:
@@ -137,7 +145,7 @@ class Cyclic(threading.Thread):
             if answered:
                 self.record(outputs, was_late or late)
             was_late = late
-            due += self.cycle_ns + self.offset()
+            due += self.wall_cycle_ns + self.offset()
             left = due - time.monotonic_ns()
             skipped = left <= 0
             if not skipped:
@@ -157,14 +165,25 @@ class Cyclic(threading.Thread):
             self.ai_max = [max(a, b) for a, b in zip(self.ai_max, self.inputs)]
 
     def offset(self):
+        """The correction of the next wall-clock deadline (ns) that keeps the frames
+        `phase_ns` after the SYNC0 edges (half a cycle unless moved with `move_to`)."""
         if not self.dc:
             return 0
+        with self.lock:
+            phase, shift, self.shift_ns = self.phase_ns, self.shift_ns, 0
         # The frame's DC time against the SYNC0 edges (SYNC0 at multiples of the cycle).
-        delta = (self.master.dc_time - self.cycle_ns // 2) % self.cycle_ns
+        delta = (self.master.dc_time - phase) % self.cycle_ns
         if delta > self.cycle_ns // 2:
             delta -= self.cycle_ns
         self.integral += 1 if delta > 0 else -1 if delta < 0 else 0
-        return -(delta // 100) - (self.integral // 20)
+        return shift + (-(delta // 100) - (self.integral // 20)) * self.slowdown
+
+    def move_to(self, phase_ns):
+        """From the next cycle on, the frames pass the module `phase_ns` after the SYNC0
+        edges (DC ns, 0 < phase_ns < cycle): one step, not the control loop's slow pull."""
+        with self.lock:
+            self.shift_ns += (phase_ns - self.phase_ns) * self.slowdown
+            self.phase_ns = phase_ns
 
     def figures(self):
         with self.lock:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """SOEM through pysoem with the module's input oversampling PDOs (docs/book/oversampling.md):
 
-    python3 pysoem_oversampling.py IFACE [CYCLES [CYCLE_US [SAMPLE_PDOS]]]
+    python3 pysoem_oversampling.py IFACE [CYCLES [CYCLE_US [SAMPLE_PDOS [SLOWDOWN]]]]
 
 PRE-OP; the input assignment over SDO (0x1C13: sub 0 = 0, the block status 0x1A10, the
 block time 0x1A11, the sample PDOs 0x1A20.., sub 0 = n), as the book tells SOEM users;
@@ -16,6 +16,11 @@ counter must go on where the block before ended (a gap is lost samples, an overl
 ones), no status bit may be set, and the block times must lie on the scan grid. AI1's
 samples are printed with their scan counters ([counter, code], the scan counter a clock of
 32 us in the ADC's own time) for the test to compare with the ADC model's signal.
+
+SLOWDOWN (default 1) is for a board whose clock runs that many times slower than the wall
+clock (`cargo xtask sim --image --iface vb1 --slowdown N`): the master's cycle and its wait in
+SAFE-OP are then that many times as long on the wall clock, and it sees the module as at
+full speed.
 
 One JSON object per line on stdout: {"step": ..., ...}; the last line is {"step": "done",
 "ok": true|false}. The exit code is 0 only when every step worked.
@@ -33,6 +38,8 @@ from pysoem_master import STATE_US, Cyclic, realtime, say, wait_state
 
 # Process data in SAFE-OP before asking for OP.
 SAFE_OP_S = 0.3
+# Cycles between moving the frames to their place after SYNC0 and keeping the images.
+SETTLE_CYCLES = 20
 # Block status, block time, the first sample PDO.
 STATUS_PDO, TIME_PDO, SAMPLE_PDO = 0x1A10, 0x1A11, 0x1A20
 CHANNELS = 8
@@ -46,13 +53,13 @@ class Keeping(Cyclic):
     """pysoem_master's cyclic task (one exchange per cycle, the frames kept half a cycle
     away from the SYNC0 edges), keeping every input image instead of writing outputs."""
 
-    def __init__(self, master, slave, cycle_ns):
-        super().__init__(master, slave, cycle_ns, True)
+    def __init__(self, master, slave, cycle_ns, slowdown):
+        super().__init__(master, slave, cycle_ns, True, slowdown)
         self.keep = False
         self.images = []
 
     def run(self):
-        deadline = time.monotonic_ns() + self.cycle_ns
+        deadline = time.monotonic_ns() + self.wall_cycle_ns
         while self.running:
             self.master.send_processdata()
             wkc = self.master.receive_processdata()
@@ -61,7 +68,7 @@ class Keeping(Cyclic):
                 self.good += wkc == self.master.expected_wkc
                 if self.keep:
                     self.images.append(bytes(self.slave.input))
-            deadline += self.cycle_ns + self.offset()
+            deadline += self.wall_cycle_ns + self.offset()
             left = deadline - time.monotonic_ns()
             if left > 0:
                 time.sleep(left / 1e9)
@@ -90,11 +97,15 @@ def judge(images):
             continue
         blocks.append((counter, scans, status, t, img))
     lost = duplicated = flagged = 0
+    # The first blocks that broke the stream: [block, scan counter, scans missing (+) or
+    # repeated (-), status].
+    breaks = []
     expected = None
     t0 = blocks[0][3] - blocks[0][0] * SCAN_NS if blocks else 0
     off_grid = 0
     ai1 = []
-    for counter, scans, status, t, img in blocks:
+    for k, (counter, scans, status, t, img) in enumerate(blocks):
+        d = 0
         if expected is not None:
             d = (counter - expected) & 0xFFFFFFFF
             d = d - (1 << 32) if d >= 1 << 31 else d
@@ -102,6 +113,8 @@ def judge(images):
                 lost += d * CHANNELS
             else:
                 duplicated += -d * CHANNELS
+        if (d != 0 or status != 0) and len(breaks) < 10:
+            breaks.append([k, counter, d, status])
         expected = (counter + scans) & 0xFFFFFFFF
         flagged += status != 0
         off_grid = max(off_grid, abs(t - (t0 + counter * SCAN_NS)))
@@ -117,6 +130,7 @@ def judge(images):
         "flagged_blocks": flagged,
         "off_grid_ns": off_grid,
         "first_counter": blocks[0][0] if blocks else None,
+        "breaks": breaks,
     }, ai1
 
 
@@ -128,6 +142,7 @@ def main():
     parser.add_argument("cycles", nargs="?", type=int, default=1000)
     parser.add_argument("cycle_us", nargs="?", type=int, default=1000)
     parser.add_argument("sample_pdos", nargs="?", type=int, default=8)
+    parser.add_argument("slowdown", nargs="?", type=int, default=1)
     args = parser.parse_args()
     cycle_ns = args.cycle_us * 1000
     say(step="master", realtime=realtime())
@@ -157,10 +172,10 @@ def main():
             master.read_state()
             say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
             return False
-        cyclic = Keeping(master, slave, cycle_ns)
+        cyclic = Keeping(master, slave, cycle_ns, args.slowdown)
         cyclic.start()
         try:
-            time.sleep(SAFE_OP_S)
+            time.sleep(SAFE_OP_S * args.slowdown)
             in_op = wait_state(master, slave, pysoem.OP_STATE)
             say(step="op", ok=in_op, state=slave.state, al_status_code=slave.al_status)
             if not in_op:
@@ -169,18 +184,30 @@ def main():
                 left = wait_state(master, slave, pysoem.INIT_STATE)
                 say(step="init", state=slave.state)
                 return assigned == pdos and left
+            # The block of cycle c is written to SM3 after SYNC0 edge c (8 sample PDOs: over
+            # 500 B of SPI, about 0.4 ms at 1 ms); the frames pass shortly before edge c + 1,
+            # as TwinCAT's frames pass a module that must have its outputs before SYNC0: the
+            # farthest point from both block writes.
+            phase_ns = cycle_ns - cycle_ns // 8
+            cyclic.move_to(phase_ns)
+            say(step="sync", frame_after_sync0_ns=phase_ns)
+            time.sleep(SETTLE_CYCLES * cyclic.wall_cycle_ns / 1e9)
             with cyclic.lock:
                 cyclic.keep = True
                 good_before, exchanges_before = cyclic.good, cyclic.exchanges
             while cyclic.kept() < args.cycles:
-                time.sleep(cycle_ns / 4e9)
+                time.sleep(cyclic.wall_cycle_ns / 4e9)
             with cyclic.lock:
                 cyclic.keep = False
                 images = cyclic.images[: args.cycles]
                 good = cyclic.good - good_before
                 exchanges = cyclic.exchanges - exchanges_before
             master.read_state()
-            in_op = slave.state == pysoem.OP_STATE
+            state_after = slave.state
+            in_op = state_after == pysoem.OP_STATE
+            # INIT while the cycle still runs: stopped first, the module in DC mode would
+            # rightly leave OP with a sync error before the request came.
+            wait_state(master, slave, pysoem.INIT_STATE)
         finally:
             cyclic.stop()
         verdict, ai1 = judge(images)
@@ -191,9 +218,9 @@ def main():
             and verdict["duplicated"] == 0
             and verdict["flagged_blocks"] == 0
         )
-        say(step="stream", exchanges=exchanges, good_wkc=good, state=slave.state, **verdict)
+        say(step="stream", exchanges=exchanges, good_wkc=good, state=state_after, **verdict)
         say(step="ai1", samples=ai1)
-        wait_state(master, slave, pysoem.INIT_STATE)
+        master.read_state()
         say(step="init", state=slave.state)
         return ok
     finally:

@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::{run_script_against, run_script_against_with_inputs, step, ScriptRun};
+use common::{run_script_against, run_script_against_with, step, ScriptRun, Serving};
 use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES};
 use lpc1754_cosim::cosim::Options;
@@ -79,13 +79,16 @@ fn pysoem_drives_the_image_over_a_veth_pair() {
     let o = common::unless_the_master_was_late(|| {
         let (script, args) = (script.clone(), args.clone());
         std::thread::spawn(move || {
-            run_script_against_with_inputs(
+            run_script_against_with(
                 || image_target(load_image()?, Options::default()),
                 script,
                 vec![args],
                 "iface-pysoem-image.pcap",
                 120.0,
-                AI_LEVELS_V.map(Some),
+                Serving {
+                    ai_levels_v: AI_LEVELS_V.map(Some),
+                    ..Default::default()
+                },
             )
         })
         .join()

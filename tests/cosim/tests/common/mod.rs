@@ -86,17 +86,35 @@ pub fn run_scripts_on_veth(
     pcap_name: &str,
     seconds: f64,
 ) -> Result<BoardRun, String> {
-    run_scripts_on_veth_with_inputs(target, scripts, pcap_name, seconds, [None; 8])
+    run_scripts_on_veth_with(target, scripts, pcap_name, seconds, Serving::default())
 }
 
-/// [`run_scripts_on_veth`] with constant voltages at the analog inputs where `ai_levels_v`
-/// gives one ([`SimConfig::ai_levels_v`]).
-pub fn run_scripts_on_veth_with_inputs(
+/// How the board is served to the scripts, beyond what every run does.
+#[derive(Clone, Copy, Debug)]
+pub struct Serving {
+    /// Constant voltages at the analog inputs where given ([`SimConfig::ai_levels_v`]).
+    pub ai_levels_v: [Option<f64>; 8],
+    /// The board's clock this many times slower than the wall clock
+    /// ([`SimConfig::slowdown`]).
+    pub slowdown: u32,
+}
+
+impl Default for Serving {
+    fn default() -> Self {
+        Self {
+            ai_levels_v: [None; 8],
+            slowdown: 1,
+        }
+    }
+}
+
+/// [`run_scripts_on_veth`], the board served as `serving` says.
+pub fn run_scripts_on_veth_with(
     target: Target,
     scripts: Vec<Script>,
     pcap_name: &str,
     seconds: f64,
-    ai_levels_v: [Option<f64>; 8],
+    serving: Serving,
 ) -> Result<BoardRun, String> {
     veth_pair_in_new_namespace("vb0", "vb1")?;
     let pcap = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(pcap_name);
@@ -104,7 +122,8 @@ pub fn run_scripts_on_veth_with_inputs(
         iface: Some("vb1".into()),
         seconds: Some(seconds),
         pcap: Some(pcap.clone()),
-        ai_levels_v,
+        ai_levels_v: serving.ai_levels_v,
+        slowdown: serving.slowdown,
         ..Default::default()
     };
     let ready = Arc::new(AtomicBool::new(false));
@@ -212,18 +231,17 @@ pub fn run_script_against(
     pcap_name: &str,
     seconds: f64,
 ) -> Result<ScriptRun, String> {
-    run_script_against_with_inputs(target, script, runs, pcap_name, seconds, [None; 8])
+    run_script_against_with(target, script, runs, pcap_name, seconds, Serving::default())
 }
 
-/// [`run_script_against`] with constant voltages at the analog inputs where `ai_levels_v`
-/// gives one.
-pub fn run_script_against_with_inputs(
+/// [`run_script_against`], the board served as `serving` says.
+pub fn run_script_against_with(
     target: impl FnOnce() -> Result<(Target, CosimHandle), String>,
     script: PathBuf,
     runs: Vec<Vec<OsString>>,
     pcap_name: &str,
     seconds: f64,
-    ai_levels_v: [Option<f64>; 8],
+    serving: Serving,
 ) -> Result<ScriptRun, String> {
     let (target, handle) = target()?;
     let expected = runs.len();
@@ -234,7 +252,7 @@ pub fn run_script_against_with_inputs(
             args,
         })
         .collect();
-    let run = run_scripts_on_veth_with_inputs(target, scripts, pcap_name, seconds, ai_levels_v)?;
+    let run = run_scripts_on_veth_with(target, scripts, pcap_name, seconds, serving)?;
     let facts = handle
         .with(|c| c.facts())
         .ok_or("the co-simulator did not start")?;
