@@ -327,6 +327,7 @@ fn three_buffer_write_completes_on_its_last_byte_with_bytes_skipped() {
     let mut esc = esc();
     esc.ecat_write(regs::STATION_ADDRESS, &[0x00, 0x10]);
     config_sm(&mut esc, 3, 0x1180, 8, 0x20);
+    esc.record_pdi_buffer_writes = true;
     esc.pdi_write(0x1180, &[0xEE; 8]);
     let read = |esc: &mut virtual_board::models::esc::Esc| {
         one(esc, cmd::FPRD, 0x1000, 0x1180, &[0; 8]).data
@@ -340,7 +341,12 @@ fn three_buffer_write_completes_on_its_last_byte_with_bytes_skipped() {
     );
     let mut events = [0; 2];
     esc.pdi_read(0x0220, &mut events);
+    esc.advance(1_000);
     esc.pdi_write(0x1187, &[8]);
+    // Each completed buffer recorded with the time of its last byte (the first at the
+    // model's start time, the second 1 us later), the unfinished write not.
+    let t = esc.pdi_buffer_writes[0].1;
+    assert_eq!(esc.pdi_buffer_writes, [(3, t), (3, t + 1_000)]);
     let image = read(&mut esc);
     assert_eq!(image[..3], [1, 2, 3]);
     assert_eq!(image[7], 8);

@@ -17,6 +17,7 @@ use std::f64::consts::PI;
 use std::rc::Rc;
 use std::time::Duration;
 use virtual_board::models::adc::Signal;
+use virtual_board::models::esc::SyncSignal;
 use virtual_board::rig::master::tx_rx_task;
 
 /// Channels of a scan.
@@ -113,6 +114,12 @@ pub struct OsRun {
     pub ldac_falls: Vec<u64>,
     /// Channel A's DAC register loads in the counted cycles (virtual ns, code).
     pub dac_a: Vec<(u64, u16)>,
+    /// The slave's 0x1C33:06 (calc and copy time of the inputs) with the run's assignment,
+    /// read in PRE-OP (ns).
+    pub input_calc_copy_ns: u32,
+    /// For each SYNC0 edge of the counted cycles, the time to the last byte of the next
+    /// input image the PDI completed in SM3 (ns): what 0x1C33:06 must cover.
+    pub sync0_to_inputs_ns: Vec<u64>,
     /// Facts at the start of the counted cycles and at the end.
     pub before: Facts,
     /// At the end.
@@ -219,6 +226,8 @@ pub fn run_with(
     let mut start = 0;
     let mut sync0_origin = 0;
     let mut sync0_origin_dc = 0;
+    let mut input_calc_copy_ns = 0;
+    board.borrow().esc().borrow_mut().record_pdi_buffer_writes = true;
     step_to(&board, 2_000_000);
     let cycle_ns = config.cycle_ns;
     let master = async {
@@ -242,6 +251,10 @@ pub fn run_with(
             sd.sdo_write(0x1C13, 0, pdos.len() as u8)
                 .await
                 .map_err(|e| format!("0x1C13:00 = {}: {e}", pdos.len()))?;
+            input_calc_copy_ns = sd
+                .sdo_read::<u32>(0x1C33, 6)
+                .await
+                .map_err(|e| format!("0x1C33:06: {e}"))?;
             if config.update_pdos > 0 {
                 let rx: Vec<u16> = (0..u16::from(config.update_pdos))
                     .map(|u| UPDATE_PDO + u)
@@ -378,6 +391,29 @@ pub fn run_with(
             .collect();
         (falls, a)
     };
+    let sync0_to_inputs_ns = {
+        let b = board.borrow();
+        let esc = b.esc().borrow();
+        let inputs: Vec<u64> = esc
+            .pdi_buffer_writes
+            .iter()
+            .filter(|w| w.0 == 3)
+            .map(|w| w.1)
+            .collect();
+        let edges: Vec<u64> = b
+            .sync_edges
+            .iter()
+            .filter(|e| e.signal == SyncSignal::Sync0 && (start..end).contains(&e.time_ns))
+            .map(|e| e.time_ns)
+            .collect();
+        edges
+            .windows(2)
+            .filter_map(|w| {
+                let i = inputs.partition_point(|&t| t < w[0]);
+                inputs.get(i).filter(|&&t| t < w[1]).map(|t| t - w[0])
+            })
+            .collect()
+    };
     let dc_minus_virtual_ns = {
         let b = board.borrow();
         let sys = b.esc().borrow().dc_system_time();
@@ -393,6 +429,8 @@ pub fn run_with(
         start_ns: start,
         ldac_falls,
         dac_a,
+        input_calc_copy_ns,
+        sync0_to_inputs_ns,
         before: before.ok_or("no counted cycle")?,
         after,
     })
@@ -696,6 +734,8 @@ mod tests {
             start_ns: 0,
             ldac_falls: Vec::new(),
             dac_a: Vec::new(),
+            input_calc_copy_ns: 0,
+            sync0_to_inputs_ns: Vec::new(),
             before: Facts::default(),
             after: Facts::default(),
         }

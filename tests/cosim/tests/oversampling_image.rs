@@ -44,6 +44,22 @@ fn ten_seconds_at_1_ms_every_conversion_once_and_the_sine_rebuilt() {
     assert!(fit.amplitude_error < 0.001, "{fit:?}");
     // The DC times of the samples are the times the ADC model converted them.
     assert!(fit.time_error_ns.abs() < 1_000.0, "{fit:?}");
+    // 0x1C33:06 covers the time from each SYNC0 edge to the cycle's block in SM3, and is
+    // not a guess far above it (the SM3 write's cost per byte is measured here).
+    let longest = r.sync0_to_inputs_ns.iter().copied().max().unwrap_or(0);
+    let mean = r.sync0_to_inputs_ns.iter().sum::<u64>() as f64 / r.sync0_to_inputs_ns.len() as f64;
+    eprintln!(
+        "0x1C33:06 {} ns; SYNC0 -> inputs in SM3: mean {mean:.0} ns, max {longest} ns over {} edges",
+        r.input_calc_copy_ns,
+        r.sync0_to_inputs_ns.len()
+    );
+    assert!(r.sync0_to_inputs_ns.len() >= 9_990);
+    assert!(
+        u64::from(r.input_calc_copy_ns) >= longest
+            && u64::from(r.input_calc_copy_ns) <= longest + longest / 4,
+        "0x1C33:06 {} ns against {longest} ns measured",
+        r.input_calc_copy_ns
+    );
     let after = &r.after;
     assert!(after.reports.is_empty(), "{}", after.summary());
 }

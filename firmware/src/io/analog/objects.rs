@@ -195,6 +195,8 @@ impl<F: Figures> ObjectAccess for AnalogIo<F> {
             (0x10F1, 1) => (self.diag.local_error_reaction, 4),
             (0x10F1, 2) => (self.sync.error_limit().into(), 2),
             (0x1C32, _) => return self.sync.read(false, sub, buf),
+            // Calc and copy: the assigned image's, the oversampling blocks' SM3 write too.
+            (0x1C33, 6) => (F::SYNC.input_calc_copy_for(self.pd.input_len()), 4),
             (0x1C33, _) => return self.sync.read(true, sub, buf),
             (i, _) if self.pd.owns(i) => return self.pd.read(i, sub, buf),
             (0x6401, 0) => (AI_CHANNELS as u32, 1),

@@ -39,6 +39,15 @@ pub const OUTPUT_CALC_COPY_NS: u32 = 8_000;
 pub const OUTPUT_DELAY_NS: u32 = 3_000;
 /// Inputs: latch to SM3 written (0x1C33:06): pack plus the 16-byte SM3 write (11.5 us).
 pub const INPUT_CALC_COPY_NS: u32 = 15_000;
+/// The SM3 bytes [`INPUT_CALC_COPY_NS`] covers: the eight one-value inputs.
+pub const INPUT_CALC_COPY_BYTES: u16 = 16;
+/// Each SM3 byte beyond those (0x1C33:06 with the oversampling blocks: 526 B with 8 sample
+/// PDOs): the block's cut from the ADC ring, its packing and its write over the legacy SPI.
+/// Measured on the image, from each SYNC0 edge to the block's last byte in SM3: at most
+/// 215 us for 206 B (270 us, 3 sample PDOs), 270 us for 270 B (500 us, 4), 500 us for
+/// 526 B (1 ms, 8); 1.1 us per byte covers each by 2 to 15 %. `oversampling_image.rs`
+/// checks 0x1C33:06 against the measurement at 1 ms.
+pub const INPUT_COPY_NS_PER_BYTE: u32 = 1_100;
 /// Shortest DC cycle at which the application reads changed outputs twice before it takes
 /// them (`crate::stacks::ethercat::confirm`, against a bit flipped on the SPI or SPI_SEL dropped in the
 /// middle of the SM2 read). The second read costs one more SPI access per cycle whose
@@ -59,6 +68,8 @@ pub const FIGURES: SyncFigures = SyncFigures {
     output_calc_copy_ns: OUTPUT_CALC_COPY_NS,
     output_delay_ns: OUTPUT_DELAY_NS,
     input_calc_copy_ns: INPUT_CALC_COPY_NS,
+    input_calc_copy_bytes: INPUT_CALC_COPY_BYTES,
+    input_copy_ns_per_byte: INPUT_COPY_NS_PER_BYTE,
     confirm_outputs_min_cycle_ns: CONFIRM_OUTPUTS_MIN_CYCLE_NS,
     default_error_limit: DEFAULT_SYNC_ERROR_LIMIT,
 };

@@ -634,6 +634,36 @@ fn watchdog_faults_outputs_and_goes_to_safeop() {
     );
 }
 
+/// 0x1C33:06 (calc and copy, inputs) follows the assigned TxPDOs: the one-value inputs'
+/// figure, plus the SM3 write of every byte the oversampling blocks add.
+#[test]
+fn input_calc_copy_time_follows_the_assigned_image() {
+    use crate::products::analog_io::sync::{INPUT_CALC_COPY_NS, INPUT_COPY_NS_PER_BYTE};
+    use coe_core::od::ObjectAccess;
+    let mut io = AnalogIo::<AnalogFigures>::new(&super::od::OD, super::process_data());
+    let mut calc_copy = || {
+        let mut buf = [0u8; 4];
+        assert_eq!(io.read(0x1C33, 6, &mut buf), Ok(4));
+        u32::from_le_bytes(buf)
+    };
+    assert_eq!(calc_copy(), INPUT_CALC_COPY_NS);
+    let mut pdos = vec![0x1A10u16, 0x1A11];
+    pdos.extend(0x1A20..0x1A28);
+    let mut write = |sub: u8, data: &[u8]| io.write(0x1C13, sub, data, AlState::PreOp);
+    assert_eq!(write(0, &[0]), Ok(()));
+    for (sub, pdo) in (1u8..).zip(&pdos) {
+        assert_eq!(write(sub, &pdo.to_le_bytes()), Ok(()));
+    }
+    assert_eq!(write(0, &[pdos.len() as u8]), Ok(()));
+    // Status and time (14 B) and 8 x 64 B of samples: 510 B more than the 16 B covered.
+    let mut buf = [0u8; 4];
+    assert_eq!(io.read(0x1C33, 6, &mut buf), Ok(4));
+    assert_eq!(
+        u32::from_le_bytes(buf),
+        INPUT_CALC_COPY_NS + 510 * INPUT_COPY_NS_PER_BYTE
+    );
+}
+
 /// SM-synchronous mode with a cycle time set by the master (TwinCAT writes 0x1C32:02): a
 /// master that stops is no sync error; the SM watchdog reports it (0x001B), as in the SSC.
 #[test]

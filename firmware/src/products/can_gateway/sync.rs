@@ -32,6 +32,9 @@ pub const FIGURES: SyncFigures = SyncFigures {
     // delay of the device.
     output_delay_ns: 0,
     input_calc_copy_ns: INPUT_CALC_COPY_NS,
+    // The whole input image (132 B at most) is in INPUT_CALC_COPY_NS.
+    input_calc_copy_bytes: 132,
+    input_copy_ns_per_byte: 770,
     confirm_outputs_min_cycle_ns: CONFIRM_OUTPUTS_MIN_CYCLE_NS,
     default_error_limit: DEFAULT_SYNC_ERROR_LIMIT,
 };

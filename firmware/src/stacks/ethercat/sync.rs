@@ -65,13 +65,33 @@ pub struct SyncFigures {
     pub output_calc_copy_ns: u32,
     /// Outputs: SYNC0 edge to outputs updated (0x1C32:09, ns).
     pub output_delay_ns: u32,
-    /// Inputs: latch to SM3 written (0x1C33:06, ns).
+    /// Inputs: latch to SM3 written (0x1C33:06, ns), for an input image of up to
+    /// `input_calc_copy_bytes`.
     pub input_calc_copy_ns: u32,
+    /// The SM3 bytes `input_calc_copy_ns` covers.
+    pub input_calc_copy_bytes: u16,
+    /// The PDI write of each SM3 byte beyond those (ns): what a larger image (the
+    /// oversampling blocks) adds to 0x1C33:06 ([`SyncFigures::input_calc_copy_for`]).
+    pub input_copy_ns_per_byte: u32,
     /// Shortest DC cycle at which changed outputs are read twice before they are taken
     /// (`super::confirm`); in SM-synchronous and free-run mode they always are.
     pub confirm_outputs_min_cycle_ns: u32,
     /// Default Sync Error Counter Limit (0x10F1:02).
     pub default_error_limit: u16,
+}
+
+impl SyncFigures {
+    /// 0x1C33:06 for an input image of `bytes` (the assigned TxPDOs' SM3 length).
+    pub const fn input_calc_copy_for(&self, bytes: usize) -> u32 {
+        let extra = bytes.saturating_sub(self.input_calc_copy_bytes as usize);
+        let extra = if extra > u32::MAX as usize {
+            u32::MAX
+        } else {
+            extra as u32
+        };
+        self.input_calc_copy_ns
+            .saturating_add(extra.saturating_mul(self.input_copy_ns_per_byte))
+    }
 }
 
 /// SYNC0 bookkeeping the DAC task leaves for the PDI task (cycle monitoring).
@@ -685,6 +705,8 @@ mod tests {
         output_calc_copy_ns: 8_000,
         output_delay_ns: 3_000,
         input_calc_copy_ns: 15_000,
+        input_calc_copy_bytes: 16,
+        input_copy_ns_per_byte: 770,
         confirm_outputs_min_cycle_ns: 62_000,
         default_error_limit: 4,
     };
@@ -698,6 +720,19 @@ mod tests {
             min_cycle_ns: MIN_CYCLE_TIME_NS,
             ..SyncInputs::default()
         }
+    }
+
+    #[test]
+    fn input_calc_copy_grows_with_the_bytes_beyond_those_it_covers() {
+        assert_eq!(FIGURES.input_calc_copy_for(0), 15_000);
+        assert_eq!(FIGURES.input_calc_copy_for(16), 15_000);
+        assert_eq!(FIGURES.input_calc_copy_for(17), 15_770);
+        assert_eq!(FIGURES.input_calc_copy_for(526), 15_000 + 510 * 770);
+        assert_eq!(
+            FIGURES.input_calc_copy_for(usize::MAX),
+            u32::MAX,
+            "saturates"
+        );
     }
 
     #[test]

@@ -149,6 +149,12 @@ pub struct Esc {
     /// The master's AL control writes and the slave's AL status writes, in order, with
     /// their times: how long the slave takes for each state change (the peer bench).
     pub al_log: Vec<AlWrite>,
+    /// Record in `pdi_buffer_writes` each buffered SyncManager buffer the PDI completes.
+    pub record_pdi_buffer_writes: bool,
+    /// The buffered SyncManager buffers the PDI completed (when recorded): (SyncManager,
+    /// time of the last byte, ns). Where the inputs were in SM3 after a SYNC0 edge: the
+    /// slave's input calc and copy time (0x1C33:06).
+    pub pdi_buffer_writes: Vec<(u8, u64)>,
 }
 
 /// An AL control write by the master or an AL status write by the slave.
@@ -187,6 +193,8 @@ impl Esc {
             spi_faults: Default::default(),
             sync0_fault: None,
             al_log: Vec::new(),
+            record_pdi_buffer_writes: false,
+            pdi_buffer_writes: Vec::new(),
         };
         esc.power_on();
         esc

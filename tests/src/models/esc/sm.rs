@@ -292,6 +292,9 @@ impl Esc {
             s.write_buf = None;
             s.write_open = false;
             s.int_w = true;
+            if r.writer() == Side::Pdi && self.record_pdi_buffer_writes {
+                self.pdi_buffer_writes.push((n as u8, self.now_ns));
+            }
             self.sm_completed_by(n, r, r.writer());
             if r.writer() == Side::Ecat && r.control & 0x40 != 0 {
                 self.wd_trigger();

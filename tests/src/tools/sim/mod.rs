@@ -235,6 +235,13 @@ impl SimConfig {
                 self.slowdown
             ));
         }
+        if self.slowdown > 1 && self.can_port.is_some() {
+            return err(format!(
+                "--slowdown {}: not with --can-port (socketcand's clients keep the wall \
+                 clock's CAN timing)",
+                self.slowdown
+            ));
+        }
         if self.slowdown > 1 && self.iface.is_none() {
             return err(format!(
                 "--slowdown {}: slows the board for a master on --iface; in process the \
@@ -1207,6 +1214,9 @@ mod tests {
         c.validate().unwrap();
         c.slowdown = 0;
         assert!(c.validate().unwrap_err().0.contains("1 (real time)"));
+        c.slowdown = 2;
+        c.can_port = Some(29536);
+        assert!(c.validate().unwrap_err().0.contains("not with --can-port"));
     }
 
     #[test]
