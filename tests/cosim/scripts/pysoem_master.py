@@ -126,9 +126,7 @@ class Cyclic(threading.Thread):
         due = time.monotonic_ns()
         was_late = skipped = False
         while self.running:
-            with self.lock:
-                outputs = self.outputs
-                self.slave.output = struct.pack("<hh", *outputs)
+            outputs = self.write_outputs()
             self.master.send_processdata()
             # The frame left before the send returned. Sent a quarter cycle or more after its
             # time (a sleep that overslept on a stalled host, or no sleep at all), it may
@@ -142,14 +140,25 @@ class Cyclic(threading.Thread):
                 self.good += answered
                 self.late += late
                 self.inputs = list(struct.unpack("<8h", bytes(self.slave.input[:16])))
-            if answered:
-                self.record(outputs, was_late or late)
+            self.on_exchange(outputs, answered, was_late or late)
             was_late = late
             due += self.wall_cycle_ns + self.offset()
             left = due - time.monotonic_ns()
             skipped = left <= 0
             if not skipped:
                 time.sleep(left / 1e9)
+
+    def write_outputs(self):
+        """The output pair of this cycle, put in the output image."""
+        with self.lock:
+            outputs = self.outputs
+            self.slave.output = struct.pack("<hh", *outputs)
+        return outputs
+
+    def on_exchange(self, outputs, answered, late_beside):
+        """After each exchange: an answered one's outputs recorded."""
+        if answered:
+            self.record(outputs, late_beside)
 
     def record(self, outputs, may_be_replaced):
         with self.lock:

@@ -50,28 +50,22 @@ HEADER = struct.Struct("<IBBQ")
 
 
 class Keeping(Cyclic):
-    """pysoem_master's cyclic task (one exchange per cycle, the frames kept half a cycle
-    away from the SYNC0 edges), keeping every input image instead of writing outputs."""
+    """pysoem_master's cyclic task (one exchange per cycle, locked to the SYNC0 edges),
+    keeping every input image instead of writing outputs."""
 
     def __init__(self, master, slave, cycle_ns, slowdown):
         super().__init__(master, slave, cycle_ns, True, slowdown)
         self.keep = False
         self.images = []
 
-    def run(self):
-        deadline = time.monotonic_ns() + self.wall_cycle_ns
-        while self.running:
-            self.master.send_processdata()
-            wkc = self.master.receive_processdata()
-            with self.lock:
-                self.exchanges += 1
-                self.good += wkc == self.master.expected_wkc
-                if self.keep:
-                    self.images.append(bytes(self.slave.input))
-            deadline += self.wall_cycle_ns + self.offset()
-            left = deadline - time.monotonic_ns()
-            if left > 0:
-                time.sleep(left / 1e9)
+    def write_outputs(self):
+        return None
+
+    def on_exchange(self, outputs, answered, late_beside):
+        with self.lock:
+            if self.keep:
+                phase = self.master.dc_time % self.cycle_ns
+                self.images.append((bytes(self.slave.input), late_beside, phase))
 
     def kept(self):
         with self.lock:
@@ -88,33 +82,45 @@ def assign_inputs(slave, pdos):
 
 def judge(images):
     """The blocks' verdict: distinct blocks, lost and repeated scans, flagged blocks, the
-    largest distance of a block time from the scan grid, AI1's samples."""
+    largest distance of a block time from the scan grid, AI1's samples.
+
+    `images` are (input image, the exchange was late or beside a late one, the frame's DC
+    time after the SYNC0 edge before it). A frame the
+    master itself sent late (its host stalled) may pass the module after the next block was
+    written: it skips a block, and the next frame reads that one again. Scans lost or
+    repeated at a block a late frame brought are counted apart, as the master's."""
     blocks, repeats = [], 0
-    for img in images:
+    for img, late, phase in images:
         counter, scans, status, t = HEADER.unpack_from(img)
         if blocks and blocks[-1][0] == counter:
             repeats += 1
             continue
-        blocks.append((counter, scans, status, t, img))
+        blocks.append((counter, scans, status, t, img, late, phase))
     lost = duplicated = flagged = 0
+    lost_late = duplicated_late = 0
     # The first blocks that broke the stream: [block, scan counter, scans missing (+) or
-    # repeated (-), status].
+    # repeated (-), status, brought by a late frame, that frame's DC time after the SYNC0
+    # edge before it, the same of the frame before].
     breaks = []
     expected = None
     t0 = blocks[0][3] - blocks[0][0] * SCAN_NS if blocks else 0
     off_grid = 0
     ai1 = []
-    for k, (counter, scans, status, t, img) in enumerate(blocks):
+    for k, (counter, scans, status, t, img, late, phase) in enumerate(blocks):
         d = 0
         if expected is not None:
             d = (counter - expected) & 0xFFFFFFFF
             d = d - (1 << 32) if d >= 1 << 31 else d
-            if d > 0:
+            if d > 0 and late:
+                lost_late += d * CHANNELS
+            elif d > 0:
                 lost += d * CHANNELS
+            elif late:
+                duplicated_late += -d * CHANNELS
             else:
                 duplicated += -d * CHANNELS
         if (d != 0 or status != 0) and len(breaks) < 10:
-            breaks.append([k, counter, d, status])
+            breaks.append([k, counter, d, status, late, phase, blocks[k - 1][6] if k else None])
         expected = (counter + scans) & 0xFFFFFFFF
         flagged += status != 0
         off_grid = max(off_grid, abs(t - (t0 + counter * SCAN_NS)))
@@ -130,6 +136,8 @@ def judge(images):
         "flagged_blocks": flagged,
         "off_grid_ns": off_grid,
         "first_counter": blocks[0][0] if blocks else None,
+        "lost_beside_late_cycles": lost_late,
+        "duplicated_beside_late_cycles": duplicated_late,
         "breaks": breaks,
     }, ai1
 
@@ -163,7 +171,10 @@ def main():
             struct.unpack("<H", slave.sdo_read(0x1C13, s)[:2])[0] for s in range(1, len(pdos) + 1)
         ]
         slots = struct.unpack("<H", slave.sdo_read(0x8000, 3)[:2])[0]
-        say(step="assign", pdos=assigned, slots=slots)
+        # The module's time from a SYNC0 edge to the cycle's block in SM3 (0x1C33:06, calc
+        # and copy), which the assignment sets.
+        copy_ns = struct.unpack("<I", slave.sdo_read(0x1C33, 6)[:4])[0]
+        say(step="assign", pdos=assigned, slots=slots, calc_copy_ns=copy_ns)
         dc = master.config_dc()
         slave.dc_sync(True, cycle_ns)
         size = master.config_map()
@@ -184,11 +195,10 @@ def main():
                 left = wait_state(master, slave, pysoem.INIT_STATE)
                 say(step="init", state=slave.state)
                 return assigned == pdos and left
-            # The block of cycle c is written to SM3 after SYNC0 edge c (8 sample PDOs: over
-            # 500 B of SPI, about 0.4 ms at 1 ms); the frames pass shortly before edge c + 1,
-            # as TwinCAT's frames pass a module that must have its outputs before SYNC0: the
-            # farthest point from both block writes.
-            phase_ns = cycle_ns - cycle_ns // 8
+            # The block of cycle c is in SM3 at most calc-and-copy after SYNC0 edge c, that
+            # of cycle c + 1 a cycle later: the frames pass halfway between the two, where a
+            # block completed late (a CPU held back) still has half a cycle.
+            phase_ns = (copy_ns + cycle_ns // 2) % cycle_ns
             cyclic.move_to(phase_ns)
             say(step="sync", frame_after_sync0_ns=phase_ns)
             time.sleep(SETTLE_CYCLES * cyclic.wall_cycle_ns / 1e9)

@@ -18,6 +18,9 @@ use virtual_board::rig::board::{BoardIo, PdiCpu};
 /// Longest stretch the board's ESC model lags behind the CPU: the board stops at least this
 /// often while the CPU runs (SPI accesses see ESC time within it).
 pub const BOARD_STEP_NS: u64 = 10_000;
+/// On the wall clock, a slice that ends this close before a SYNC edge ends exactly: longer
+/// than the longest instruction block's time, so the block cannot pass the edge.
+const EDGE_GUARD_NS: u64 = 2_000;
 
 /// How to start the chip.
 #[derive(Clone, Debug, Default)]
@@ -494,9 +497,17 @@ impl PdiCpu for Cosim {
     }
 
     fn run_until(&mut self, io: &mut BoardIo, t_ns: u64) {
-        // A SYNC edge then: the core reaches it exactly, so that its capture and interrupt
-        // come at the edge's time.
-        let edge = io.esc.esc().borrow().next_sync_edge_ns() == Some(t_ns);
+        // A SYNC edge then (the next one, or on the wall clock one that waits for the CPU):
+        // the core reaches it exactly, so that its capture and interrupt come at the edge's
+        // time. On the wall clock the slices end anywhere: one that ends right before an
+        // edge ends exactly too, so that its last block does not pass the edge.
+        let esc = io.esc.esc();
+        let near = if esc.on_wall_clock() {
+            EDGE_GUARD_NS
+        } else {
+            0
+        };
+        let edge = esc.sync_edge_near(t_ns, near);
         let mut t = self.inject(t_ns);
         loop {
             self.keep_locked();

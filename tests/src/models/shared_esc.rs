@@ -8,14 +8,14 @@
 //! it to the time elapsed on the wall clock ([`WallClock`], slowed down or not), whoever
 //! takes it (a frame, an SPI byte, the board), so a frame is answered from the ESC's state at
 //! its arrival without waiting for the CPU, and DC system time, SYNC edges, the SM watchdog
-//! and EEPROM busy times run at the clock's speed. The SYNC edges this produces wait in the ESC for the board to hand them to the CPU
-//! ([`SharedEsc::take_edges`]).
+//! and EEPROM busy times run at the clock's speed. The SYNC edges this produces wait in the
+//! ESC for the board to hand them to the CPU ([`SharedEsc::take_edges`]).
 
 use crate::models::esc::{Esc, SyncEdge};
 use crate::rig::pi_mutex::{PiGuard, PiMutex};
 use std::ops::{Deref, DerefMut};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// A handle on the ESC model; clones share it, across threads too. The lock inherits
 /// priority ([`PiMutex`]): the frame-answering thread never waits on a holder that a
@@ -63,12 +63,12 @@ impl WallClock {
     }
 
     /// The wall time `board_ns` of board time takes.
-    pub fn wall_time(&self, board_ns: u64) -> std::time::Duration {
-        std::time::Duration::from_nanos(board_ns.saturating_mul(u64::from(self.slowdown)))
+    pub fn wall_time(&self, board_ns: u64) -> Duration {
+        Duration::from_nanos(board_ns.saturating_mul(u64::from(self.slowdown)))
     }
 
     /// The board time that passes in wall time `wall`.
-    pub fn board_time(&self, wall: std::time::Duration) -> u64 {
+    pub fn board_time(&self, wall: Duration) -> u64 {
         (wall.as_nanos() / u128::from(self.slowdown)).min(u128::from(u64::MAX)) as u64
     }
 
@@ -166,13 +166,33 @@ impl SharedEsc {
     pub fn take_edges(&self) -> Vec<SyncEdge> {
         std::mem::take(&mut self.borrow().held.edges)
     }
+
+    /// The first SYNC edge produced on the wall clock that waits to be taken, taken.
+    pub fn take_first_edge(&self) -> Option<SyncEdge> {
+        let mut g = self.borrow();
+        (!g.held.edges.is_empty()).then(|| g.held.edges.remove(0))
+    }
+
+    /// When (ESC time) the first SYNC edge that waits to be taken came.
+    pub fn first_waiting_edge_ns(&self) -> Option<u64> {
+        self.borrow().held.edges.first().map(|e| e.time_ns)
+    }
+
+    /// Whether a SYNC edge comes at `t_ns` or at most `within_ns` after it: the ESC's next
+    /// one, or one produced on the wall clock that waits to be taken. A CPU stepped up to
+    /// such a time stops there exactly (not at the end of the instruction block that
+    /// reaches it, which could pass the edge).
+    pub fn sync_edge_near(&self, t_ns: u64, within_ns: u64) -> bool {
+        let g = self.borrow();
+        let near = |e: u64| (t_ns..=t_ns.saturating_add(within_ns)).contains(&e);
+        g.next_sync_edge_ns().is_some_and(near) || g.held.edges.iter().any(|e| near(e.time_ns))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::models::esc::{regs, EscConfig};
-    use std::time::Duration;
 
     fn esc() -> SharedEsc {
         SharedEsc::new(Esc::new(EscConfig::new(

@@ -328,6 +328,28 @@ impl VirtualBoard {
         self.deliver(SyncEdge { time_ns: now, ..e });
     }
 
+    /// On the wall clock: the first SYNC edge the ESC produced that the CPU has not had
+    /// yet reaches the CPU at the edge's own time, as the pin sees it: an idle CPU sleeps up
+    /// to it, one behind runs up to it (exactly: the co-simulated core stops at a waiting
+    /// edge's time). False when none waits.
+    pub fn deliver_first_wall_edge(&mut self) -> bool {
+        let Some(t) = self.esc.first_waiting_edge_ns() else {
+            return false;
+        };
+        self.idle_until(t);
+        let v = self.now_ns();
+        if v < t {
+            self.step(t - v);
+        }
+        match self.esc.take_first_edge() {
+            Some(e) => {
+                self.deliver_wall_edge(e);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Whether the board serves on the wall clock.
     pub fn on_wall_clock(&self) -> bool {
         self.on_wall_clock

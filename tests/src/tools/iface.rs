@@ -625,17 +625,9 @@ fn run_cpu(
             };
         if run {
             seen_frames = answered;
-            // Each SYNC edge reaches the CPU at its own time, as the pin sees it: a CPU with
-            // nothing to do sleeps up to it, one still busy behind runs up to it first (the
-            // steps below stop at the next edge, so none is passed).
-            for e in board.take_wall_edges() {
-                board.idle_until(e.time_ns);
-                let v = board.now_ns();
-                if v < e.time_ns {
-                    board.step(e.time_ns - v);
-                }
-                board.deliver_wall_edge(e);
-            }
+            // Each SYNC edge reaches the CPU at its own time (the steps below stop at the
+            // next edge, so none is passed).
+            while board.deliver_first_wall_edge() {}
             if news {
                 // An idle CPU sleeps up to now first: it sees what came when it came.
                 board.idle_until(wall);
