@@ -626,8 +626,14 @@ fn run_cpu(
         if run {
             seen_frames = answered;
             // Each SYNC edge reaches the CPU at its own time (the steps below stop at the
-            // next edge, so none is passed).
-            while board.deliver_first_wall_edge() {}
+            // next edge, so none is passed). A CPU far behind runs whole cycles here: the
+            // lag is traced at each edge too.
+            while board.deliver_first_wall_edge() {
+                let v = board.now_ns();
+                stats
+                    .lag
+                    .trace(v, wall_ns(Instant::now()).saturating_sub(v));
+            }
             if news {
                 // An idle CPU sleeps up to now first: it sees what came when it came.
                 board.idle_until(wall);
