@@ -23,12 +23,13 @@ const TSHARK_TESTS: &str = "_decodes_in_tshark";
 /// co-simulator (the LPC1754 and the STM32 images), SOEM assigning the input oversampling PDOs
 /// on the image, SOEM updating the module's firmware on the virtual board and on the image, and
 /// the CAN product's image after refused files, each on a veth pair.
-const ROOT_TESTS: [&str; 9] = [
+const ROOT_TESTS: [&str; 10] = [
     "ethercrab_drives_the_firmware_over_a_veth_pair",
     "ethercrab_gets_its_words_echoed_over_a_veth_pair",
     "pysoem_drives_the_image_over_a_veth_pair",
     "pysoem_drives_the_stm32_image_over_a_veth_pair",
     "pysoem_assigns_the_oversampling_pdos_and_reaches_op_over_a_veth_pair",
+    "pysoem_plays_every_update_through_the_oversampling_pdos_over_a_veth_pair",
     "pysoem_drives_soes_over_a_veth_pair",
     "pysoem_updates_the_module_over_a_veth_pair",
     "pysoem_updates_the_image_over_a_veth_pair",

@@ -1,14 +1,22 @@
 #!/usr/bin/env python3
-"""SOEM through pysoem with the module's input oversampling PDOs (docs/book/oversampling.md):
+"""SOEM through pysoem with the module's oversampling PDOs (docs/book/oversampling.md):
 
-    python3 pysoem_oversampling.py IFACE [CYCLES [CYCLE_US [SAMPLE_PDOS [SLOWDOWN]]]]
+    python3 pysoem_oversampling.py IFACE [CYCLES [CYCLE_US [SAMPLE_PDOS [SLOWDOWN [UPDATE_PDOS]]]]]
 
 PRE-OP; the input assignment over SDO (0x1C13: sub 0 = 0, the block status 0x1A10, the
 block time 0x1A11, the sample PDOs 0x1A20.., sub 0 = n), as the book tells SOEM users;
-0x8000:03 (the slots it gives) read back; DC with SYNC0 every CYCLE_US (default 1000);
+0x8000:03 (the slots it gives) read back. With UPDATE_PDOS (default 0) the output assignment
+too (0x1C12: the update PDOs 0x1620.., five updates of AO1 and AO2 each); SAMPLE_PDOS 0
+leaves the inputs as they are (no stream). DC with SYNC0 every CYCLE_US (default 1000);
 config_map, which reads the assignment and the mappings over CoE and sizes the image;
 SAFE-OP, OP, and CYCLES process-data exchanges (default 1000) in a thread of their own,
 each keeping the input image as it came. Then INIT. With CYCLES 0: INIT right after OP.
+
+The outputs climb: update k of the block the master sends in its exchange i is the pair
+(a, !a) with a = (i x n + k) x 97 (mod 2^16), n the updates per cycle, so the caller can
+tell from the DAC's loads alone which update of which exchange the module played. The
+"outputs" step lists the exchanges kept and those sent late or beside a late one (whose
+block the module may rightly never have played).
 
 The blocks are judged after the run: a block read twice (the same scan counter: the master's
 frame came before the module wrote the next one) is counted once; for the others the scan
@@ -42,6 +50,10 @@ SAFE_OP_S = 0.3
 SETTLE_CYCLES = 20
 # Block status, block time, the first sample PDO.
 STATUS_PDO, TIME_PDO, SAMPLE_PDO = 0x1A10, 0x1A11, 0x1A20
+# The first update PDO, and the updates of AO1 and AO2 each one carries.
+UPDATE_PDO, UPDATES_PER_PDO = 0x1620, 5
+# How much AO1's code climbs from one update to the next (odd: the code gives the update).
+UPDATE_STEP = 97
 CHANNELS = 8
 PERIOD_NS = 4000
 SCAN_NS = CHANNELS * PERIOD_NS
@@ -49,35 +61,55 @@ SCAN_NS = CHANNELS * PERIOD_NS
 HEADER = struct.Struct("<IBBQ")
 
 
+def update_pair(i, n, k):
+    """AO1 and AO2 of update k of the block sent in exchange i."""
+    a = ((i * n + k) * UPDATE_STEP) & 0xFFFF
+    return a, a ^ 0xFFFF
+
+
 class Keeping(Cyclic):
     """pysoem_master's cyclic task (one exchange per cycle, locked to the SYNC0 edges),
-    keeping every input image instead of writing outputs."""
+    keeping every input image (when `images`) and writing n climbing updates per cycle
+    (when n > 0)."""
 
-    def __init__(self, master, slave, cycle_ns, slowdown):
+    def __init__(self, master, slave, cycle_ns, slowdown, images, updates):
         super().__init__(master, slave, cycle_ns, True, slowdown)
         self.keep = False
+        self.keep_images = images
+        self.updates = updates
         self.images = []
+        # Exchanges kept: (exchange, late or beside a late one, answered).
+        self.sent = []
 
     def write_outputs(self):
-        return None
+        with self.lock:
+            i = self.exchanges
+        if self.updates:
+            pairs = (update_pair(i, self.updates, k) for k in range(self.updates))
+            self.slave.output = b"".join(struct.pack("<HH", *p) for p in pairs)
+        return i
 
     def on_exchange(self, outputs, answered, late_beside):
         with self.lock:
             if self.keep:
-                phase = self.master.dc_time % self.cycle_ns
-                self.images.append((bytes(self.slave.input), late_beside, phase))
+                self.sent.append((outputs, late_beside, answered))
+                if self.keep_images:
+                    phase = self.master.dc_time % self.cycle_ns
+                    self.images.append((bytes(self.slave.input), late_beside, phase))
 
     def kept(self):
         with self.lock:
-            return len(self.images)
+            return len(self.sent)
 
 
-def assign_inputs(slave, pdos):
-    """0x1C13 over SDO, entry by entry (sub 0 = 0 first, the count last)."""
-    slave.sdo_write(0x1C13, 0, bytes([0]))
+def assign(slave, index, pdos):
+    """0x1C12 or 0x1C13 over SDO, entry by entry (sub 0 = 0 first, the count last); the
+    entries as read back."""
+    slave.sdo_write(index, 0, bytes([0]))
     for sub, pdo in enumerate(pdos, start=1):
-        slave.sdo_write(0x1C13, sub, struct.pack("<H", pdo))
-    slave.sdo_write(0x1C13, 0, bytes([len(pdos)]))
+        slave.sdo_write(index, sub, struct.pack("<H", pdo))
+    slave.sdo_write(index, 0, bytes([len(pdos)]))
+    return [struct.unpack("<H", slave.sdo_read(index, s)[:2])[0] for s in range(1, len(pdos) + 1)]
 
 
 def judge(images):
@@ -151,8 +183,10 @@ def main():
     parser.add_argument("cycle_us", nargs="?", type=int, default=1000)
     parser.add_argument("sample_pdos", nargs="?", type=int, default=8)
     parser.add_argument("slowdown", nargs="?", type=int, default=1)
+    parser.add_argument("update_pdos", nargs="?", type=int, default=0)
     args = parser.parse_args()
     cycle_ns = args.cycle_us * 1000
+    updates = args.update_pdos * UPDATES_PER_PDO
     say(step="master", realtime=realtime())
     master = pysoem.Master()
     master.always_release_gil = True
@@ -165,25 +199,38 @@ def main():
         if slave.state_check(pysoem.PREOP_STATE, STATE_US) != pysoem.PREOP_STATE:
             say(step="preop", ok=False, al_status_code=slave.al_status)
             return False
-        pdos = [STATUS_PDO, TIME_PDO] + [SAMPLE_PDO + b for b in range(args.sample_pdos)]
-        assign_inputs(slave, pdos)
-        assigned = [
-            struct.unpack("<H", slave.sdo_read(0x1C13, s)[:2])[0] for s in range(1, len(pdos) + 1)
-        ]
+        pdos = []
+        if args.sample_pdos:
+            pdos = [STATUS_PDO, TIME_PDO] + [SAMPLE_PDO + b for b in range(args.sample_pdos)]
+        assigned = assign(slave, 0x1C13, pdos) if pdos else []
+        rx_pdos = [UPDATE_PDO + u for u in range(args.update_pdos)]
+        rx_assigned = assign(slave, 0x1C12, rx_pdos) if rx_pdos else []
         slots = struct.unpack("<H", slave.sdo_read(0x8000, 3)[:2])[0]
         # The module's time from a SYNC0 edge to the cycle's block in SM3 (0x1C33:06, calc
         # and copy), which the assignment sets.
         copy_ns = struct.unpack("<I", slave.sdo_read(0x1C33, 6)[:4])[0]
-        say(step="assign", pdos=assigned, slots=slots, calc_copy_ns=copy_ns)
+        say(
+            step="assign",
+            pdos=assigned,
+            rx_pdos=rx_assigned,
+            slots=slots,
+            calc_copy_ns=copy_ns,
+        )
         dc = master.config_dc()
         slave.dc_sync(True, cycle_ns)
         size = master.config_map()
-        say(step="config_map", found_dc=bool(dc), bytes=size, inputs=len(slave.input))
+        say(
+            step="config_map",
+            found_dc=bool(dc),
+            bytes=size,
+            inputs=len(slave.input),
+            outputs=len(slave.output),
+        )
         if not wait_state(master, slave, pysoem.SAFEOP_STATE):
             master.read_state()
             say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
             return False
-        cyclic = Keeping(master, slave, cycle_ns, args.slowdown)
+        cyclic = Keeping(master, slave, cycle_ns, args.slowdown, bool(pdos), updates)
         cyclic.start()
         try:
             time.sleep(SAFE_OP_S * args.slowdown)
@@ -194,10 +241,11 @@ def main():
             if args.cycles == 0:
                 left = wait_state(master, slave, pysoem.INIT_STATE)
                 say(step="init", state=slave.state)
-                return assigned == pdos and left
+                return assigned == pdos and rx_assigned == rx_pdos and left
             # The block of cycle c is in SM3 at most calc-and-copy after SYNC0 edge c, that
             # of cycle c + 1 a cycle later: the frames pass halfway between the two, where a
-            # block completed late (a CPU held back) still has half a cycle.
+            # block completed late (a CPU held back) still has half a cycle. The output
+            # block they bring plays from the next edge on.
             phase_ns = (copy_ns + cycle_ns // 2) % cycle_ns
             cyclic.move_to(phase_ns)
             say(step="sync", frame_after_sync0_ns=phase_ns)
@@ -210,6 +258,7 @@ def main():
             with cyclic.lock:
                 cyclic.keep = False
                 images = cyclic.images[: args.cycles]
+                sent = cyclic.sent[: args.cycles]
                 good = cyclic.good - good_before
                 exchanges = cyclic.exchanges - exchanges_before
             master.read_state()
@@ -220,16 +269,28 @@ def main():
             wait_state(master, slave, pysoem.INIT_STATE)
         finally:
             cyclic.stop()
-        verdict, ai1 = judge(images)
-        ok = (
-            in_op
-            and good == exchanges
-            and verdict["lost"] == 0
-            and verdict["duplicated"] == 0
-            and verdict["flagged_blocks"] == 0
-        )
-        say(step="stream", exchanges=exchanges, good_wkc=good, state=state_after, **verdict)
-        say(step="ai1", samples=ai1)
+        ok = in_op and good == exchanges
+        if pdos:
+            verdict, ai1 = judge(images)
+            ok = (
+                ok
+                and verdict["lost"] == 0
+                and verdict["duplicated"] == 0
+                and verdict["flagged_blocks"] == 0
+            )
+            say(step="stream", exchanges=exchanges, good_wkc=good, state=state_after, **verdict)
+            say(step="ai1", samples=ai1)
+        if updates:
+            say(
+                step="outputs",
+                updates=updates,
+                exchanges=exchanges,
+                good_wkc=good,
+                state=state_after,
+                kept=[sent[0][0], sent[-1][0]],
+                late=[i for i, late, _ in sent if late],
+                unanswered=[i for i, _, answered in sent if not answered],
+            )
         master.read_state()
         say(step="init", state=slave.state)
         return ok

@@ -583,13 +583,15 @@ fn run_cpu(
     let mut next_can = start;
     let mut seen_frames = 0;
     let wall_ns = |at: Instant| clock.at(at);
+    let finished = |elapsed: Duration| {
+        stop.load(Ordering::Relaxed)
+            || done.load(Ordering::Relaxed)
+            || opts.duration.is_some_and(|d| elapsed >= d)
+    };
     loop {
         let now = Instant::now();
         stats.elapsed = now - start;
-        if stop.load(Ordering::Relaxed)
-            || done.load(Ordering::Relaxed)
-            || opts.duration.is_some_and(|d| stats.elapsed >= d)
-        {
+        if finished(stats.elapsed) {
             break;
         }
         if now >= next_progress {
@@ -627,8 +629,9 @@ fn run_cpu(
             seen_frames = answered;
             // Each SYNC edge reaches the CPU at its own time (the steps below stop at the
             // next edge, so none is passed). A CPU far behind runs whole cycles here: the
-            // lag is traced at each edge too.
-            while board.deliver_first_wall_edge() {
+            // lag is traced at each edge too. A CPU slower than the wall clock never catches
+            // up, so the stop requests are heard here as well.
+            while !finished(start.elapsed()) && board.deliver_first_wall_edge() {
                 let v = board.now_ns();
                 stats
                     .lag
