@@ -29,7 +29,7 @@ use super::settings::SETTINGS_INDEX;
 use crate::platform::board::{AI_CHANNELS, AO_CHANNELS};
 use crate::stacks::diagnostics::{Diagnostics, EMCY_AO_OUT_OF_RANGE, ERR_MANUFACTURER};
 use crate::stacks::entry_bytes::{channel, put_le};
-use crate::stacks::ethercat::sync::{le_u16, le_u32, Figures, SyncMonitor};
+use crate::stacks::ethercat::sync::{le_u16, le_u32, Figures, SyncMonitor, SyncObject};
 use crate::stacks::ethercat::{Application, DcStart, Effects};
 use coe_core::device::SyncManagerDesc;
 use coe_core::od::{ObjectAccess, ObjectDictionary};
@@ -194,10 +194,12 @@ impl<F: Figures> ObjectAccess for AnalogIo<F> {
             (0x10F1, 0) => (2, 1),
             (0x10F1, 1) => (self.diag.local_error_reaction, 4),
             (0x10F1, 2) => (self.sync.error_limit().into(), 2),
-            (0x1C32, _) => return self.sync.read(false, sub, buf),
+            (0x1C32, _) => return self.sync.read(SyncObject::Outputs, sub, buf),
             // Calc and copy: the assigned image's, the oversampling blocks' SM3 write too.
-            (0x1C33, 6) => (F::SYNC.input_calc_copy_for(self.pd.input_len()), 4),
-            (0x1C33, _) => return self.sync.read(true, sub, buf),
+            (0x1C33, _) => {
+                let image_bytes = self.pd.input_len();
+                return self.sync.read(SyncObject::Inputs { image_bytes }, sub, buf);
+            }
             (i, _) if self.pd.owns(i) => return self.pd.read(i, sub, buf),
             (0x6401, 0) => (AI_CHANNELS as u32, 1),
             (0x6401, _) => {

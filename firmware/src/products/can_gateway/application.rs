@@ -38,7 +38,7 @@ use crate::stacks::canopen::task::CanHost;
 use crate::stacks::canopen::window::CallKind;
 use crate::stacks::diagnostics::{Diagnostics, ERR_COMMUNICATION};
 use crate::stacks::entry_bytes::put_le;
-use crate::stacks::ethercat::sync::{SyncMode, SyncMonitor};
+use crate::stacks::ethercat::sync::{SyncMode, SyncMonitor, SyncObject};
 use crate::stacks::ethercat::{Application, Effects, SlaveApp};
 use coe_core::canopen::master::events::MasterEvent;
 use coe_core::canopen::master::{Master, NodePhase};
@@ -409,8 +409,11 @@ impl ObjectAccess for Gateway {
             (0x10F1, 2) => (self.sync.error_limit().into(), 2),
             (0x1C12, _) => return self.rx.read(sub, buf),
             (0x1C13, _) => return self.tx.read(sub, buf),
-            (0x1C32, _) => return self.sync.read(false, sub, buf),
-            (0x1C33, _) => return self.sync.read(true, sub, buf),
+            (0x1C32, _) => return self.sync.read(SyncObject::Outputs, sub, buf),
+            (0x1C33, _) => {
+                let image_bytes = self.tx.image_len();
+                return self.sync.read(SyncObject::Inputs { image_bytes }, sub, buf);
+            }
             (DIAG_HISTORY_INDEX, 1..) => return self.history.read(sub, buf),
             (CONFIGURED_MODULES_INDEX, 1..) => {
                 let n = usize::from(sub) - 1;

@@ -94,6 +94,19 @@ impl SyncFigures {
     }
 }
 
+/// Which sync manager parameter object an SDO upload reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SyncObject {
+    /// 0x1C32, the outputs'.
+    Outputs,
+    /// 0x1C33, the inputs', with the assigned input image's length in bytes (its calc and
+    /// copy time grows with it: [`SyncFigures::input_calc_copy_for`]).
+    Inputs {
+        /// SM3 bytes of the assigned TxPDOs.
+        image_bytes: usize,
+    },
+}
+
 /// SYNC0 bookkeeping the DAC task leaves for the PDI task (cycle monitoring).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -587,13 +600,13 @@ impl<F: Figures> SyncMonitor<F> {
         self.missed(without)
     }
 
-    /// SDO upload of 0x1C32 (`inputs == false`) or 0x1C33 subindex `sub`.
-    pub fn read(&self, inputs: bool, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
+    /// SDO upload of 0x1C32 or 0x1C33 (`object`) subindex `sub`.
+    pub fn read(&self, object: SyncObject, sub: u8, buf: &mut [u8]) -> Result<usize, SdoAbortCode> {
         let f = &F::SYNC;
-        let (calc_copy, delay) = if inputs {
-            (f.input_calc_copy_ns, 0)
-        } else {
-            (f.output_calc_copy_ns, f.output_delay_ns)
+        let inputs = matches!(object, SyncObject::Inputs { .. });
+        let (calc_copy, delay) = match object {
+            SyncObject::Inputs { image_bytes } => (f.input_calc_copy_for(image_bytes), 0),
+            SyncObject::Outputs => (f.output_calc_copy_ns, f.output_delay_ns),
         };
         let mut tmp = [0u8; 4];
         let bytes: &[u8] = match sub {
@@ -871,9 +884,9 @@ mod tests {
         assert_eq!(m.on_sync0_counts(e.edge(500_000, false)), SyncVerdict::Ok);
         assert_eq!(m.sm_event_missed(), 4);
         let mut b = [0u8; 4];
-        assert_eq!(m.read(false, 0x20, &mut b), Ok(1));
+        assert_eq!(m.read(SyncObject::Outputs, 0x20, &mut b), Ok(1));
         assert_eq!(b[0], 1);
-        assert_eq!(m.read(false, 0x0B, &mut b), Ok(2));
+        assert_eq!(m.read(SyncObject::Outputs, 0x0B, &mut b), Ok(2));
         assert_eq!(u16::from_le_bytes([b[0], b[1]]), 4);
     }
 
@@ -1001,15 +1014,27 @@ mod tests {
     fn object_values_and_writes() {
         let mut m = Monitor::new();
         let mut b = [0u8; 8];
-        assert_eq!(m.read(false, 4, &mut b), Ok(2));
+        assert_eq!(m.read(SyncObject::Outputs, 4, &mut b), Ok(2));
         assert_eq!(b[..2], [0x07, 0x00]);
-        assert_eq!(m.read(false, 5, &mut b), Ok(4));
+        assert_eq!(m.read(SyncObject::Outputs, 5, &mut b), Ok(4));
         assert_eq!(
             u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
             MIN_CYCLE_TIME_NS
         );
-        assert_eq!(m.read(true, 1, &mut b), Ok(2));
+        assert_eq!(
+            m.read(SyncObject::Inputs { image_bytes: 0 }, 1, &mut b),
+            Ok(2)
+        );
         assert_eq!(b[..2], [0x22, 0x00]);
+        // 0x1C33:06 follows the assigned input image; 0x1C32:06 does not.
+        for (image_bytes, want) in [(16, 15_000), (526, FIGURES.input_calc_copy_for(526))] {
+            let inputs = SyncObject::Inputs { image_bytes };
+            assert_eq!(m.read(inputs, 6, &mut b), Ok(4));
+            assert_eq!(u32::from_le_bytes([b[0], b[1], b[2], b[3]]), want);
+        }
+        assert!(FIGURES.input_calc_copy_for(526) > 15_000);
+        assert_eq!(m.read(SyncObject::Outputs, 6, &mut b), Ok(4));
+        assert_eq!(u32::from_le_bytes([b[0], b[1], b[2], b[3]]), 8_000);
         assert_eq!(m.write(false, 1, &[2, 0]), Ok(()));
         assert_eq!(m.output_mode_value(), 2);
         assert_eq!(m.input_mode_value(), 2);
@@ -1027,11 +1052,11 @@ mod tests {
             Err(SdoAbortCode::WriteOfReadOnly)
         );
         assert_eq!(
-            m.read(false, 0x13, &mut b),
+            m.read(SyncObject::Outputs, 0x13, &mut b),
             Err(SdoAbortCode::SubindexDoesNotExist)
         );
         assert_eq!(
-            m.read(false, 2, &mut b[..3]),
+            m.read(SyncObject::Outputs, 2, &mut b[..3]),
             Err(SdoAbortCode::OutOfMemory)
         );
         m.reset();
@@ -1044,7 +1069,9 @@ mod tests {
     #[test]
     fn the_dictionary_describes_what_the_monitor_serves() {
         let monitor = Monitor::new();
-        for (index, inputs) in [(0x1C32, false), (0x1C33, true)] {
+        // The default assignment's input image is within the bytes the static figure covers.
+        let inputs = SyncObject::Inputs { image_bytes: 0 };
+        for (index, inputs) in [(0x1C32, SyncObject::Outputs), (0x1C33, inputs)] {
             let object = crate::products::analog_io::od::OD.find(index).unwrap();
             assert_eq!(object.max_subindex(), 0x20);
             let mut buf = [0u8; 8];
