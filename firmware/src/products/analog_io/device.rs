@@ -13,8 +13,8 @@ use super::sync::MIN_CYCLE_TIME_NS;
 use crate::platform::board::{EEPROM_BYTES, PDI};
 use crate::stacks::ethercat::sync::{SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
 use coe_core::device::{
-    CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity,
-    MailboxDesc, MailboxProtocols, MemoryWindow, Names, PortType, SyncManagerDesc,
+    CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity, MailboxDesc,
+    MailboxProtocols, MemoryWindow, Names, PortType, SyncManagerDesc,
 };
 use coe_core::od::ObjectDictionary;
 

@@ -26,8 +26,18 @@ pub const PLAIN_SYNC_MANAGERS: [SyncManagerDesc; 4] =
 
 const fn sync_managers(output_room: u16, input_room: u16) -> [SyncManagerDesc; 4] {
     [
-        SyncManagerDesc::new(SmRole::MailboxOut, 0x1000, MAILBOX_SIZE as u16, MAILBOX_CONTROL.0),
-        SyncManagerDesc::new(SmRole::MailboxIn, 0x1080, MAILBOX_SIZE as u16, MAILBOX_CONTROL.1),
+        SyncManagerDesc::new(
+            SmRole::MailboxOut,
+            0x1000,
+            MAILBOX_SIZE as u16,
+            MAILBOX_CONTROL.0,
+        ),
+        SyncManagerDesc::new(
+            SmRole::MailboxIn,
+            0x1080,
+            MAILBOX_SIZE as u16,
+            MAILBOX_CONTROL.1,
+        ),
         SyncManagerDesc::new(SmRole::ProcessDataOut, 0x1C00, output_room, 0x64),
         SyncManagerDesc::new(SmRole::ProcessDataIn, 0x1180, input_room, 0x20),
     ]

@@ -4,13 +4,14 @@
 //! users pick oversampling on the DC tab as for Beckhoff's EL3702/EL4732.
 //!
 //! SYNC0 is the bus cycle, as in the plain "DC" mode (`super::device::dc_sync0`:
-//! AssignActivate 0x0300, `CycleTimeSync0 Factor="1"`), and there is no SYNC1: the module clocks its converters
-//! itself, locked to the SYNC0 edges; the factor is the assignment, not a SYNC0 divider.
-//! Per cycle the inputs take the block status, the block time and the fewest sample PDOs
-//! that hold the cycle's largest block (so every conversion reaches the master), the
-//! outputs the most update PDOs the firmware admits beside them (`io::analog::
-//! oversampling::admit`, `io::analog::output_blocks::admit`, the minimum cycle); a host test
-//! runs that admission on every mode. Description only: the image never reads these.
+//! AssignActivate 0x0300, `CycleTimeSync0 Factor="1"`), and there is no SYNC1: the module
+//! clocks its converters itself, locked to the SYNC0 edges; the factor is the assignment,
+//! not a SYNC0 divider. Per cycle the inputs take the block status, the block time and the
+//! fewest sample PDOs that hold the cycle's largest block (so every conversion reaches the
+//! master), the outputs the most update PDOs the firmware admits beside them
+//! (`io::analog::oversampling::admit`, `io::analog::output_blocks::admit`, the minimum
+//! cycle); the host tests (`tests/op_modes.rs`) run that admission on every mode.
+//! Description only: the image never links these.
 
 use super::device::dc_sync0;
 use super::od::RX_ASSIGN_DEFAULT;
@@ -56,10 +57,7 @@ pub const CYCLE_OP_MODES: [CycleOpMode; 3] = [
     CycleOpMode {
         cycle_ns: 1_000_000,
         mode: OpModeWithPdos {
-            mode: dc_sync0(
-                "DcOs1ms",
-                "DC-OS 1 ms: AI 250 kSPS, AO 25 kHz",
-            ),
+            mode: dc_sync0("DcOs1ms", "DC-OS 1 ms: AI 250 kSPS, AO 25 kHz"),
             sms: &[
                 OpModeSm {
                     sm: 2,
@@ -75,10 +73,7 @@ pub const CYCLE_OP_MODES: [CycleOpMode; 3] = [
     CycleOpMode {
         cycle_ns: 500_000,
         mode: OpModeWithPdos {
-            mode: dc_sync0(
-                "DcOs500us",
-                "DC-OS 500 us: AI 250 kSPS, AO 20 kHz",
-            ),
+            mode: dc_sync0("DcOs500us", "DC-OS 500 us: AI 250 kSPS, AO 20 kHz"),
             sms: &[
                 OpModeSm {
                     sm: 2,
@@ -94,10 +89,7 @@ pub const CYCLE_OP_MODES: [CycleOpMode; 3] = [
     CycleOpMode {
         cycle_ns: 270_000,
         mode: OpModeWithPdos {
-            mode: dc_sync0(
-                "DcOs270us",
-                "DC-OS 270 us: AI 250 kSPS, AO 3.7 kHz",
-            ),
+            mode: dc_sync0("DcOs270us", "DC-OS 270 us: AI 250 kSPS, AO 3.7 kHz"),
             sms: &[
                 OpModeSm {
                     sm: 2,

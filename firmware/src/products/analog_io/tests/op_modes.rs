@@ -44,7 +44,8 @@ fn assign(r: &mut Rig, index: u16, pdos: &[u16]) -> Result<(), String> {
     let refused = |e: u32| format!("{index:#06X} refused: abort {e:#010X}");
     r.download(index, 0, &[0]).map_err(refused)?;
     for (sub, pdo) in (1u8..).zip(pdos) {
-        r.download(index, sub, &pdo.to_le_bytes()).map_err(refused)?;
+        r.download(index, sub, &pdo.to_le_bytes())
+            .map_err(refused)?;
     }
     r.download(index, 0, &[pdos.len() as u8]).map_err(refused)
 }
@@ -109,8 +110,18 @@ fn the_op_modes_are_the_plain_dc_mode_with_an_assignment() {
         assert_eq!(&mode.mode, listed);
         let m = mode.mode.mode;
         assert_eq!(
-            (m.assign_activate, m.sync_mode, m.sync0_factor, m.cycle_time_sync0),
-            (dc.assign_activate, dc.sync_mode, dc.sync0_factor, dc.cycle_time_sync0),
+            (
+                m.assign_activate,
+                m.sync_mode,
+                m.sync0_factor,
+                m.cycle_time_sync0
+            ),
+            (
+                dc.assign_activate,
+                dc.sync_mode,
+                dc.sync0_factor,
+                dc.cycle_time_sync0
+            ),
             "{}",
             m.name
         );
