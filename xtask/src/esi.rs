@@ -157,6 +157,41 @@ mod tests {
         assert!(text.trim_end().ends_with("</EtherCATInfo>"));
     }
 
+    /// The module's ESI lists its oversampling op modes, each with its assignment, and
+    /// validates against the ETG.2000 schema (where the schema and xmllint are at hand, as
+    /// `cargo xtask esi` does it).
+    #[test]
+    fn the_module_esi_with_its_op_modes_validates() {
+        let dir = std::env::temp_dir().join(format!("xtask-esi-op-modes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let os = &firmware::products::analog_io::OVERSAMPLING;
+        let path = write_xml(&firmware::products::analog_io::device::DEVICE, os, &dir).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let valid = validate(&path);
+        let _ = std::fs::remove_dir_all(&dir);
+        valid.unwrap();
+        assert!(!os.op_modes.is_empty());
+        for mode in os.op_modes {
+            let start = format!("<Name>{}</Name>", mode.mode.name);
+            let element = text
+                .split(&start)
+                .nth(1)
+                .and_then(|rest| rest.split("</OpMode>").next())
+                .unwrap_or_else(|| panic!("op mode {} in the ESI", mode.mode.name));
+            for sm in mode.sms {
+                assert!(element.contains(&format!("<Sm No=\"{}\">", sm.sm)));
+                for pdo in sm.pdos {
+                    let factor = match pdo.factor {
+                        0 => String::new(),
+                        n => format!(" OSFac=\"{n}\""),
+                    };
+                    let listed = format!("<Pdo{factor}>#x{:04X}</Pdo>", pdo.index);
+                    assert!(element.contains(&listed), "{}: {listed}", mode.mode.name);
+                }
+            }
+        }
+    }
+
     #[test]
     fn the_module_sii_is_written() {
         let dir = std::env::temp_dir().join(format!("xtask-sii-{}", std::process::id()));

@@ -13,8 +13,8 @@ use super::sync::MIN_CYCLE_TIME_NS;
 use crate::platform::board::{EEPROM_BYTES, PDI};
 use crate::stacks::ethercat::sync::{SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
 use coe_core::device::{
-    CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity,
-    MailboxDesc, MailboxProtocols, MemoryWindow, Names, PortType,
+    CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity, MailboxDesc,
+    MailboxProtocols, MemoryWindow, Names, PortType, SyncManagerDesc,
 };
 use coe_core::od::ObjectDictionary;
 
@@ -31,17 +31,7 @@ const OP_MODES: &[DcOpMode] = &[
         sync1_factor: 0,
         shift_time_sync1: 0,
     },
-    DcOpMode {
-        name: "DC",
-        description: "DC-Synchron (outputs latched at SYNC0)",
-        assign_activate: 0x0300,
-        sync_mode: SYNC_MODE_DC_SYNC0,
-        cycle_time_sync0: 0,
-        sync0_factor: 1,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    },
+    dc_sync0("DC", "DC-Synchron (outputs latched at SYNC0)"),
     DcOpMode {
         name: "FreeRun",
         description: "Free Run",
@@ -55,20 +45,39 @@ const OP_MODES: &[DcOpMode] = &[
     },
 ];
 
-/// The module.
-pub static DEVICE: DeviceDescription = description(IDENTITY, NAMES, &OD);
+/// A DC op mode with SYNC0 = the bus cycle (AssignActivate 0x0300, `CycleTimeSync0
+/// Factor="1"`) and no SYNC1: the plain "DC" mode, and the oversampling ones
+/// ([`super::op_modes`]), which add their PDO assignment.
+pub const fn dc_sync0(name: &'static str, description: &'static str) -> DcOpMode {
+    DcOpMode {
+        name,
+        description,
+        assign_activate: 0x0300,
+        sync_mode: SYNC_MODE_DC_SYNC0,
+        cycle_time_sync0: 0,
+        sync0_factor: 1,
+        shift_time_sync0: 0,
+        sync1_factor: 0,
+        shift_time_sync1: 0,
+    }
+}
 
-/// The description of an analog module with `identity`, `names` and dictionary `od`.
+/// The module.
+pub static DEVICE: DeviceDescription = description(IDENTITY, NAMES, &OD, &SYNC_MANAGERS);
+
+/// The description of an analog module with `identity`, `names`, dictionary `od` and the
+/// SyncManagers `sync_managers` (the layout's, with the room its PDOs need).
 pub const fn description(
     identity: Identity,
     names: Names,
     od: &'static ObjectDictionary,
+    sync_managers: &'static [SyncManagerDesc],
 ) -> DeviceDescription {
     DeviceDescription {
     identity,
     names,
     od,
-    sync_managers: &SYNC_MANAGERS,
+    sync_managers,
     fmmus: &[
         FmmuUsage::Outputs,
         FmmuUsage::Inputs,

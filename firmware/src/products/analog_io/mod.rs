@@ -14,6 +14,7 @@
 //! | [`od`]       | the object dictionary                                             |
 //! | [`oversampling`] | the input oversampling objects and PDOs (0x6010, 0x6020.., 0x1A10.., 0x8000) |
 //! | [`output_oversampling`] | the output oversampling objects and PDOs (0x7010, 0x7020.., 0x1610, 0x1620..) |
+//! | [`op_modes`] | the DC op modes that choose oversampling, one per bus cycle, with their PDO assignments |
 //! | [`device`]   | the device description (SII, ESI) built from all of the above     |
 //!
 //! `analog-io-can` is this product plus CANopen on CAN1: it takes its dictionary's
@@ -26,12 +27,14 @@
 //! [`od`]: crate::products::analog_io::od
 //! [`oversampling`]: crate::products::analog_io::oversampling
 //! [`output_oversampling`]: crate::products::analog_io::output_oversampling
+//! [`op_modes`]: crate::products::analog_io::op_modes
 //! [`device`]: crate::products::analog_io::device
 
 pub mod device;
 pub mod identity;
 pub mod layout;
 pub mod od;
+pub mod op_modes;
 pub mod output_oversampling;
 pub mod oversampling;
 pub mod sync;
@@ -74,10 +77,15 @@ pub static PRODUCT: Product = Product {
 };
 
 /// The sample and update PDOs as replicated PDOs (ETG.2000 `OSFac`..): the ESI and the SII
-/// list 0x1A20 (factors 1..8) and 0x1620 (1..10) once; the dictionary holds them all.
+/// list 0x1A20 (factors 1..8) and 0x1620 (1..10) once; the dictionary holds them all. The
+/// oversampling op modes ([`op_modes`]) follow the plain ones of the description.
 pub static OVERSAMPLING: Oversampling = Oversampling {
     replicas: &[output_oversampling::REPLICAS, oversampling::REPLICAS],
-    op_modes: &[],
+    op_modes: &op_modes::OP_MODES,
+};
+
+const _: () = if let Err(e) = OVERSAMPLING.validate(&device::DEVICE) {
+    panic!("{}", e.message())
 };
 
 /// What the slave application takes from the device description: its SyncManager layout,

@@ -206,8 +206,13 @@ impl Rig {
     }
 
     fn with(config: AppConfig) -> Self {
+        Self::with_app(config, AnalogIo::new(&OD, process_data()))
+    }
+
+    /// `io` served with `config`.
+    fn with_app(config: AppConfig, io: AnalogIo<AnalogFigures>) -> Self {
         let mut esc = FakeEsc::new();
-        let mut app = SlaveApp::new(config, AnalogIo::<AnalogFigures>::new(&OD, process_data()));
+        let mut app = SlaveApp::new(config, io);
         app.start(&mut esc.driver()).unwrap();
         Self {
             esc,
@@ -1144,3 +1149,5 @@ fn al_status_is_read_back_and_al_control_confirmed() {
     assert_eq!(r.request(0x04), (0x04, 0));
     assert_eq!(r.esc.corrupt_next_read, None, "the fault hit");
 }
+
+mod op_modes;
