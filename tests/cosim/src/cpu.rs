@@ -467,7 +467,7 @@ impl Core {
 
     /// Runs until virtual time `t_ns` exactly (or a fault): something outside happens then
     /// (a SYNC0 edge) that the core must see at its time, not at the end of the block that
-    /// reached it (see [`Machine::exact_deadline`]).
+    /// reached it (see [`crate::machine::Cortex::exact_deadline`]).
     pub fn run_until_exactly(&mut self, t_ns: u64) {
         self.machine.borrow_mut().exact_deadline = true;
         self.run_until(t_ns);
