@@ -382,9 +382,13 @@ impl Cosim {
         self.core.fault.as_ref()
     }
 
-    /// The flash as it is now (the IAP ROM's writes included).
+    /// The flash as it is now (the LPC1754's IAP ROM's writes included; another chip's is
+    /// the image's, which nothing writes).
     pub fn flash(&self) -> Vec<u8> {
-        self.core.machine.borrow().flash.flash().to_vec()
+        match self.core.machine.borrow().lpc17xx() {
+            Some(l) => l.flash.flash().to_vec(),
+            None => self.core.image().flash.clone(),
+        }
     }
 
     /// Problems the models reported.

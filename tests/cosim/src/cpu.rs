@@ -208,7 +208,9 @@ impl Core {
             .map_err(err("flash"))?;
         uc.mem_write(0, &image.flash)
             .map_err(err("flash contents"))?;
-        machine.borrow_mut().flash.load(0, &image.flash);
+        if let Some(l) = machine.borrow_mut().lpc17xx_mut() {
+            l.flash.load(0, &image.flash);
+        }
         uc.mem_map(u64::from(SRAM.0), u64::from(SRAM.1), Prot::ALL)
             .map_err(err("SRAM"))?;
         // The AHB SRAM belongs to the machine (the GPDMA's memory, watched for samples).

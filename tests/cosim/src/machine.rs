@@ -23,7 +23,6 @@ use crate::profile::Profile;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::spi::{Operation, SpiDevice};
 use lpc17xx::Lpc17xx;
-use lpc17xx_iap::model::FlashModel;
 use std::ops::{Deref, DerefMut};
 use std::rc::Rc;
 use stm32::Stm32Parts;
@@ -144,10 +143,6 @@ pub struct Cortex {
     pub blocks: Blocks,
     /// Cycles, stack and code per exception.
     pub profile: Profile,
-    /// The flash and the IAP ROM's state ([`crate::iap`]); the engine's flash mirrors it.
-    pub flash: FlashModel,
-    /// IAP commands carried out.
-    pub iap_calls: u64,
 }
 
 /// The chip without the core: the shared part ([`Cortex`], which the machine dereferences
@@ -356,8 +351,6 @@ impl Machine {
             traffic: Traffic::default(),
             blocks: Blocks::new(image.clone()),
             profile: Profile::new(image.initial_sp()),
-            flash: FlashModel::new(),
-            iap_calls: 0,
         };
         cortex.now_ps = cortex.io.now_ns() * 1000;
         let peripherals = match chip {
@@ -629,72 +622,10 @@ impl Machine {
 
 #[cfg(test)]
 mod tests {
+    use super::lpc17xx::tests::{ldac_pwm, lpc, machine_of_nops, run_to};
     use super::*;
-    use crate::periph::syscon::{Clocked, PCONP_RESET};
+    use crate::periph::syscon::Clocked;
     use crate::periph::Peripheral;
-    use virtual_board::rig::board::{BoardConfig, VirtualBoard as Board};
-
-    /// A chip with blank flash on a board (no CPU: the tests drive the bus and the time).
-    fn machine() -> (Board, Machine) {
-        machine_with_flash(vec![0xFF; 0x8_0000])
-    }
-
-    /// A chip whose flash is all NOPs (16-bit: one instruction per 2 bytes).
-    fn machine_of_nops() -> (Board, Machine) {
-        machine_with_flash([0x00, 0xBF].repeat(0x4_0000))
-    }
-
-    fn machine_with_flash(flash: Vec<u8>) -> (Board, Machine) {
-        let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
-        let image = Image {
-            chip: crate::chip::Chip::Lpc1754,
-            known_product: None,
-            flash,
-            flash_used: 0,
-            rtt: None,
-            elf: Vec::new(),
-            functions: Vec::new(),
-            static_ram: 0,
-            flash_bytes: 0,
-            app_vectors: 0,
-            stack_floor: crate::chip::Chip::Lpc1754.sram().start,
-        };
-        let m = Machine::new(board.io(), Rc::new(image));
-        (board, m)
-    }
-
-    fn lpc(m: &Machine) -> &Lpc17xx {
-        m.lpc17xx().expect("an LPC1754")
-    }
-
-    const PINSEL4: u32 = 0x4002_C010;
-    const PCONP: u32 = 0x400F_C0C4;
-    const PCLKSEL0: u32 = 0x400F_C1A8;
-    const PWM1: u32 = 0x4001_8000;
-
-    /// PWM1 as the oversampling outputs run it: period 100 ticks, PWM1.4 single edge, low
-    /// from MR4 = 80 to the period's end, MR4 interrupt; P2.3 in function `func`.
-    fn ldac_pwm(m: &mut Machine, func: u32) {
-        m.cpu_write(PCONP, 4, PCONP_RESET | 1 << 6);
-        m.cpu_write(PCLKSEL0, 4, 1 << 12);
-        m.cpu_write(PINSEL4, 4, func << 6);
-        m.cpu_write(PWM1 + 0x04, 4, 2);
-        m.cpu_write(PWM1 + 0x18, 4, 99);
-        m.cpu_write(PWM1 + 0x40, 4, 80);
-        m.cpu_write(PWM1 + 0x14, 4, 1 << 1 | 1 << 12);
-        m.cpu_write(PWM1 + 0x4C, 4, 1 << 12);
-        m.cpu_write(PWM1 + 0x50, 4, 0x11);
-        m.cpu_write(PWM1 + 0x04, 4, 1 | 8);
-    }
-
-    fn run_to(m: &mut Machine, t_ns: u64) {
-        while m.next_event_ns() <= t_ns {
-            let e = m.next_event_ns();
-            m.sleep_until(e);
-            m.service_due();
-        }
-        m.sleep_until(t_ns);
-    }
 
     const NVIC_ISER0: u32 = 0xE000_E100;
     const UNMASKED: (bool, u8, bool) = (false, 0, false);
@@ -780,54 +711,5 @@ mod tests {
             now >= t && now < t + cycle_ns,
             "at the deadline: {now}, {t}"
         );
-    }
-
-    #[test]
-    fn pwm1_4_drives_ldac_on_p2_3_in_function_1_each_edge_at_its_time() {
-        let (board, mut m) = machine();
-        ldac_pwm(&mut m, 1);
-        let start = m.now_ns();
-        let tick = 1_000_000_000 / lpc(&m).syscon.pclk_hz(Clocked::Pwm1);
-        run_to(&mut m, start + 50 * 100 * tick);
-        let dac = board.dac().borrow();
-        let all: Vec<u64> = dac
-            .ldac_edges
-            .iter()
-            .filter(|e| e.falling)
-            .map(|e| e.time_ns)
-            .collect();
-        // PWM1.4 is low until the first cycle starts: LDAC falls once when PCR drives the
-        // pin (before the first MR0 reset), then once per period.
-        assert!(all[0] < start + 100 * tick, "{all:?}");
-        let falls = &all[1..];
-        assert!(falls.len() >= 48, "{} falling edges", falls.len());
-        // One fall per period, each at MR4 of its cycle: on a grid of 100 ticks.
-        for t in falls {
-            assert_eq!((t - falls[0]) % (100 * tick), 0, "{t}");
-        }
-        for w in falls.windows(2) {
-            assert_eq!(w[1] - w[0], 100 * tick);
-        }
-        // Low for the last 20 ticks of each cycle.
-        let rise = dac
-            .ldac_edges
-            .iter()
-            .find(|e| !e.falling && e.time_ns > falls[0])
-            .unwrap();
-        assert_eq!(rise.time_ns - falls[0], 20 * tick);
-        assert_eq!(m.traffic.ldac_pulses, all.len() as u64);
-        assert!(lpc(&m).pwm1.irq(), "MR4 raises PWM1's interrupt");
-        assert!(m.reports.is_empty(), "{:?}", m.reports);
-    }
-
-    #[test]
-    fn pwm1_edges_do_not_reach_ldac_while_p2_3_is_gpio() {
-        let (board, mut m) = machine();
-        ldac_pwm(&mut m, 0);
-        let start = m.now_ns();
-        run_to(&mut m, start + 1_000_000);
-        assert!(lpc(&m).pwm1.matches[4] > 0, "PWM1 runs");
-        assert!(board.dac().borrow().ldac_edges.is_empty());
-        assert_eq!(m.traffic.ldac_pulses, 0);
     }
 }

@@ -1,7 +1,8 @@
 //! The LPC1754 around the core (UM10360): its peripherals ([`crate::periph`]) on the
 //! peripheral bus (the address map of chapter 2), their clocks from SYSCON, the GPDMA and the
-//! AHB SRAM, and the board wiring of hardware-facts 10.A: which pin, in which PINSEL
-//! function, reaches which chip model of the virtual board.
+//! AHB SRAM, the flash behind the IAP ROM ([`crate::iap`]), and the board wiring of
+//! hardware-facts 10.A: which pin, in which PINSEL function, reaches which chip model of the
+//! virtual board.
 //!
 //! Routing is strict: a legacy SPI byte reaches the ET1100 only while SPI_SEL (P0.16, GPIO)
 //! is low and P0.15/P0.17/P0.18 carry SCK/MISO/MOSI (function 3); SSP0 frames reach the
@@ -29,6 +30,7 @@ use crate::periph::syscon::{Clocked, Syscon, PCONP_RESET};
 use crate::periph::timer::Timer;
 use crate::periph::wdt::Wdt;
 use crate::periph::{Peripheral, Tick};
+use lpc17xx_iap::model::FlashModel;
 use virtual_board::models::spi::SpiSession;
 
 /// Pins of the board (hardware-facts 10.A).
@@ -176,6 +178,10 @@ pub struct Lpc17xx {
     pub pconp_at_reset: u32,
     /// The AHB SRAM (the GPDMA's memory) with its watch over samples.
     pub ahb_sram: AhbSram,
+    /// The flash and the IAP ROM's state ([`crate::iap`]); the engine's flash mirrors it.
+    pub flash: FlashModel,
+    /// IAP commands carried out.
+    pub iap_calls: u64,
 }
 
 impl Lpc17xx {
@@ -198,6 +204,8 @@ impl Lpc17xx {
             esc_session: None,
             pconp_at_reset: PCONP_RESET,
             ahb_sram: AhbSram::new(),
+            flash: FlashModel::new(),
+            iap_calls: 0,
         };
         l.can_sent_seen = l.can_frames_left(cx);
         l
@@ -967,5 +975,117 @@ impl Lpc17xx {
         } else {
             addr & !0x3FFF
         }
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    //! The LPC1754's wiring driven through the bus; the helpers serve the machine's tests too.
+
+    use super::*;
+    use crate::image::Image;
+    use crate::machine::Machine;
+    use std::rc::Rc;
+    use virtual_board::rig::board::{BoardConfig, VirtualBoard as Board};
+
+    /// A chip with blank flash on a board (no CPU: the tests drive the bus and the time).
+    pub(crate) fn machine() -> (Board, Machine) {
+        machine_with_flash(vec![0xFF; 0x8_0000])
+    }
+
+    /// A chip whose flash is all NOPs (16-bit: one instruction per 2 bytes).
+    pub(crate) fn machine_of_nops() -> (Board, Machine) {
+        machine_with_flash([0x00, 0xBF].repeat(0x4_0000))
+    }
+
+    pub(crate) fn machine_with_flash(flash: Vec<u8>) -> (Board, Machine) {
+        let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
+        let image = Image::bare(crate::chip::Chip::Lpc1754, flash);
+        let m = Machine::new(board.io(), Rc::new(image));
+        (board, m)
+    }
+
+    /// The machine's LPC1754 models.
+    pub(crate) fn lpc(m: &Machine) -> &Lpc17xx {
+        m.lpc17xx().expect("an LPC1754")
+    }
+
+    const PINSEL4: u32 = 0x4002_C010;
+    const PCONP: u32 = 0x400F_C0C4;
+    const PCLKSEL0: u32 = 0x400F_C1A8;
+    const PWM1: u32 = 0x4001_8000;
+
+    /// PWM1 as the oversampling outputs run it: period 100 ticks, PWM1.4 single edge, low
+    /// from MR4 = 80 to the period's end, MR4 interrupt; P2.3 in function `func`.
+    pub(crate) fn ldac_pwm(m: &mut Machine, func: u32) {
+        m.cpu_write(PCONP, 4, PCONP_RESET | 1 << 6);
+        m.cpu_write(PCLKSEL0, 4, 1 << 12);
+        m.cpu_write(PINSEL4, 4, func << 6);
+        m.cpu_write(PWM1 + 0x04, 4, 2);
+        m.cpu_write(PWM1 + 0x18, 4, 99);
+        m.cpu_write(PWM1 + 0x40, 4, 80);
+        m.cpu_write(PWM1 + 0x14, 4, 1 << 1 | 1 << 12);
+        m.cpu_write(PWM1 + 0x4C, 4, 1 << 12);
+        m.cpu_write(PWM1 + 0x50, 4, 0x11);
+        m.cpu_write(PWM1 + 0x04, 4, 1 | 8);
+    }
+
+    /// Serves the events up to `t_ns` without a CPU.
+    pub(crate) fn run_to(m: &mut Machine, t_ns: u64) {
+        while m.next_event_ns() <= t_ns {
+            let e = m.next_event_ns();
+            m.sleep_until(e);
+            m.service_due();
+        }
+        m.sleep_until(t_ns);
+    }
+
+    #[test]
+    fn pwm1_4_drives_ldac_on_p2_3_in_function_1_each_edge_at_its_time() {
+        let (board, mut m) = machine();
+        ldac_pwm(&mut m, 1);
+        let start = m.now_ns();
+        let tick = 1_000_000_000 / lpc(&m).syscon.pclk_hz(Clocked::Pwm1);
+        run_to(&mut m, start + 50 * 100 * tick);
+        let dac = board.dac().borrow();
+        let all: Vec<u64> = dac
+            .ldac_edges
+            .iter()
+            .filter(|e| e.falling)
+            .map(|e| e.time_ns)
+            .collect();
+        // PWM1.4 is low until the first cycle starts: LDAC falls once when PCR drives the
+        // pin (before the first MR0 reset), then once per period.
+        assert!(all[0] < start + 100 * tick, "{all:?}");
+        let falls = &all[1..];
+        assert!(falls.len() >= 48, "{} falling edges", falls.len());
+        // One fall per period, each at MR4 of its cycle: on a grid of 100 ticks.
+        for t in falls {
+            assert_eq!((t - falls[0]) % (100 * tick), 0, "{t}");
+        }
+        for w in falls.windows(2) {
+            assert_eq!(w[1] - w[0], 100 * tick);
+        }
+        // Low for the last 20 ticks of each cycle.
+        let rise = dac
+            .ldac_edges
+            .iter()
+            .find(|e| !e.falling && e.time_ns > falls[0])
+            .unwrap();
+        assert_eq!(rise.time_ns - falls[0], 20 * tick);
+        assert_eq!(m.traffic.ldac_pulses, all.len() as u64);
+        assert!(lpc(&m).pwm1.irq(), "MR4 raises PWM1's interrupt");
+        assert!(m.reports.is_empty(), "{:?}", m.reports);
+    }
+
+    #[test]
+    fn pwm1_edges_do_not_reach_ldac_while_p2_3_is_gpio() {
+        let (board, mut m) = machine();
+        ldac_pwm(&mut m, 0);
+        let start = m.now_ns();
+        run_to(&mut m, start + 1_000_000);
+        assert!(lpc(&m).pwm1.matches[4] > 0, "PWM1 runs");
+        assert!(board.dac().borrow().ldac_edges.is_empty());
+        assert_eq!(m.traffic.ldac_pulses, 0);
     }
 }

@@ -854,19 +854,7 @@ mod tests {
     fn machine() -> (Board, Machine) {
         let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
         let chip = Chip::Stm32f103;
-        let image = Image {
-            chip,
-            known_product: None,
-            flash: vec![0xFF; chip.flash().len as usize],
-            flash_used: 0,
-            rtt: None,
-            elf: Vec::new(),
-            functions: Vec::new(),
-            static_ram: 0,
-            flash_bytes: 0,
-            app_vectors: 0,
-            stack_floor: chip.sram().start,
-        };
+        let image = Image::bare(chip, vec![0xFF; chip.flash().len as usize]);
         let m = Machine::new(board.io(), Rc::new(image));
         (board, m)
     }
