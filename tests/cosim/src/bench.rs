@@ -139,6 +139,10 @@ pub struct DcRun {
     pub can: CanSeen,
     /// The AL control and AL status writes of the run (the ESC's log).
     pub al_log: Vec<virtual_board::models::esc::AlWrite>,
+    /// Every load of a DAC register in the run, in order (the AD5663 model's).
+    pub dac_updates: Vec<virtual_board::models::dac::DacUpdate>,
+    /// Every LDAC edge of the run, in order.
+    pub ldac_edges: Vec<virtual_board::models::dac::LdacEdge>,
 }
 
 /// CANopen traffic on CAN1 during a DC run: the image's node is started (TPDO2 on every
@@ -607,6 +611,11 @@ pub fn dc_run_traffic(
     check.traffic = traffic.describe();
     check.judge_ldac = *traffic != Traffic::IDEAL;
     let al_log = board.borrow().esc().borrow().al_log.clone();
+    let (dac_updates, ldac_edges) = {
+        let b = board.borrow();
+        let dac = b.dac().borrow();
+        (dac.updates.clone(), dac.ldac_edges.clone())
+    };
     Ok(DcRun {
         check,
         before,
@@ -614,6 +623,8 @@ pub fn dc_run_traffic(
         phases,
         can: can_seen,
         al_log,
+        dac_updates,
+        ldac_edges,
     })
 }
 

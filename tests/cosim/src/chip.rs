@@ -1,7 +1,9 @@
 //! Which microcontroller the co-simulator is: its memory map, its NVIC and its time model.
 //! The core ([`crate::cpu`]), the exception model ([`crate::nvic`]), time and profile are
-//! shared; the peripherals are the chip's ([`crate::periph`] for the LPC1754,
-//! [`crate::stm32`] for the STM32F103). A chip is told by where its image is linked.
+//! shared ([`crate::machine::Cortex`]); the peripherals and their wiring are the chip's
+//! ([`crate::machine::lpc17xx`] on [`crate::periph`] for the LPC1754,
+//! [`crate::machine::stm32`] on [`crate::stm32`] for the STM32F103). A chip is told by where
+//! its image is linked.
 
 use crate::nvic::NvicSpec;
 

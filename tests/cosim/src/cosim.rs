@@ -336,13 +336,15 @@ impl Cosim {
         let crp = image.boot_rom_check()?;
         let mut machine = Machine::new(io, image.clone());
         if let Some(p) = options.pconp_at_reset {
-            machine.pconp_at_reset = p;
+            if let Some(l) = machine.lpc17xx_mut() {
+                l.pconp_at_reset = p;
+            }
             machine.reset(ResetCause::SysResetReq);
         }
         if let Some(cpi) = options.cpi {
             machine.set_cpi(cpi);
         }
-        if let (Some(t), Some(p)) = (options.esc_bus_timing, machine.stm32.as_mut()) {
+        if let (Some(t), Some(p)) = (options.esc_bus_timing, machine.stm32_mut()) {
             p.esc_port.timing = t;
         }
         let machine = Rc::new(RefCell::new(machine));
@@ -380,9 +382,13 @@ impl Cosim {
         self.core.fault.as_ref()
     }
 
-    /// The flash as it is now (the IAP ROM's writes included).
+    /// The flash as it is now (the LPC1754's IAP ROM's writes included; another chip's is
+    /// the image's, which nothing writes).
     pub fn flash(&self) -> Vec<u8> {
-        self.core.machine.borrow().flash.flash().to_vec()
+        match self.core.machine.borrow().lpc17xx() {
+            Some(l) => l.flash.flash().to_vec(),
+            None => self.core.image().flash.clone(),
+        }
     }
 
     /// Problems the models reported.
@@ -441,10 +447,10 @@ impl Cosim {
             code,
             chains,
             traffic: m.traffic.clone(),
-            samples: m.ahb_sram.watch.clone(),
+            samples: m.samples(),
             ssp1_overruns: m.ssp1_overruns(),
-            fsmc_cycles: m.stm32.as_ref().map_or(0, |p| p.fsmc_accesses),
-            fsmc_ns: m.stm32.as_ref().map_or(0, |p| p.fsmc_ns),
+            fsmc_cycles: m.stm32().map_or(0, |p| p.fsmc_accesses),
+            fsmc_ns: m.stm32().map_or(0, |p| p.fsmc_ns),
             sync0_unserved: m.sync0_unserved(),
             reports: m.reports.clone(),
             fault: self.core.fault.clone(),

@@ -208,7 +208,9 @@ impl Core {
             .map_err(err("flash"))?;
         uc.mem_write(0, &image.flash)
             .map_err(err("flash contents"))?;
-        machine.borrow_mut().flash.load(0, &image.flash);
+        if let Some(l) = machine.borrow_mut().lpc17xx_mut() {
+            l.flash.load(0, &image.flash);
+        }
         uc.mem_map(u64::from(SRAM.0), u64::from(SRAM.1), Prot::ALL)
             .map_err(err("SRAM"))?;
         // The AHB SRAM belongs to the machine (the GPDMA's memory, watched for samples).
@@ -467,7 +469,7 @@ impl Core {
 
     /// Runs until virtual time `t_ns` exactly (or a fault): something outside happens then
     /// (a SYNC0 edge) that the core must see at its time, not at the end of the block that
-    /// reached it (see [`Machine::exact_deadline`]).
+    /// reached it (see [`crate::machine::Cortex::exact_deadline`]).
     pub fn run_until_exactly(&mut self, t_ns: u64) {
         self.machine.borrow_mut().exact_deadline = true;
         self.run_until(t_ns);

@@ -1,7 +1,7 @@
 //! The LPC17xx IAP ROM (UM10360 32.8) on the co-simulator: the entry point 0x1FFF_1FF1 is a
 //! `bx lr` in a mapped ROM page; when that block runs (not when the run stops at its start
 //! and enters it again later), the command the caller's R0 points at is carried out on the
-//! machine's flash model (`lpc17xx_iap::model::FlashModel`: the ROM's rules, bits only
+//! LPC1754 models' flash model (`lpc17xx_iap::model::FlashModel`: the ROM's rules, bits only
 //! 1 -> 0, the command log), the five result words are written where R1 points, and the
 //! engine's flash is refreshed from the model when the command changed it. Every other
 //! address of the boot ROM stays unmapped (a call there is a fault).
@@ -77,11 +77,11 @@ pub fn call(uc: &mut Unicorn<'_, Shared>) {
     let interrupts_on = reg(uc, RegisterARM::PRIMASK) & 1 == 0;
     let (result, changed) = {
         let mut m = machine.borrow_mut();
-        m.iap_calls += 1;
+        let mut problems = Vec::new();
         if interrupts_on {
-            m.report(
+            problems.push(
                 "IAP ROM called with interrupts enabled (the flash is busy during a command)"
-                    .into(),
+                    .to_string(),
             );
         }
         let told = match Command::from(command[0]) {
@@ -91,19 +91,29 @@ pub fn call(uc: &mut Unicorn<'_, Shared>) {
         };
         let cclk_khz = (m.cclk_hz() / 1000) as u32;
         if let Some(told) = told.filter(|t| *t != cclk_khz) {
-            m.report(format!(
+            problems.push(format!(
                 "IAP {}: the ROM was told {told} kHz, the CPU runs at {cclk_khz} kHz",
                 Command::from(command[0])
             ));
         }
-        let steps = m.flash.steps();
-        let seen = m.flash.violations().len();
-        let result = m.flash.call(&command, &source);
-        let new: Vec<String> = m.flash.violations()[seen..].to_vec();
-        for v in new {
-            m.report(format!("IAP: {v}"));
+        // The ROM page is mapped on the LPC1754 alone, whose models hold the flash.
+        let Some(lpc) = m.lpc17xx_mut() else {
+            return;
+        };
+        lpc.iap_calls += 1;
+        let steps = lpc.flash.steps();
+        let seen = lpc.flash.violations().len();
+        let result = lpc.flash.call(&command, &source);
+        problems.extend(
+            lpc.flash.violations()[seen..]
+                .iter()
+                .map(|v| format!("IAP: {v}")),
+        );
+        let changed = lpc.flash.steps() != steps;
+        for p in problems {
+            m.report(p);
         }
-        (result, m.flash.steps() != steps)
+        (result, changed)
     };
     let bytes: Vec<u8> = result.iter().flat_map(|w| w.to_le_bytes()).collect();
     if uc.mem_write(u64::from(r1), &bytes).is_err() {
@@ -112,8 +122,10 @@ pub fn call(uc: &mut Unicorn<'_, Shared>) {
             .report(format!("IAP: result words at {r1:#010x} not writable"));
     }
     if changed {
-        let flash = machine.borrow().flash.flash().to_vec();
-        let _ = uc.mem_write(0, &flash);
+        let flash = machine.borrow().lpc17xx().map(|l| l.flash.flash().to_vec());
+        if let Some(flash) = flash {
+            let _ = uc.mem_write(0, &flash);
+        }
         // Code that ran from the old flash must not run again from the translation cache.
         let _ = uc.ctl_remove_cache(0, u64::from(FLASH_SIZE));
     }

@@ -185,6 +185,25 @@ fn functions_of(data: &[u8]) -> Result<Vec<(u32, u32, String)>, ImageError> {
 }
 
 impl Image {
+    /// `flash` on `chip` with nothing else known (no ELF, no RTT, the stack floor at the
+    /// SRAM's start): the unit tests' image.
+    #[cfg(test)]
+    pub(crate) fn bare(chip: Chip, flash: Vec<u8>) -> Image {
+        Image {
+            chip,
+            known_product: None,
+            flash,
+            flash_used: 0,
+            rtt: None,
+            elf: Vec::new(),
+            functions: Vec::new(),
+            static_ram: 0,
+            flash_bytes: 0,
+            app_vectors: 0,
+            stack_floor: chip.sram().start,
+        }
+    }
+
     /// Loads an ELF file.
     pub fn from_file(path: &Path) -> Result<Self, ImageError> {
         let data =
@@ -401,19 +420,7 @@ mod tests {
 
     #[test]
     fn checksum_rule_and_crp() {
-        let mut img = Image {
-            chip: Chip::Lpc1754,
-            known_product: None,
-            flash: vec![0xFF; FLASH_SIZE],
-            flash_used: 0,
-            rtt: None,
-            elf: Vec::new(),
-            functions: Vec::new(),
-            static_ram: 0,
-            flash_bytes: 0,
-            app_vectors: 0,
-            stack_floor: Chip::Lpc1754.sram().start,
-        };
+        let mut img = Image::bare(Chip::Lpc1754, vec![0xFF; FLASH_SIZE]);
         for i in 0..7 {
             img.flash[4 * i..4 * i + 4].copy_from_slice(&(0x1000_0000u32 + i as u32).to_le_bytes());
         }

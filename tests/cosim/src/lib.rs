@@ -16,7 +16,7 @@
 //! | [`ahb_sram`] | the GPDMA's SRAM, watched for samples lost before the CPU read them    |
 //! | [`chip`]     | which microcontroller: memory map, NVIC, time model                   |
 //! | [`stm32`]    | the STM32F103's peripherals after RM0008 (the second board)            |
-//! | [`machine`]  | the bus, time, events, and the board wiring of the pin map            |
+//! | [`machine`]  | time, events, NVIC, profile shared; each chip's bus and pin wiring     |
 //! | [`rtt`]      | the firmware's defmt log over RTT                                      |
 //! | [`code`]     | functions and inlined functions per instruction (DWARF), decoded blocks |
 //! | [`profile`]  | cycles and stack per exception, instructions per function             |

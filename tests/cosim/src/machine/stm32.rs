@@ -13,12 +13,11 @@
 //! EXTI0 through AFIO_EXTICR1. A peripheral whose RCC enable bit is 0 does not respond, and
 //! an address no model decodes stops the core.
 
-use super::{Machine, ResetCause, Stop};
+use super::{Cortex, ResetCause, Stop};
 use crate::periph::{ns_to_ticks, Tick};
 use crate::stm32::gpio::{Pin, PinMode};
 use crate::stm32::rcc::{Enable, ResetFlags};
 use crate::stm32::{base, dwt, irq, Stm32f103};
-use embedded_hal::spi::{Operation, SpiDevice};
 use virtual_board::models::esc::parallel::{AddressLatch, BusTiming, ParallelPort};
 
 /// Pins of the board (port A..E = 0..4, pin).
@@ -158,28 +157,16 @@ impl Block {
     }
 }
 
-impl Machine {
-    fn chip(&self) -> &Stm32f103 {
-        &self.stm32.as_ref().expect("an STM32F103 machine").chip
-    }
-
-    fn chip_mut(&mut self) -> &mut Stm32f103 {
-        &mut self.stm32.as_mut().expect("an STM32F103 machine").chip
-    }
-
-    fn parts_mut(&mut self) -> &mut Stm32Parts {
-        self.stm32.as_mut().expect("an STM32F103 machine")
-    }
-
+impl Stm32Parts {
     /// HCLK of the STM32F103 now.
-    pub(super) fn stm32_hclk_hz(&self) -> u64 {
-        self.chip().rcc.hclk_hz()
+    pub fn hclk_hz(&self) -> u64 {
+        self.chip.rcc.hclk_hz()
     }
 
-    fn stm32_tick(&self, block: Block) -> Tick {
-        let rcc = &self.chip().rcc;
+    fn tick(&self, cx: &Cortex, block: Block) -> Tick {
+        let rcc = &self.chip.rcc;
         Tick {
-            now_ns: self.hw_ns(),
+            now_ns: cx.hw_ns(),
             pclk_hz: match block {
                 Block::Tim3 => rcc.apb1_timer_hz(),
                 Block::Tim8 => rcc.apb2_timer_hz(),
@@ -192,20 +179,19 @@ impl Machine {
 
     /// The chip's reset: every peripheral to its reset state (the reset flags in RCC_CSR),
     /// the SRAM kept.
-    pub(super) fn stm32_reset(&mut self, cause: ResetCause) {
+    pub fn reset(&mut self, cause: ResetCause) {
         let flags = match cause {
             ResetCause::Watchdog => ResetFlags::IWDG,
             ResetCause::SysResetReq => ResetFlags::SOFTWARE,
         };
-        let p = self.parts_mut();
-        let sram = p.chip.sram.clone();
-        p.chip = Stm32f103::after_reset(sram, flags);
-        p.bus_free_ns = 0;
+        let sram = self.chip.sram.clone();
+        self.chip = Stm32f103::after_reset(sram, flags);
+        self.bus_free_ns = 0;
     }
 
     /// The next event of the chip's peripherals.
-    pub(super) fn stm32_next_event(&self) -> Option<u64> {
-        let c = self.chip();
+    pub fn next_event(&self) -> Option<u64> {
+        let c = &self.chip;
         [
             c.tim3.next_event(),
             c.tim8.next_event(),
@@ -219,40 +205,43 @@ impl Machine {
     }
 
     /// Serves the chip's events due now.
-    pub(super) fn stm32_service(&mut self) {
-        let now = self.hw_ns();
-        let t3 = self.stm32_tick(Block::Tim3);
-        let t8 = self.stm32_tick(Block::Tim8);
-        let s1 = self.stm32_tick(Block::Spi1);
-        let s2 = self.stm32_tick(Block::Spi2);
-        let c = self.chip_mut();
+    pub fn service(&mut self, cx: &mut Cortex) {
+        let now = cx.hw_ns();
+        let t3 = self.tick(cx, Block::Tim3);
+        let t8 = self.tick(cx, Block::Tim8);
+        let s1 = self.tick(cx, Block::Spi1);
+        let s2 = self.tick(cx, Block::Spi2);
+        let c = &mut self.chip;
         c.tim3.on_event(t3);
         c.tim8.on_event(t8);
         c.spi1.on_event(s1);
         c.spi2.on_event(s2);
         c.iwdg.on_event(now);
         if c.iwdg.take_reset_request() {
-            self.stop = Some(Stop::Reset(ResetCause::Watchdog));
+            cx.stop = Some(Stop::Reset(ResetCause::Watchdog));
         }
+        self.settle(cx);
     }
 
-    /// After any change: frames to the devices, CNV and LDAC, DMA, interrupt lines.
-    pub(super) fn stm32_settle(&mut self) {
+    /// After any change: frames to the devices, CNV and LDAC, DMA, interrupt lines,
+    /// schedule.
+    pub fn settle(&mut self, cx: &mut Cortex) {
         for _ in 0..16 {
-            let mut moved = self.stm32_spi1_frame();
-            moved |= self.stm32_spi2_frame();
-            self.stm32_cnv();
-            moved |= self.stm32_dma();
+            let mut moved = self.spi1_frame(cx);
+            moved |= self.spi2_frame(cx);
+            self.cnv(cx);
+            moved |= self.dma(cx);
             if !moved {
                 break;
             }
         }
-        self.stm32_ldac();
-        self.stm32_irq_lines();
+        self.ldac(cx);
+        self.irq_lines(cx);
+        cx.reschedule(self.next_event());
     }
 
-    fn stm32_irq_lines(&mut self) {
-        let c = self.chip();
+    fn irq_lines(&mut self, cx: &mut Cortex) {
+        let c = &self.chip;
         let mut lines = vec![
             (irq::EXTI0, c.exti.irq(0)),
             (irq::TIM3, c.tim3.irq()),
@@ -264,19 +253,19 @@ impl Machine {
             lines.push((irq::DMA1_CHANNEL1 + n as u32, c.dma1.irq(n)));
         }
         for (n, level) in lines {
-            self.scs.set_line(n, level);
+            cx.scs.set_line(n, level);
         }
-        self.check_preempt = self.scs.any_pending();
+        cx.check_preempt = cx.scs.any_pending();
     }
 
     /// Inputs from the board: the ESC's IRQ (active low) and EEPROM_LOADED, into the pins
     /// and EXTI.
-    pub(super) fn stm32_refresh_inputs(&mut self) {
+    pub fn refresh_inputs(&mut self, cx: &mut Cortex) {
         let (irq_asserted, loaded) = {
-            let esc = self.io.esc.esc().borrow();
+            let esc = cx.io.esc.esc().borrow();
             (esc.irq(), esc.pdi_operational())
         };
-        let c = self.chip_mut();
+        let c = &mut self.chip;
         c.gpio.set_input(pins::ESC_IRQ, !irq_asserted);
         c.gpio.set_input(pins::ESC_EEPROM_LOADED, loaded);
         for line in 0..16u8 {
@@ -287,43 +276,48 @@ impl Machine {
             }
         }
         let level = c.exti.irq(0);
-        self.scs.set_line(irq::EXTI0, level);
-        self.check_preempt |= self.scs.any_pending();
+        cx.scs.set_line(irq::EXTI0, level);
+        cx.check_preempt |= cx.scs.any_pending();
     }
 
     /// A SYNC0 rising edge from the ESC now: TIM8_CH1's capture.
-    pub(super) fn stm32_sync0_edge(&mut self) {
-        if self.chip().gpio.mode(pins::ESC_SYNC0) != PinMode::Input {
-            self.report("SYNC0 edge: PC6 is not an input (TIM8_CH1): no capture".into());
+    pub fn sync0_edge(&mut self, cx: &mut Cortex) {
+        if self.chip.gpio.mode(pins::ESC_SYNC0) != PinMode::Input {
+            cx.report("SYNC0 edge: PC6 is not an input (TIM8_CH1): no capture".into());
             return;
         }
-        if !self.chip().rcc.enabled(Enable::Apb2(13)) {
-            self.report("SYNC0 edge: TIM8 is not clocked (RCC_APB2ENR bit 13): no capture".into());
+        if !self.chip.rcc.enabled(Enable::Apb2(13)) {
+            cx.report("SYNC0 edge: TIM8 is not clocked (RCC_APB2ENR bit 13): no capture".into());
             return;
         }
-        let t = self.stm32_tick(Block::Tim8);
-        if self.chip_mut().tim8.capture(t, 0, true) {
-            self.traffic.sync0_captures += 1;
+        let t = self.tick(cx, Block::Tim8);
+        if self.chip.tim8.capture(t, 0, true) {
+            cx.traffic.sync0_captures += 1;
         }
-        self.stm32_settle();
-        self.reschedule();
+        self.settle(cx);
     }
 
     /// SYNC0 captures overwritten before the CPU read them.
-    pub(super) fn stm32_sync0_unserved(&self) -> u64 {
-        self.chip().tim8.overcaptures
+    pub fn sync0_unserved(&self) -> u64 {
+        self.chip.tim8.overcaptures
     }
 
     fn is_alt(&self, p: Pin) -> bool {
-        self.chip().gpio.mode(p) == PinMode::AltOutput
+        self.chip.gpio.mode(p) == PinMode::AltOutput
     }
 
-    fn stm32_routed(&mut self, what: &str, alt: &[(Pin, &str)], inputs: &[(Pin, &str)]) -> bool {
+    fn routed(
+        &mut self,
+        cx: &mut Cortex,
+        what: &str,
+        alt: &[(Pin, &str)],
+        inputs: &[(Pin, &str)],
+    ) -> bool {
         let mut ok = true;
         for &(p, name) in alt {
             if !self.is_alt(p) {
                 ok = false;
-                self.report(format!(
+                cx.report(format!(
                     "{what}: P{}{} is not an alternate-function output ({name}): the transfer \
                      moves no data",
                     (b'A' + p.0) as char,
@@ -332,9 +326,9 @@ impl Machine {
             }
         }
         for &(p, name) in inputs {
-            if self.chip().gpio.mode(p) != PinMode::Input {
+            if self.chip.gpio.mode(p) != PinMode::Input {
                 ok = false;
-                self.report(format!(
+                cx.report(format!(
                     "{what}: P{}{} is not an input ({name}): the transfer moves no data",
                     (b'A' + p.0) as char,
                     p.1
@@ -344,130 +338,100 @@ impl Machine {
         ok
     }
 
-    fn stm32_spi1_frame(&mut self) -> bool {
-        let Some(word) = self.chip_mut().spi1.take_finished() else {
+    fn spi1_frame(&mut self, cx: &mut Cortex) -> bool {
+        let Some(word) = self.chip.spi1.take_finished() else {
             return false;
         };
-        let t = self.stm32_tick(Block::Spi1);
+        let t = self.tick(cx, Block::Spi1);
         let mut rx = 0;
-        if !self.cnv_high
-            && self.stm32_routed(
+        if !cx.cnv_high
+            && self.routed(
+                cx,
                 "SPI1 frame to the AD7689",
                 &[(pins::ADC_SCK, "SCK"), (pins::ADC_DIN, "MOSI")],
                 &[(pins::ADC_SDO, "MISO")],
             )
         {
-            let (bits, mode) = (self.chip().spi1.frame_bits(), self.chip().spi1.mode());
+            let (bits, mode) = (self.chip.spi1.frame_bits(), self.chip.spi1.mode());
             if bits != 16 || mode != 0 {
-                self.report(format!(
+                cx.report(format!(
                     "SPI1 frames of {bits} bits in mode {mode}: the AD7689 read (no busy \
                      indicator) needs 16-bit frames in mode 0"
                 ));
             } else {
-                rx = self
-                    .io
-                    .adc
-                    .adc()
-                    .borrow()
-                    .conversions
-                    .last()
-                    .map_or(0, |c| c.code);
-                self.adc_mosi.extend_from_slice(&word.to_be_bytes());
+                rx = cx.adc_read(word);
             }
         }
-        self.chip_mut().spi1.complete(t, rx);
+        self.chip.spi1.complete(t, rx);
         true
     }
 
-    fn stm32_spi2_frame(&mut self) -> bool {
-        let Some(word) = self.chip_mut().spi2.take_finished() else {
+    fn spi2_frame(&mut self, cx: &mut Cortex) -> bool {
+        let Some(word) = self.chip.spi2.take_finished() else {
             return false;
         };
-        let t = self.stm32_tick(Block::Spi2);
-        let routed = self.dac_frame.is_some()
-            && self.stm32_routed(
+        let t = self.tick(cx, Block::Spi2);
+        let routed = cx.dac_frame.is_some()
+            && self.routed(
+                cx,
                 "SPI2 frame to the AD5663",
                 &[(pins::DAC_SCK, "SCK"), (pins::DAC_DIN, "MOSI")],
                 &[],
             );
         if routed {
-            let mode = self.chip().spi2.mode();
+            let mode = self.chip.spi2.mode();
             if mode != 1 && mode != 2 {
-                self.report(format!(
+                cx.report(format!(
                     "SPI2 in SPI mode {mode}: the AD5663 samples DIN on falling SCLK edges \
                      (mode 1 or 2)"
                 ));
             } else {
-                let bytes = self.chip().spi2.frame_bits().div_ceil(8);
-                let f = self.dac_frame.get_or_insert_with(Vec::new);
-                for i in (0..bytes).rev() {
-                    f.push((u32::from(word) >> (8 * i)) as u8);
-                }
+                cx.dac_word(word, self.chip.spi2.frame_bits());
             }
         }
-        self.chip_mut().spi2.complete(t, 0);
+        self.chip.spi2.complete(t, 0);
         true
     }
 
-    fn stm32_cnv(&mut self) {
-        let now = self.hw_ns();
-        let c = self.chip();
+    fn cnv(&mut self, cx: &mut Cortex) {
+        let now = cx.hw_ns();
+        let c = &self.chip;
         let high = self.is_alt(pins::ADC_CNV)
             && c.rcc.enabled(Enable::Apb1(1))
             && c.tim3.output(2, now) == Some(true);
-        if high == self.cnv_high {
-            return;
-        }
-        self.cnv_high = high;
-        if high {
-            // The CNV rising edge ends the read and starts the next conversion.
-            self.io.clock.set_ns(now);
-            let mosi = std::mem::take(&mut self.adc_mosi);
-            self.io.adc.adc().borrow_mut().frame(&mosi);
-            self.traffic.adc_conversions += 1;
-        }
+        cx.adc_cnv(high);
     }
 
-    fn stm32_ldac(&mut self) {
-        let now = self.hw_ns();
-        let level = match self.chip().gpio.mode(pins::DAC_LDAC) {
-            PinMode::AltOutput => self.chip().tim8.output(1, now),
-            PinMode::Output => Some(self.chip().gpio.level(pins::DAC_LDAC)),
+    fn ldac(&mut self, cx: &mut Cortex) {
+        let now = cx.hw_ns();
+        let level = match self.chip.gpio.mode(pins::DAC_LDAC) {
+            PinMode::AltOutput => self.chip.tim8.output(1, now),
+            PinMode::Output => Some(self.chip.gpio.level(pins::DAC_LDAC)),
             _ => None,
         }
         // Undriven, LDAC's pull-up holds it high (UNCONFIRMED: the board's resistor).
         .unwrap_or(true);
-        if level != self.outputs_last[2] {
-            self.io.clock.set_ns(now);
-            self.ldac_to(level);
+        if level != cx.outputs_last[2] {
+            cx.io.clock.set_ns(now);
+            cx.ldac_to(level);
         }
     }
 
     /// PB12 (the AD5663's SYNC) after a GPIO write.
-    fn stm32_outputs_changed(&mut self) {
-        let c = self.chip();
+    fn outputs_changed(&mut self, cx: &mut Cortex) {
+        let c = &self.chip;
         let sync = c.gpio.mode(pins::DAC_SYNC) != PinMode::Output || c.gpio.level(pins::DAC_SYNC);
-        if sync != self.outputs_last[1] {
-            self.io.clock.set_ns(self.hw_ns());
-            if !sync {
-                self.dac_frame = Some(Vec::new());
-            } else if let Some(bytes) = self.dac_frame.take() {
-                if !bytes.is_empty() {
-                    self.traffic.dac_frames += 1;
-                    let _ = self
-                        .io
-                        .dac
-                        .transaction(&mut [Operation::Write(bytes.as_slice())]);
-                }
-            }
-            self.outputs_last[1] = sync;
+        if sync != cx.outputs_last[1] {
+            cx.io.clock.set_ns(cx.hw_ns());
+            cx.dac_sync(sync);
+            cx.outputs_last[1] = sync;
         }
-        self.stm32_ldac();
-        self.stm32_refresh_inputs();
+        self.ldac(cx);
+        self.refresh_inputs(cx);
     }
 
-    fn stm32_dma_requests(&self) -> u32 {
-        let c = self.chip();
+    fn dma_requests(&self) -> u32 {
+        let c = &self.chip;
         let mut r = 0;
         if c.spi1.rx_dma_request() || c.tim3.dma_request(2) {
             r |= 1 << 1;
@@ -484,74 +448,74 @@ impl Machine {
         r
     }
 
-    fn stm32_dma(&mut self) -> bool {
-        if !self.chip().rcc.enabled(Enable::Ahb(0)) {
+    fn dma(&mut self, cx: &mut Cortex) -> bool {
+        if !self.chip.rcc.enabled(Enable::Ahb(0)) {
             return false;
         }
         let mut moved = false;
         for _ in 0..64 {
-            let requests = self.stm32_dma_requests();
-            let Some(x) = self.chip().dma1.next_transfer(requests) else {
+            let requests = self.dma_requests();
+            let Some(x) = self.chip.dma1.next_transfer(requests) else {
                 break;
             };
             moved = true;
             match x.channel {
-                1 => self.chip_mut().tim3.clear_dma_request(2),
-                2 => self.chip_mut().tim3.clear_dma_request(3),
+                1 => self.chip.tim3.clear_dma_request(2),
+                2 => self.chip.tim3.clear_dma_request(3),
                 _ => {}
             }
-            let value = self.stm32_dma_read(x.src, x.src_bytes);
+            let value = self.dma_read(cx, x.src, x.src_bytes);
             let ok = match value {
-                Some(v) => self.stm32_dma_write(x.dst, x.dst_bytes, v),
+                Some(v) => self.dma_write(cx, x.dst, x.dst_bytes, v),
                 None => false,
             };
             if ok {
-                self.chip_mut().dma1.transferred(&x);
+                self.chip.dma1.transferred(&x);
             } else {
-                self.report(format!(
+                cx.report(format!(
                     "DMA1 channel {}: {:#010x} -> {:#010x} is not SRAM or a peripheral: \
                      transfer error",
                     x.channel + 1,
                     x.src,
                     x.dst
                 ));
-                self.chip_mut().dma1.error(&x);
+                self.chip.dma1.error(&x);
             }
         }
         moved
     }
 
-    fn stm32_dma_read(&mut self, addr: u32, n: usize) -> Option<u32> {
+    fn dma_read(&mut self, cx: &mut Cortex, addr: u32, n: usize) -> Option<u32> {
         let mut b = [0u8; 4];
-        if self.chip().sram.contains(addr, n as u32) {
-            self.chip().sram.read(addr, &mut b[..n]);
+        if self.chip.sram.contains(addr, n as u32) {
+            self.chip.sram.read(addr, &mut b[..n]);
             return Some(u32::from_le_bytes(b));
         }
         let (p, s) = base::PERIPHERALS;
         if (p..p + s).contains(&addr) {
-            let v = self.stm32_periph_read(addr & !3) >> (8 * (addr & 3));
+            let v = self.periph_read(cx, addr & !3) >> (8 * (addr & 3));
             return Some(v & if n == 4 { u32::MAX } else { (1 << (8 * n)) - 1 });
         }
         None
     }
 
-    fn stm32_dma_write(&mut self, addr: u32, n: usize, value: u32) -> bool {
-        if self.chip().sram.contains(addr, n as u32) {
-            self.chip().sram.write(addr, &value.to_le_bytes()[..n]);
+    fn dma_write(&mut self, cx: &mut Cortex, addr: u32, n: usize, value: u32) -> bool {
+        if self.chip.sram.contains(addr, n as u32) {
+            self.chip.sram.write(addr, &value.to_le_bytes()[..n]);
             return true;
         }
         let (p, s) = base::PERIPHERALS;
         if (p..p + s).contains(&addr) {
-            self.stm32_periph_write(addr & !3, value << (8 * (addr & 3)));
+            self.periph_write(cx, addr & !3, value << (8 * (addr & 3)));
             return true;
         }
         false
     }
 
-    fn stm32_clocked(&mut self, block: Block) -> bool {
+    fn clocked(&mut self, cx: &mut Cortex, block: Block) -> bool {
         match block.clock() {
-            Some(e) if !self.chip().rcc.enabled(e) => {
-                self.report(format!(
+            Some(e) if !self.chip.rcc.enabled(e) => {
+                cx.report(format!(
                     "access to {block:?} while {} is 0: the peripheral does not respond",
                     e.name()
                 ));
@@ -561,8 +525,8 @@ impl Machine {
         }
     }
 
-    fn unmodelled(&mut self, addr: u32, write: Option<u32>) {
-        self.stop = Some(Stop::Fault(match write {
+    fn unmodelled(&mut self, cx: &mut Cortex, addr: u32, write: Option<u32>) {
+        cx.stop = Some(Stop::Fault(match write {
             Some(v) => format!(
                 "write of {v:#x} to {addr:#010x}: a peripheral the co-simulator does not model"
             ),
@@ -570,25 +534,25 @@ impl Machine {
         }));
     }
 
-    fn stm32_periph_read(&mut self, addr: u32) -> u32 {
+    fn periph_read(&mut self, cx: &mut Cortex, addr: u32) -> u32 {
         let Some((block, off)) = Block::of(addr) else {
-            self.unmodelled(addr, None);
+            self.unmodelled(cx, addr, None);
             return 0;
         };
-        if !self.stm32_clocked(block) {
+        if !self.clocked(cx, block) {
             return 0;
         }
         if matches!(block, Block::Gpio(_) | Block::Exti) {
-            self.stm32_refresh_inputs();
+            self.refresh_inputs(cx);
         }
-        let t = self.stm32_tick(block);
+        let t = self.tick(cx, block);
         if block == Block::Rcc {
             // A switch requested before its source was ready happens when it is.
-            let v = self.chip_mut().rcc.read(t, off);
-            self.stm32_rcc_changed();
+            let v = self.chip.rcc.read(t, off);
+            self.rcc_changed(cx);
             return v;
         }
-        let c = self.chip_mut();
+        let c = &mut self.chip;
         match block {
             Block::Tim3 => c.tim3.read(t, off),
             Block::Tim8 => c.tim8.read(t, off),
@@ -606,30 +570,30 @@ impl Machine {
 
     /// After an RCC access: its rule violations reported; a clock switch sets the CPU's
     /// cycle time and checks the flash wait states.
-    fn stm32_rcc_changed(&mut self) {
-        let c = self.chip_mut();
+    fn rcc_changed(&mut self, cx: &mut Cortex) {
+        let c = &mut self.chip;
         let changed = c.rcc.take_clock_change();
         let v: Vec<String> = c.rcc.violations.drain(..).collect();
         for m in v {
-            self.report(format!("RCC: {m}"));
+            cx.report(format!("RCC: {m}"));
         }
         if changed {
-            self.update_cycle_time();
-            self.stm32_check_wait_states();
+            cx.set_cycle_time(self.hclk_hz());
+            self.check_wait_states(cx);
         }
     }
 
-    fn stm32_periph_write(&mut self, addr: u32, value: u32) {
+    fn periph_write(&mut self, cx: &mut Cortex, addr: u32, value: u32) {
         let Some((block, off)) = Block::of(addr) else {
-            self.unmodelled(addr, Some(value));
+            self.unmodelled(cx, addr, Some(value));
             return;
         };
-        if !self.stm32_clocked(block) {
+        if !self.clocked(cx, block) {
             return;
         }
-        let t = self.stm32_tick(block);
+        let t = self.tick(cx, block);
         let now = t.now_ns;
-        let c = self.chip_mut();
+        let c = &mut self.chip;
         let mut problem = None;
         match block {
             Block::Tim3 => c.tim3.write(t, off, value),
@@ -649,24 +613,24 @@ impl Machine {
             Block::Flash => problem = c.flash.write(off, value).err(),
         }
         if let Some(p) = problem {
-            self.report(p);
+            cx.report(p);
         }
         match block {
-            Block::Rcc => self.stm32_rcc_changed(),
-            Block::Flash => self.stm32_check_wait_states(),
-            Block::Gpio(_) => self.stm32_outputs_changed(),
-            Block::Afio | Block::Exti => self.stm32_refresh_inputs(),
+            Block::Rcc => self.rcc_changed(cx),
+            Block::Flash => self.check_wait_states(cx),
+            Block::Gpio(_) => self.outputs_changed(cx),
+            Block::Afio | Block::Exti => self.refresh_inputs(cx),
             _ => {}
         }
     }
 
-    fn stm32_check_wait_states(&mut self) {
-        let c = self.chip();
+    fn check_wait_states(&mut self, cx: &mut Cortex) {
+        let c = &self.chip;
         let sysclk = c.rcc.sysclk_hz();
         let need = crate::stm32::flash::FlashAcr::needed(sysclk);
         if c.flash.latency() < need {
             let have = c.flash.latency();
-            self.report(format!(
+            cx.report(format!(
                 "FLASH_ACR: {have} wait states at SYSCLK {sysclk} Hz ({need} needed, RM0008 \
                  3.3.3): the core reads wrong instructions"
             ));
@@ -674,40 +638,48 @@ impl Machine {
     }
 
     /// The FSMC pins and bank 1's settings: `Ok` when an access reaches the ESC.
-    fn stm32_fsmc_routed(&mut self) -> bool {
+    fn fsmc_routed(&mut self, cx: &mut Cortex) -> bool {
         let outputs: Vec<(Pin, &str)> = pins::FSMC_OUTPUTS.iter().map(|&p| (p, "FSMC")).collect();
-        let routed = self.stm32_routed(
+        let routed = self.routed(
+            cx,
             "FSMC access to the ET1100",
             &outputs,
             &[(pins::FSMC_NWAIT, "NWAIT")],
         );
-        let busy_high = self.io.esc.esc().borrow().peek_u8(0x0150) & 2 != 0;
-        let problems = self.chip().fsmc.check(busy_high);
+        let busy_high = cx.io.esc.esc().borrow().peek_u8(0x0150) & 2 != 0;
+        let problems = self.chip.fsmc.check(busy_high);
         let ok = routed && problems.is_empty();
         for p in problems {
-            self.report(format!("{p}: the access moves no data"));
+            cx.report(format!("{p}: the access moves no data"));
         }
         ok
     }
 
     /// One 16-bit bus cycle of bank 1 at ESC address `offset` (NBL0/NBL1 pin levels), a
     /// read or a write of `data`; the data read, the core stalled for the cycle.
-    fn stm32_fsmc_cycle(&mut self, offset: u16, nbl: (bool, bool), data: Option<u16>) -> u16 {
-        let hclk = self.stm32_hclk_hz();
-        let cycle = self.chip().fsmc.cycle(hclk, data.is_some());
-        let wait = self.chip().fsmc.bank1_async_wait();
-        let now = self.hw_ns();
-        let esc = self.io.esc.esc().clone();
-        let p = self.parts_mut();
-        let start = now.max(p.bus_free_ns);
-        p.latch.address_phase(offset >> 1);
-        let (adr, bhe) = p.latch.esc_pins(nbl.0, nbl.1);
+    fn fsmc_cycle(
+        &mut self,
+        cx: &mut Cortex,
+        offset: u16,
+        nbl: (bool, bool),
+        data: Option<u16>,
+    ) -> u16 {
+        let hclk = self.hclk_hz();
+        let cycle = self.chip.fsmc.cycle(hclk, data.is_some());
+        let wait = self.chip.fsmc.bank1_async_wait();
+        let now = cx.hw_ns();
+        let esc = cx.io.esc.esc().clone();
+        let start = now.max(self.bus_free_ns);
+        self.latch.address_phase(offset >> 1);
+        let (adr, bhe) = self.latch.esc_pins(nbl.0, nbl.1);
         let at = start + cycle.address_ns;
         let access = {
             let mut e = esc.borrow_mut();
             match data {
-                None => p.esc_port.read(&mut e, at, cycle.strobe_ns, adr, bhe),
-                Some(d) => p.esc_port.write(&mut e, at, cycle.strobe_ns, adr, bhe, d),
+                None => self.esc_port.read(&mut e, at, cycle.strobe_ns, adr, bhe),
+                Some(d) => self
+                    .esc_port
+                    .write(&mut e, at, cycle.strobe_ns, adr, bhe, d),
             }
         };
         // Without ASYNCWAIT the FSMC ends the strobe after DATAST whatever BUSY says.
@@ -717,11 +689,11 @@ impl Machine {
             at + cycle.strobe_ns
         };
         let free = end + cycle.turnaround_ns;
-        p.bus_free_ns = free;
-        p.fsmc_accesses += 1;
-        p.fsmc_ns += free - start;
+        self.bus_free_ns = free;
+        self.fsmc_accesses += 1;
+        self.fsmc_ns += free - start;
         if !wait && access.busy_ns > cycle.strobe_ns {
-            self.report(format!(
+            cx.report(format!(
                 "FSMC access at ESC {offset:#06x}: BUSY for {} ns but DATAST is {} ns and \
                  ASYNCWAIT is off: the FSMC took the data before the ESC was ready",
                 access.busy_ns, cycle.strobe_ns
@@ -729,48 +701,54 @@ impl Machine {
         }
         // The core waits for the whole cycle (the write buffer is not modelled).
         let stall = ns_to_ticks(free - now, hclk);
-        self.add_cycles(stall);
+        cx.add_cycles(stall);
         access.data
     }
 
-    fn stm32_bank_access(&mut self, addr: u32, size: usize, write: Option<u32>) -> u32 {
-        if !self.chip().rcc.enabled(Enable::Ahb(8)) {
-            self.report(
+    fn bank_access(&mut self, cx: &mut Cortex, addr: u32, size: usize, write: Option<u32>) -> u32 {
+        if !self.chip.rcc.enabled(Enable::Ahb(8)) {
+            cx.report(
                 "access to FSMC bank 1 while RCC_AHBENR.FSMCEN is 0: the FSMC does not respond"
                     .into(),
             );
             return 0;
         }
-        if !self.chip().fsmc.bank1_enabled() {
-            self.stop = Some(Stop::Fault(format!(
+        if !self.chip.fsmc.bank1_enabled() {
+            cx.stop = Some(Stop::Fault(format!(
                 "access to {addr:#010x}: FSMC bank 1 is disabled (BCR1.MBKEN 0): bus fault"
             )));
             return 0;
         }
-        if write.is_some() && !self.chip().fsmc.bank1_writable() {
-            self.stop = Some(Stop::Fault(format!(
+        if write.is_some() && !self.chip.fsmc.bank1_writable() {
+            cx.stop = Some(Stop::Fault(format!(
                 "write to {addr:#010x}: FSMC bank 1 has WREN 0: bus fault (RM0008 21.5)"
             )));
             return 0;
         }
-        if !self.stm32_fsmc_routed() {
+        if !self.fsmc_routed(cx) {
             return 0;
         }
         let offset = (addr - base::FSMC_BANK1.0) as u16;
-        let v = self.stm32_bank_cycles(offset, size, write);
+        let v = self.bank_cycles(cx, offset, size, write);
         // An access may release or raise the ESC's IRQ (AL event reads, SM buffers): EXTI
         // sees each level it takes.
-        self.stm32_refresh_inputs();
+        self.refresh_inputs(cx);
         v
     }
 
     /// The bus cycles of one CPU access of `size` bytes at ESC address `offset`.
-    fn stm32_bank_cycles(&mut self, offset: u16, size: usize, write: Option<u32>) -> u32 {
+    fn bank_cycles(
+        &mut self,
+        cx: &mut Cortex,
+        offset: u16,
+        size: usize,
+        write: Option<u32>,
+    ) -> u32 {
         match (size, write) {
             (1, None) => {
                 // A byte read is a halfword read on a 16-bit bank (both NBL low).
                 let [lo, hi] = self
-                    .stm32_fsmc_cycle(offset & !1, (false, false), None)
+                    .fsmc_cycle(cx, offset & !1, (false, false), None)
                     .to_le_bytes();
                 u32::from(if offset & 1 == 0 { lo } else { hi })
             }
@@ -782,14 +760,15 @@ impl Machine {
                 } else {
                     u16::from_le_bytes([b, !b])
                 };
-                self.stm32_fsmc_cycle(offset, (odd, !odd), Some(d));
+                self.fsmc_cycle(cx, offset, (odd, !odd), Some(d));
                 0
             }
-            (2, w) => u32::from(self.stm32_fsmc_cycle(offset, (false, false), w.map(|v| v as u16))),
+            (2, w) => u32::from(self.fsmc_cycle(cx, offset, (false, false), w.map(|v| v as u16))),
             (_, w) => {
                 // A 32-bit access: two halfword cycles, the lower address first.
-                let lo = self.stm32_fsmc_cycle(offset, (false, false), w.map(|v| v as u16));
-                let hi = self.stm32_fsmc_cycle(
+                let lo = self.fsmc_cycle(cx, offset, (false, false), w.map(|v| v as u16));
+                let hi = self.fsmc_cycle(
+                    cx,
                     offset.wrapping_add(2),
                     (false, false),
                     w.map(|v| (v >> 16) as u16),
@@ -800,7 +779,7 @@ impl Machine {
     }
 
     /// A CPU read of `size` bytes at `addr`.
-    pub(super) fn stm32_cpu_read(&mut self, addr: u32, size: usize) -> u32 {
+    pub fn cpu_read(&mut self, cx: &mut Cortex, addr: u32, size: usize) -> u32 {
         let shift = 8 * (addr & 3);
         let mask = if size == 4 {
             u32::MAX
@@ -809,66 +788,56 @@ impl Machine {
         };
         let (bank, len) = base::FSMC_BANK1;
         let v = if (bank..bank + len).contains(&addr) {
-            return self.stm32_bank_access(addr, size, None);
+            return self.bank_access(cx, addr, size, None);
         } else if addr >= base::SCS {
             let off = (addr - base::SCS) & !3;
             if off == dwt::DEMCR {
-                self.chip().dwt.demcr()
+                self.chip.dwt.demcr()
             } else {
-                self.scs.read(off, self.cycles)
+                cx.scs.read(off, cx.cycles)
             }
         } else if addr >= base::DWT {
-            self.chip().dwt.read(self.cycles, (addr - base::DWT) & !3)
+            self.chip.dwt.read(cx.cycles, (addr - base::DWT) & !3)
         } else if addr >= base::FSMC_REGS {
-            self.chip().fsmc.read((addr - base::FSMC_REGS) & !3)
+            self.chip.fsmc.read((addr - base::FSMC_REGS) & !3)
         } else {
-            self.stm32_periph_read(addr & !3)
+            self.periph_read(cx, addr & !3)
         };
-        self.stm32_settle();
-        self.reschedule();
+        self.settle(cx);
         (v >> shift) & mask
     }
 
     /// A CPU write.
-    pub(super) fn stm32_cpu_write(&mut self, addr: u32, size: usize, value: u32) {
+    pub fn cpu_write(&mut self, cx: &mut Cortex, addr: u32, size: usize, value: u32) {
         let (bank, len) = base::FSMC_BANK1;
         if (bank..bank + len).contains(&addr) {
-            self.stm32_bank_access(addr, size, Some(value));
+            self.bank_access(cx, addr, size, Some(value));
         } else if addr >= base::SCS {
             let off = addr - base::SCS;
             if off & !3 == dwt::DEMCR {
-                let cycles = self.cycles;
-                self.chip_mut().dwt.write_demcr(cycles, value);
+                let cycles = cx.cycles;
+                self.chip.dwt.write_demcr(cycles, value);
             } else {
-                let effect = self.scs.write(off, size, value, self.cycles);
+                let effect = cx.scs.write(off, size, value, cx.cycles);
                 if effect.reset_request {
-                    self.stop = Some(Stop::Reset(ResetCause::SysResetReq));
+                    cx.stop = Some(Stop::Reset(ResetCause::SysResetReq));
                 }
-                self.check_preempt = self.scs.any_pending();
+                cx.check_preempt = cx.scs.any_pending();
             }
         } else if addr >= base::DWT {
-            let cycles = self.cycles;
-            if !self
-                .chip_mut()
-                .dwt
-                .write(cycles, (addr - base::DWT) & !3, value)
-            {
-                self.unmodelled(addr, Some(value));
+            let cycles = cx.cycles;
+            if !self.chip.dwt.write(cycles, (addr - base::DWT) & !3, value) {
+                self.unmodelled(cx, addr, Some(value));
             }
         } else if addr >= base::FSMC_REGS {
-            if let Err(e) = self
-                .chip_mut()
-                .fsmc
-                .write((addr - base::FSMC_REGS) & !3, value)
-            {
-                self.stop = Some(Stop::Fault(e));
+            if let Err(e) = self.chip.fsmc.write((addr - base::FSMC_REGS) & !3, value) {
+                cx.stop = Some(Stop::Fault(e));
             }
         } else {
             // Sub-word writes land in their lanes (BSRR's reset half by a halfword write).
-            self.stm32_periph_write(addr & !3, value << (8 * (addr & 3)));
+            self.periph_write(cx, addr & !3, value << (8 * (addr & 3)));
         }
-        self.stm32_settle();
-        self.reschedule();
+        self.settle(cx);
     }
 }
 
@@ -877,6 +846,7 @@ mod tests {
     use super::*;
     use crate::chip::Chip;
     use crate::image::Image;
+    use crate::machine::Machine;
     use std::rc::Rc;
     use virtual_board::rig::board::{BoardConfig, VirtualBoard as Board};
 
@@ -884,19 +854,7 @@ mod tests {
     fn machine() -> (Board, Machine) {
         let board = Board::new(BoardConfig::new(vec![0xFF; 2048]));
         let chip = Chip::Stm32f103;
-        let image = Image {
-            chip,
-            known_product: None,
-            flash: vec![0xFF; chip.flash().len as usize],
-            flash_used: 0,
-            rtt: None,
-            elf: Vec::new(),
-            functions: Vec::new(),
-            static_ram: 0,
-            flash_bytes: 0,
-            app_vectors: 0,
-            stack_floor: chip.sram().start,
-        };
+        let image = Image::bare(chip, vec![0xFF; chip.flash().len as usize]);
         let m = Machine::new(board.io(), Rc::new(image));
         (board, m)
     }

@@ -197,8 +197,7 @@ pub fn map_memory(uc: &mut Engine, image: &Image, machine: &Shared) -> Result<()
     }
     let sram = machine
         .borrow()
-        .stm32
-        .as_ref()
+        .stm32()
         .map(|s| s.chip.sram.clone())
         .ok_or("the machine is not an STM32F103")?;
     sram.map(uc)?;
