@@ -1,9 +1,15 @@
 //! CYCLE IDENTITY OF THE MODELS: fixed, deterministic runs of the release images whose exact
 //! figures (CPU cycles, instructions, crossings to the board's chips, and the ordered trace of
-//! DAC loads and LDAC edges) are pinned. The figures were recorded on commit 6c355aa, before
-//! the co-simulator's chips were split into their own modules (issue 30): a change in any of
-//! them means the simulated timing changed. A deliberate model change re-records them and
-//! says why in its commit; a refactor must leave them as they are.
+//! DAC loads and LDAC edges) are pinned, together with a fingerprint of the image they were
+//! taken on. They were first recorded on commit 6c355aa, before the co-simulator's chips were
+//! split into their own modules (issue 30), and held through the split.
+//!
+//! - Same image fingerprint, other figures: the simulated timing changed. A deliberate model
+//!   change re-records them and says why in its commit; a refactor must leave them as they
+//!   are.
+//! - Other fingerprint: the firmware (or its build) changed, and its figures with it. Record
+//!   the new ones (the failure prints them) in a commit that changes no model, so the next
+//!   model change is judged against them.
 //!
 //! Everything here runs on the board's virtual time (the master's DC clock is the board's,
 //! its jitter a fixed sequence), so two runs of one image give the same figures.
@@ -11,6 +17,7 @@
 use firmware::products::analog_io::sync::MIN_CYCLE_TIME_NS;
 use lpc1754_cosim::bench::{dc_run_traffic, DcRun, Program};
 use lpc1754_cosim::cosim::Facts;
+use lpc1754_cosim::image::Image;
 use lpc1754_cosim::oversampling::{self, Config};
 use lpc1754_cosim::run::{load_image, load_image_of};
 use lpc1754_cosim::traffic::Traffic;
@@ -36,6 +43,8 @@ impl Fnv {
 /// What a run must reproduce exactly.
 #[derive(Debug, PartialEq, Eq)]
 struct Figures {
+    /// [`Fnv`] over the image's flash contents: which firmware the figures are of.
+    image: u64,
     cycles: u64,
     instructions: u64,
     sleep_cycles: u64,
@@ -53,8 +62,21 @@ struct Figures {
     dac_trace: u64,
 }
 
-fn figures(f: &Facts, dac_trace: u64) -> Figures {
+/// [`Fnv`] over the flash an image fills, in 8-byte words.
+fn fingerprint(image: &Image) -> u64 {
+    image.flash[..image.flash_used]
+        .chunks(8)
+        .fold(Fnv::new(), |h, w| {
+            let mut b = [0u8; 8];
+            b[..w.len()].copy_from_slice(w);
+            h.word(u64::from_le_bytes(b))
+        })
+        .0
+}
+
+fn figures(image: &Image, f: &Facts, dac_trace: u64) -> Figures {
     Figures {
+        image: fingerprint(image),
         cycles: f.cycles,
         instructions: f.instructions,
         sleep_cycles: f.sleep_cycles,
@@ -98,7 +120,7 @@ fn dc_figures(product: &str) -> (Figures, DcRun) {
     .expect("the run");
     assert!(run.check.failure.is_none(), "{:?}", run.check.failure);
     let trace = dc_trace(&run);
-    (figures(&run.after, trace), run)
+    (figures(&image, &run.after, trace), run)
 }
 
 #[test]
@@ -108,10 +130,11 @@ fn the_lpc1754_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
-            cycles: 10_687_922,
-            instructions: 4_507_666,
-            sleep_cycles: 5_018_798,
-            time_ns: 108_085_576,
+            image: 902_464_686_783_759_582,
+            cycles: 10_687_891,
+            instructions: 4_509_128,
+            sleep_cycles: 5_017_247,
+            time_ns: 108_085_516,
             esc_bytes: 27_843,
             fsmc_cycles: 0,
             dac_frames: 649,
@@ -119,7 +142,7 @@ fn the_lpc1754_image_runs_cycle_identically() {
             adc_conversions: 24_416,
             sync0_captures: 326,
             samples_read: 24_376,
-            dac_trace: 10_943_614_906_746_683_440,
+            dac_trace: 7_617_277_398_250_384_185,
         }
     );
 }
@@ -131,18 +154,19 @@ fn the_stm32_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
+            image: 10_519_340_094_008_427_980,
             cycles: 6_918_107,
-            instructions: 2_077_632,
-            sleep_cycles: 4_163_190,
+            instructions: 2_078_626,
+            sleep_cycles: 4_161_879,
             time_ns: 98_680_468,
             esc_bytes: 0,
-            fsmc_cycles: 13_736,
+            fsmc_cycles: 13_738,
             dac_frames: 647,
             ldac_pulses: 322,
             adc_conversions: 19_120,
             sync0_captures: 323,
             samples_read: 0,
-            dac_trace: 15_780_628_218_742_217_999,
+            dac_trace: 2_423_205_288_595_415_684,
         }
     );
 }
@@ -179,12 +203,13 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
         })
         .0;
     assert_eq!(
-        (figures(&r.after, trace), r.blocks.len(), blocks),
+        (figures(&image, &r.after, trace), r.blocks.len(), blocks),
         (
             Figures {
-                cycles: 15_574_349,
-                instructions: 8_531_099,
-                sleep_cycles: 4_858_367,
+                image: 902_464_686_783_759_582,
+                cycles: 15_574_324,
+                instructions: 8_531_630,
+                sleep_cycles: 4_857_695,
                 time_ns: 156_949_846,
                 esc_bytes: 76_033,
                 fsmc_cycles: 0,
@@ -192,11 +217,11 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
                 ldac_pulses: 1_379,
                 adc_conversions: 36_632,
                 sync0_captures: 71,
-                samples_read: 36_552,
+                samples_read: 36_560,
                 dac_trace: 2_446_500_947_638_559_095,
             },
             50,
-            8_099_991_453_567_597_312
+            8_961_908_674_323_433_283
         )
     );
 }
