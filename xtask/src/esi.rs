@@ -226,10 +226,11 @@ mod tests {
         for product in firmware::products::PRODUCTS {
             the_minimum_cycle_is_one_figure_in(product, MIN_CYCLE_TIME_NS);
         }
-        let monitor = firmware::stacks::ethercat::sync::SyncMonitor::<AnalogFigures>::new();
-        for inputs in [false, true] {
+        use firmware::stacks::ethercat::sync::{SyncMonitor, SyncObject};
+        let monitor = SyncMonitor::<AnalogFigures>::new();
+        for object in [SyncObject::Outputs, SyncObject::Inputs { image_bytes: 16 }] {
             let mut buf = [0u8; 4];
-            assert_eq!(monitor.read(inputs, 5, &mut buf), Ok(4));
+            assert_eq!(monitor.read(object, 5, &mut buf), Ok(4));
             assert_eq!(u32::from_le_bytes(buf), MIN_CYCLE_TIME_NS);
         }
     }
