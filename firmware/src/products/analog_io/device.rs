@@ -11,7 +11,7 @@ use super::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use super::od::OD;
 use super::sync::MIN_CYCLE_TIME_NS;
 use crate::platform::board::{EEPROM_BYTES, PDI};
-use crate::stacks::ethercat::sync::{SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
+use crate::stacks::ethercat::op_modes::{dc_sync0, sm_synchron, FREE_RUN};
 use coe_core::device::{
     CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, Identity, MailboxDesc,
     MailboxProtocols, MemoryWindow, Names, PortType, SyncManagerDesc,
@@ -20,47 +20,10 @@ use coe_core::od::ObjectDictionary;
 
 /// DC op modes, the default (SM-synchronous, as the application starts) first.
 const OP_MODES: &[DcOpMode] = &[
-    DcOpMode {
-        name: "SM-Synchron",
-        description: "SM-Synchron (outputs on the SM2 event)",
-        assign_activate: 0,
-        sync_mode: SYNC_MODE_SM,
-        cycle_time_sync0: 0,
-        sync0_factor: 0,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    },
+    sm_synchron("SM-Synchron (outputs on the SM2 event)"),
     dc_sync0("DC", "DC-Synchron (outputs latched at SYNC0)"),
-    DcOpMode {
-        name: "FreeRun",
-        description: "Free Run",
-        assign_activate: 0,
-        sync_mode: SYNC_MODE_FREE_RUN,
-        cycle_time_sync0: 0,
-        sync0_factor: 0,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    },
+    FREE_RUN,
 ];
-
-/// A DC op mode with SYNC0 = the bus cycle (AssignActivate 0x0300, `CycleTimeSync0
-/// Factor="1"`) and no SYNC1: the plain "DC" mode, and the oversampling ones
-/// ([`super::op_modes`]), which add their PDO assignment.
-pub const fn dc_sync0(name: &'static str, description: &'static str) -> DcOpMode {
-    DcOpMode {
-        name,
-        description,
-        assign_activate: 0x0300,
-        sync_mode: SYNC_MODE_DC_SYNC0,
-        cycle_time_sync0: 0,
-        sync0_factor: 1,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    }
-}
 
 /// The module.
 pub static DEVICE: DeviceDescription = description(IDENTITY, NAMES, &OD, &SYNC_MANAGERS);
@@ -74,45 +37,45 @@ pub const fn description(
     sync_managers: &'static [SyncManagerDesc],
 ) -> DeviceDescription {
     DeviceDescription {
-    identity,
-    names,
-    od,
-    sync_managers,
-    fmmus: &[
-        FmmuUsage::Outputs,
-        FmmuUsage::Inputs,
-        FmmuUsage::MailboxState,
-    ],
-    mailbox: MailboxDesc {
-        // FoE: firmware updates in BOOT (the bootloader; the application answers FoE with
-        // "bootstrap only").
-        protocols: MailboxProtocols(MailboxProtocols::COE | MailboxProtocols::FOE),
-        coe: CoeDetails(
-            CoeDetails::SDO
-                | CoeDetails::SDO_INFO
-                | CoeDetails::PDO_ASSIGN
-                | CoeDetails::PDO_CONFIG
-                | CoeDetails::COMPLETE_ACCESS,
-        ),
-        bootstrap: Some(BOOTSTRAP_MAILBOX),
-    },
-    dc: DcDesc {
-        op_modes: OP_MODES,
-        min_cycle_ns: MIN_CYCLE_TIME_NS,
-        // No upper limit in the firmware beyond the u32 of 0x1C32:02.
-        max_cycle_ns: u32::MAX,
-    },
-    pdi: PDI,
-    eeprom: EepromDesc {
-        size_bytes: EEPROM_BYTES,
-        station_alias: 0,
-        version: 1,
-    },
-    // ET1100: 8 KB process RAM from 0x1000.
-    process_ram: MemoryWindow::new(0x1000, 0x2000),
-    ports: [PortType::Mii, PortType::Mii, PortType::None, PortType::None],
-    ebus_current_ma: 0,
-}
+        identity,
+        names,
+        od,
+        sync_managers,
+        fmmus: &[
+            FmmuUsage::Outputs,
+            FmmuUsage::Inputs,
+            FmmuUsage::MailboxState,
+        ],
+        mailbox: MailboxDesc {
+            // FoE: firmware updates in BOOT (the bootloader; the application answers FoE with
+            // "bootstrap only").
+            protocols: MailboxProtocols(MailboxProtocols::COE | MailboxProtocols::FOE),
+            coe: CoeDetails(
+                CoeDetails::SDO
+                    | CoeDetails::SDO_INFO
+                    | CoeDetails::PDO_ASSIGN
+                    | CoeDetails::PDO_CONFIG
+                    | CoeDetails::COMPLETE_ACCESS,
+            ),
+            bootstrap: Some(BOOTSTRAP_MAILBOX),
+        },
+        dc: DcDesc {
+            op_modes: OP_MODES,
+            min_cycle_ns: MIN_CYCLE_TIME_NS,
+            // No upper limit in the firmware beyond the u32 of 0x1C32:02.
+            max_cycle_ns: u32::MAX,
+        },
+        pdi: PDI,
+        eeprom: EepromDesc {
+            size_bytes: EEPROM_BYTES,
+            station_alias: 0,
+            version: 1,
+        },
+        // ET1100: 8 KB process RAM from 0x1000.
+        process_ram: MemoryWindow::new(0x1000, 0x2000),
+        ports: [PortType::Mii, PortType::Mii, PortType::None, PortType::None],
+        ebus_current_ma: 0,
+    }
 }
 
 const _: () = if let Err(e) = DEVICE.validate() {

@@ -3,7 +3,7 @@
 //! assignment it writes (ESI `Dc/OpMode/Sm/Pdo@OSFac`, one SII DC entry each), so TwinCAT
 //! users pick oversampling on the DC tab as for Beckhoff's EL3702/EL4732.
 //!
-//! SYNC0 is the bus cycle, as in the plain "DC" mode (`super::device::dc_sync0`:
+//! SYNC0 is the bus cycle, as in the plain "DC" mode (`crate::stacks::ethercat::op_modes::dc_sync0`:
 //! AssignActivate 0x0300, `CycleTimeSync0 Factor="1"`), and there is no SYNC1: the module
 //! clocks its converters itself, locked to the SYNC0 edges; the factor is the assignment,
 //! not a SYNC0 divider. Per cycle the inputs take the block status, the block time and the
@@ -13,10 +13,10 @@
 //! cycle); the host tests (`tests/op_modes.rs`) run that admission on every mode.
 //! Description only: the image never links these.
 
-use super::device::dc_sync0;
 use super::od::RX_ASSIGN_DEFAULT;
 use crate::io::analog::output_blocks::UPDATE_PDO;
 use crate::io::analog::oversampling::{SAMPLE_PDO, STATUS_PDO, TIME_PDO};
+use crate::stacks::ethercat::op_modes::dc_sync0;
 use coe_core::device::oversampling::{OpModePdo, OpModeSm, OpModeWithPdos};
 
 /// An oversampling op mode and the bus cycle it is made for (the ESI cannot say it: the

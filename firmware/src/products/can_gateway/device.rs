@@ -7,7 +7,7 @@ use super::layout::{BOOTSTRAP_MAILBOX, SYNC_MANAGERS};
 use super::od::OD;
 use super::sync::MIN_CYCLE_TIME_NS;
 use crate::platform::board::{EEPROM_BYTES, PDI};
-use crate::stacks::ethercat::sync::{SYNC_MODE_DC_SYNC0, SYNC_MODE_FREE_RUN, SYNC_MODE_SM};
+use crate::stacks::ethercat::op_modes::{dc_sync0, sm_synchron, FREE_RUN};
 use coe_core::device::{
     CoeDetails, DcDesc, DcOpMode, DeviceDescription, EepromDesc, FmmuUsage, MailboxDesc,
     MailboxProtocols, MemoryWindow, PortType,
@@ -15,39 +15,9 @@ use coe_core::device::{
 
 /// DC op modes, the default (SM-synchronous: the CAN cycle at the SM2 event) first.
 const OP_MODES: &[DcOpMode] = &[
-    DcOpMode {
-        name: "SM-Synchron",
-        description: "SM-Synchron (CAN cycle at the SM2 event)",
-        assign_activate: 0,
-        sync_mode: SYNC_MODE_SM,
-        cycle_time_sync0: 0,
-        sync0_factor: 0,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    },
-    DcOpMode {
-        name: "DC",
-        description: "DC-Synchron (CAN cycle at SYNC0)",
-        assign_activate: 0x0300,
-        sync_mode: SYNC_MODE_DC_SYNC0,
-        cycle_time_sync0: 0,
-        sync0_factor: 1,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    },
-    DcOpMode {
-        name: "FreeRun",
-        description: "Free Run",
-        assign_activate: 0,
-        sync_mode: SYNC_MODE_FREE_RUN,
-        cycle_time_sync0: 0,
-        sync0_factor: 0,
-        shift_time_sync0: 0,
-        sync1_factor: 0,
-        shift_time_sync1: 0,
-    },
+    sm_synchron("SM-Synchron (CAN cycle at the SM2 event)"),
+    dc_sync0("DC", "DC-Synchron (CAN cycle at SYNC0)"),
+    FREE_RUN,
 ];
 
 /// The gateway.

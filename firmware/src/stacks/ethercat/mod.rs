@@ -37,6 +37,7 @@ pub mod application;
 pub mod boot_slave;
 pub mod confirm;
 pub mod mailbox;
+pub mod op_modes;
 pub mod pdi_task;
 pub mod sync;
 pub mod sync_objects;
