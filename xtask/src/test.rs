@@ -3,6 +3,7 @@
 use crate::util::{cargo, exec, have, Result};
 use crate::{bench, build, docs, esi, flash, fuzz, peer, setup};
 use std::path::Path;
+use std::process::Command;
 
 /// Seconds each fuzz target runs in CI (long campaigns: `cargo xtask fuzz --seconds N`).
 const CI_FUZZ_SECONDS: u32 = 30;
@@ -47,6 +48,18 @@ pub struct Args {
     pub no_lint: bool,
 }
 
+/// The `mod.rs` of every product (firmware/src/products/NAME/mod.rs).
+fn product_modules() -> Result<Vec<std::path::PathBuf>> {
+    let dir = crate::util::root().join("firmware/src/products");
+    let entries = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut mods: Vec<_> = entries
+        .filter_map(|e| Some(e.ok()?.path().join("mod.rs")))
+        .filter(|p| p.is_file())
+        .collect();
+    mods.sort();
+    Ok(mods)
+}
+
 pub fn run(args: &Args) -> Result {
     setup::all()?;
     if !args.no_lint {
@@ -59,6 +72,13 @@ pub fn run(args: &Args) -> Result {
             "--all",
             "--check",
         ]))?;
+        // The product modules are declared inside the `products!` macro, where cargo fmt
+        // does not look: rustfmt takes them by path (and the modules they declare).
+        exec(
+            Command::new("rustfmt")
+                .args(["--edition", "2021", "--check"])
+                .args(product_modules()?),
+        )?;
         exec(cargo().args([
             "clippy",
             "--workspace",

@@ -45,9 +45,9 @@ mod tests;
 use super::{Budget, ImageBuild, Product};
 use crate::io::analog::process_data::{mappings, Mapping, ProcessData, RX_PDOS, TX_PDOS};
 use crate::io::analog::AnalogIo;
-use coe_core::device::oversampling::Oversampling;
 use crate::platform::boot::layout::BOOTSTRAP_MAILBOX;
 use crate::stacks::ethercat::AppConfig;
+use coe_core::device::oversampling::Oversampling;
 
 pub use identity::BOARD;
 
@@ -84,8 +84,12 @@ pub static OVERSAMPLING: Oversampling = Oversampling {
     op_modes: &op_modes::OP_MODES,
 };
 
-const _: () = if let Err(e) = OVERSAMPLING.validate(&device::DEVICE) {
-    panic!("{}", e.message())
+// Checked where the oversampling images exist (the analog-io image, the host): other
+// images leave them out, so this description's op modes do not fit their SyncManagers.
+const _: () = if crate::io::analog::oversampling::BUILT {
+    if let Err(e) = OVERSAMPLING.validate(&device::DEVICE) {
+        panic!("{}", e.message())
+    }
 };
 
 /// What the slave application takes from the device description: its SyncManager layout,

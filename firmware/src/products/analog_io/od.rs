@@ -17,9 +17,9 @@
 
 use super::identity::{IDENTITY, NAMES};
 use super::layout::SYNC_MANAGERS;
+use super::sync::FIGURES;
 use super::{output_oversampling, oversampling};
 use crate::io::analog::oversampling::SAMPLE_PDOS;
-use super::sync::FIGURES;
 use crate::io::analog::process_data::{
     PDO_ENTRIES, RX_ASSIGN as RX_ASSIGN_MAX, RX_PDOS, TX_ASSIGN, TX_PDOS,
 };
@@ -347,32 +347,31 @@ static PRODUCT_OBJECTS: [ObjectDesc; 5] = {
 
 /// 0x2001, the module description.
 pub const MODULE_DESCRIPTION_OBJECT: ObjectDesc = ObjectDesc::var(
-        MODULE_DESCRIPTION_INDEX,
+    MODULE_DESCRIPTION_INDEX,
+    "Module description",
+    &[EntryDesc::string(
+        0,
         "Module description",
-        &[EntryDesc::string(
-            0,
-            "Module description",
-            MODULE_DESCRIPTION,
-        )],
-    );
+        MODULE_DESCRIPTION,
+    )],
+);
 
 /// The module's object dictionary.
 pub static OD: ObjectDictionary = ObjectDictionary::new(&OBJECTS);
-static OBJECTS: [ObjectDesc; ANALOG_OBJECT_COUNT
-    + 5
-    + oversampling::OBJECT_COUNT
-    + output_oversampling::OBJECT_COUNT] = merge_objects(&[
-    &replaced(
+static OBJECTS: [ObjectDesc;
+    ANALOG_OBJECT_COUNT + 5 + oversampling::OBJECT_COUNT + output_oversampling::OBJECT_COUNT] =
+    merge_objects(&[
         &replaced(
-            &ANALOG_OBJECTS,
-            ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGNMENT_OVERSAMPLING),
+            &replaced(
+                &ANALOG_OBJECTS,
+                ObjectDesc::array(0x1C13, "TxPDO assign", &TX_ASSIGNMENT_OVERSAMPLING),
+            ),
+            ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGNMENT_OVERSAMPLING),
         ),
-        ObjectDesc::array(0x1C12, "RxPDO assign", &RX_ASSIGNMENT_OVERSAMPLING),
-    ),
-    &PRODUCT_OBJECTS,
-    &oversampling::OBJECTS,
-    &output_oversampling::OBJECTS,
-]);
+        &PRODUCT_OBJECTS,
+        &oversampling::OBJECTS,
+        &output_oversampling::OBJECTS,
+    ]);
 
 /// 0x1000: CiA 401 (0x0191) with analog inputs (bit 18) and analog outputs (bit 19).
 pub const DEVICE_TYPE: u32 = 0x0191 | 1 << 18 | 1 << 19;
@@ -385,9 +384,9 @@ const _: () = if let Err(e) = OD.validate() {
 mod tests {
     use super::super::device::DEVICE;
     use super::*;
-    use crate::stacks::ethercat::mailbox::{MAILBOX_SIZE, TRANSFER_BUFFER};
     use crate::io::analog::output_blocks::OutputBlocks;
     use crate::io::analog::oversampling::InputBlocks;
+    use crate::stacks::ethercat::mailbox::{MAILBOX_SIZE, TRANSFER_BUFFER};
     use coe_core::pdo::PdoDirection;
     use std::vec::Vec;
 
@@ -462,7 +461,10 @@ mod tests {
         let plain = |o: &&ObjectDesc| !InputBlocks::is_block_pdo(o.index);
         let rx_plain = |o: &&ObjectDesc| !OutputBlocks::is_block_pdo(o.index);
         assert_eq!(
-            DEVICE.pdo_objects(PdoDirection::Rx).filter(rx_plain).count(),
+            DEVICE
+                .pdo_objects(PdoDirection::Rx)
+                .filter(rx_plain)
+                .count(),
             RX_PDOS
         );
         assert_eq!(

@@ -93,8 +93,13 @@ pub const OBJECT_COUNT: usize = 1 + 2 * UPDATE_PDOS + 1;
 /// The objects, in index order.
 pub static OBJECTS: [ObjectDesc; OBJECT_COUNT] = {
     let mapping = &super::oversampling::MAPPING;
-    let first = ObjectDesc::record(COUNTER_PDO, "AO block counter", DataType::PdoMapping, mapping)
-        .with_defaults(&COUNTER_MAPPING);
+    let first = ObjectDesc::record(
+        COUNTER_PDO,
+        "AO block counter",
+        DataType::PdoMapping,
+        mapping,
+    )
+    .with_defaults(&COUNTER_MAPPING);
     let mut out = [first; OBJECT_COUNT];
     let mut u = 0;
     while u < UPDATE_PDOS {
@@ -109,8 +114,12 @@ pub static OBJECTS: [ObjectDesc; OBJECT_COUNT] = {
             ObjectDesc::array(UPDATES_INDEX + u as u16, UPDATE_PDO_NAMES[u], &UPDATES);
         u += 1;
     }
-    out[1 + UPDATE_PDOS] =
-        ObjectDesc::record(COUNTER_INDEX, "AO block", DataType::Unknown(0x0045), &COUNTER);
+    out[1 + UPDATE_PDOS] = ObjectDesc::record(
+        COUNTER_INDEX,
+        "AO block",
+        DataType::Unknown(0x0045),
+        &COUNTER,
+    );
     out
 };
 

@@ -138,8 +138,13 @@ pub const OBJECT_COUNT: usize = 2 + 2 * SAMPLE_PDOS + 2;
 
 /// The objects, in index order.
 pub static OBJECTS: [ObjectDesc; OBJECT_COUNT] = {
-    let first = ObjectDesc::record(STATUS_PDO, "AI block status", DataType::PdoMapping, &MAPPING)
-        .with_defaults(&STATUS_MAPPING);
+    let first = ObjectDesc::record(
+        STATUS_PDO,
+        "AI block status",
+        DataType::PdoMapping,
+        &MAPPING,
+    )
+    .with_defaults(&STATUS_MAPPING);
     let mut out = [first; OBJECT_COUNT];
     out[1] = ObjectDesc::record(TIME_PDO, "AI block time", DataType::PdoMapping, &MAPPING)
         .with_defaults(&TIME_MAPPING);

@@ -4,9 +4,9 @@
 use super::sync::AnalogFigures;
 use crate::fake_esc::FakeEsc;
 use crate::io::analog::outputs::{DacAction, DacLatch, DacPair, OutputStage};
-use crate::io::analog::AnalogIo;
 use crate::io::analog::process_data::{Mapping, ProcessData};
 use crate::io::analog::sampler::Sample;
+use crate::io::analog::AnalogIo;
 use crate::stacks::ethercat::mailbox::SAFETY_SERVICE_MS;
 use crate::stacks::ethercat::pdi_task::{PdiTask, Wake};
 use crate::stacks::ethercat::sync::SyncMode;
@@ -253,7 +253,9 @@ impl Rig {
     /// The DAC task if asked, then the mailbox task (below the PDI task) if asked.
     fn after(&mut self, mut out: crate::stacks::ethercat::PdiOutcome) {
         if out.serve_mailbox {
-            let mbx = self.app.serve_mailbox(&mut self.esc.driver(), &self.stage, self.now);
+            let mbx = self
+                .app
+                .serve_mailbox(&mut self.esc.driver(), &self.stage, self.now);
             out.apply_outputs |= mbx.unwrap().apply_outputs;
         }
         if out.apply_outputs {
@@ -354,7 +356,8 @@ fn init_to_op_in_sm_synchronous_mode() {
     // OP before any outputs: DAC untouched.
     assert!(r.dac.is_empty());
     r.app
-        .application_mut().on_samples(&[Sample::new(0, 0x8000), Sample::new(1, 0xFFFF)]);
+        .application_mut()
+        .on_samples(&[Sample::new(0, 0x8000), Sample::new(1, 0xFFFF)]);
     r.outputs(0x4000, 0x1000);
     assert_eq!(
         r.dac.last(),
@@ -895,7 +898,10 @@ fn dc_safety_service_without_output_events_comes_from_the_poll() {
     let mut run = |at: u64| task.run(&mut esc.driver(), &stage, at, poll, || false, |_| {});
     assert!(!run(now + 5_000).serve_mailbox, "left to the output event");
     let period = u64::from(SAFETY_SERVICE_MS) * 1_000_000;
-    assert!(run(now + period + 5_000).serve_mailbox, "overdue: the poll asks");
+    assert!(
+        run(now + period + 5_000).serve_mailbox,
+        "overdue: the poll asks"
+    );
 }
 
 /// In DC mode in OP the safety service (the PDI error counter and the mailbox registers)
@@ -916,9 +922,10 @@ fn dc_safety_service_is_the_mailbox_tasks() {
     } = r;
     let sm_reads = esc.sm_register_reads;
     let mut task = PdiTask::new(app);
-    let run = |task: &mut PdiTask<AnalogIo<AnalogFigures>>, esc: &mut FakeEsc, at: u64, wake: Wake| {
-        task.run(&mut esc.driver(), &stage, at, wake, || false, |_| {})
-    };
+    let run =
+        |task: &mut PdiTask<AnalogIo<AnalogFigures>>, esc: &mut FakeEsc, at: u64, wake: Wake| {
+            task.run(&mut esc.driver(), &stage, at, wake, || false, |_| {})
+        };
     let irq = Wake {
         edge: true,
         line_asserted: true,
@@ -950,7 +957,10 @@ fn dc_safety_service_is_the_mailbox_tasks() {
         steps += 1;
     }
     assert!(esc.sm_register_reads > sm_reads, "read by the mailbox task");
-    assert!(esc.reads - reads >= 2, "the PDI error counter and the registers");
+    assert!(
+        esc.reads - reads >= 2,
+        "the PDI error counter and the registers"
+    );
     assert!(steps >= 1, "one access per step");
     assert_eq!(esc.al_status(), (0x08, 0));
 }

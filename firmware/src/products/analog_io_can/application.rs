@@ -21,12 +21,12 @@ use super::can::{
 use crate::io::analog::outputs::OutputStage;
 use crate::io::analog::process_data::{MAX_IMAGE, RX_PDOS, TX_PDOS};
 use crate::io::analog::{AnalogApplication, AnalogIo};
+use crate::products::analog_io::sync::AnalogFigures;
 use crate::stacks::canopen::task::CanHost;
 use crate::stacks::canopen::window::CallKind;
 use crate::stacks::canopen::CanSide;
 use crate::stacks::diagnostics::Diagnostics;
 use crate::stacks::ethercat::mailbox::TRANSFER_BUFFER;
-use crate::products::analog_io::sync::AnalogFigures;
 use crate::stacks::ethercat::sync::SyncMonitor;
 use crate::stacks::ethercat::{Application, Effects, SlaveApp};
 use coe_core::canopen::node::CanApplication;

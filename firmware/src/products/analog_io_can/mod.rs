@@ -34,11 +34,11 @@ pub mod od;
 #[cfg(test)]
 mod tests;
 
-use coe_core::device::oversampling::Oversampling;
 use super::{analog_io, Budget, CanFacts, ImageBuild, Product};
 use crate::io::analog::AnalogIo;
 use crate::stacks::ethercat::AppConfig;
 pub use application::AnalogCan;
+use coe_core::device::oversampling::Oversampling;
 
 pub use identity::BOARD;
 

@@ -5,7 +5,9 @@ use super::can::{DEFAULT_NODE_ID as NODE, PROCESS_DATA_SOURCE_INDEX};
 use super::{application_with_node_id, AnalogCan, CONFIG};
 use crate::fake_esc::FakeEsc;
 use crate::io::analog::outputs::{DacPair, OutputStage, StageKind};
-use crate::stacks::canopen::task::{run, CanController, CanHost, CanInbox, CanOutcome, INBOX_FRAMES};
+use crate::stacks::canopen::task::{
+    run, CanController, CanHost, CanInbox, CanOutcome, INBOX_FRAMES,
+};
 use crate::stacks::canopen::window::CanWindow;
 use crate::stacks::ethercat::SlaveApp;
 use coe_core::canopen::CanFrame;

@@ -46,8 +46,13 @@ fn the_same_analog_objects_as_analog_io_under_its_own_identity() {
     assert!(PRODUCT.update.is_none());
     assert_eq!(CONFIG.bootstrap, None);
     assert_eq!(CONFIG.sm, analog_io::CONFIG.sm);
-    assert_ne!(IDENTITY.product_code, analog_io::identity::IDENTITY.product_code);
-    for index in [0x6401u16, 0x6411, 0x1600, 0x1A00, 0x1C12, 0x1C13, 0x1C32, 0x1C33] {
+    assert_ne!(
+        IDENTITY.product_code,
+        analog_io::identity::IDENTITY.product_code
+    );
+    for index in [
+        0x6401u16, 0x6411, 0x1600, 0x1A00, 0x1C12, 0x1C13, 0x1C32, 0x1C33,
+    ] {
         assert!(DEVICE.od.find(index).is_some(), "{index:#06x}");
     }
     // Oversampling is analog-io's alone.
