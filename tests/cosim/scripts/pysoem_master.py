@@ -22,6 +22,10 @@ Python thread woke up to 2.4 ms late on the project's 2-core machine under load 
 wake-ups later than 0.5 ms): the default cycle of 4 ms keeps the frames half a cycle, 2 ms,
 ahead of SYNC0. Emergencies the module sends are reported as steps, not raised.
 
+With `--slowdown N` the board's clock runs N times slower than the wall clock (`cargo xtask
+sim --iface ... --slowdown N`): the master's cycle and its waits on the module's time are N
+times as long, SOEM's own timeouts are not.
+
 One JSON object per line on stdout: {"step": ..., ...}; the last line is {"step": "done",
 "ok": true|false}. The exit code is 0 only when every step worked.
 """
@@ -46,6 +50,9 @@ SILENCE_S = 0.5
 SM_WATCHDOG = 0x001B
 # SOEM's state timeout (EC_TIMEOUTSTATE).
 STATE_US = pysoem.settings.timeouts.state
+# The board's clock this many times slower than the wall clock (`--slowdown`): the master's
+# cycle and its waits on the module's time are as many times as long.
+SLOWDOWN = 1
 
 
 def say(**kv):
@@ -236,7 +243,7 @@ def sdo_info(slave):
 def go_op(master, slave):
     """SAFE-OP with the cycle running, then OP."""
     ok = wait_state(master, slave, pysoem.SAFEOP_STATE)
-    time.sleep(SAFE_OP_S)
+    time.sleep(SAFE_OP_S * SLOWDOWN)
     return ok and wait_state(master, slave, pysoem.OP_STATE)
 
 
@@ -247,11 +254,11 @@ def run_op(master, slave, cycles, cycle_ns, monitor=True):
         master.read_state()
         say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
         return False
-    cyclic = Cyclic(master, slave, cycle_ns, True)
+    cyclic = Cyclic(master, slave, cycle_ns, True, SLOWDOWN)
     cyclic.start()
     try:
         say(step="safeop", ok=True, sync_mode=u16(slave, 0x1C32, 1))
-        time.sleep(SAFE_OP_S)
+        time.sleep(SAFE_OP_S * SLOWDOWN)
         in_op = wait_state(master, slave, pysoem.OP_STATE)
         say(step="op", ok=in_op, state=slave.state, al_status_code=slave.al_status)
         if not in_op:
@@ -266,10 +273,13 @@ def run_op(master, slave, cycles, cycle_ns, monitor=True):
             # prime to 0x7FFF), so each DAC code names the exchange that brought it.
             with cyclic.lock:
                 cyclic.outputs = ((i * 97) % 0x7FFF, 0x7FFF - (i * 89) % 0x7FFF)
-            time.sleep(cyclic.cycle_ns / 4e9)
+            time.sleep(cyclic.wall_cycle_ns / 4e9)
             done, good, late, ai = cyclic.figures()
         with cyclic.lock:
             cyclic.recording = False
+        # The last pair taken goes out at the next SYNC0 edge: the cycle keeps sending it
+        # until then, before anything here may take the module out of OP.
+        time.sleep(2 * cyclic.wall_cycle_ns / 1e9)
         master.read_state()
         say(
             step="process_data",
@@ -307,7 +317,7 @@ def watchdog(master, slave, cycle_ns):
     """The SM watchdog in SM-synchronous mode (in DC mode the cycle monitor would see the
     silence first, 0x001A): OP, then no more frames."""
     slave.dc_sync(False, cycle_ns)
-    cyclic = Cyclic(master, slave, cycle_ns, False)
+    cyclic = Cyclic(master, slave, cycle_ns, False, SLOWDOWN)
     cyclic.start()
     try:
         ok = go_op(master, slave)
@@ -315,7 +325,7 @@ def watchdog(master, slave, cycle_ns):
     finally:
         cyclic.stop()
     silent_from = time.monotonic()
-    time.sleep(SILENCE_S)
+    time.sleep(SILENCE_S * SLOWDOWN)
     master.read_state()
     state, code = slave.state, slave.al_status
     tripped = state == pysoem.SAFEOP_STATE + pysoem.STATE_ERROR and code == SM_WATCHDOG
@@ -350,7 +360,16 @@ def main():
         help="only PRE-OP, SDO, DC, OP with the exchanges and INIT: for a slave without the "
         "module's cycle monitor objects (0x1C32:0B..0x20), such as a SOES peer",
     )
+    parser.add_argument(
+        "--slowdown",
+        type=int,
+        default=1,
+        help="the board's clock this many times slower than the wall clock "
+        "(`cargo xtask sim --slowdown N`)",
+    )
     args = parser.parse_args()
+    global SLOWDOWN
+    SLOWDOWN = args.slowdown
     iface, cycles, cycle_ns = args.iface, args.cycles, args.cycle_us * 1000
     say(step="master", realtime=realtime(), timeout_us=pysoem.settings.timeouts.ret)
     master = pysoem.Master()
