@@ -163,11 +163,12 @@ class Cyclic(threading.Thread):
         return outputs
 
     def on_exchange(self, outputs, answered, late_beside):
-        """After each exchange: an answered one's outputs recorded."""
-        if answered:
-            self.record(outputs, late_beside)
+        """After each exchange: its outputs recorded. An unanswered exchange's frame may
+        still have passed the module (its answer came after SOEM's receive timeout), so its
+        pair may reach the DAC, or rightly never."""
+        self.record(outputs, late_beside or not answered, answered)
 
-    def record(self, outputs, may_be_replaced):
+    def record(self, outputs, may_be_replaced, answered):
         with self.lock:
             if not self.recording:
                 return
@@ -175,6 +176,8 @@ class Cyclic(threading.Thread):
                 self.taken[-1][2] = self.taken[-1][2] and may_be_replaced
             else:
                 self.taken.append([*outputs, may_be_replaced])
+            if not answered:
+                return
             if self.ai_min is None:
                 self.ai_min, self.ai_max = list(self.inputs), list(self.inputs)
             self.ai_min = [min(a, b) for a, b in zip(self.ai_min, self.inputs)]

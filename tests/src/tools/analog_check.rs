@@ -61,14 +61,14 @@ pub fn check_inputs(levels: &[f64; 8], values: &[i16]) -> Result<(), String> {
     Ok(())
 }
 
-/// One output pair as the slave took it (a process-data exchange with the expected working
-/// counter).
+/// One output pair the master sent in OP, in the order sent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OutputsTaken {
     /// 0x6411:01 and 0x6411:02.
     pub values: [i16; 2],
     /// The slave may rightly never have put it out: the next frame may have replaced it
-    /// before the module's output event (the master's late cycle beside it).
+    /// before the module's output event (the master's late cycle beside it), or its frame
+    /// never passed the module (no answer with the expected working counter).
     pub may_be_replaced: bool,
 }
 
