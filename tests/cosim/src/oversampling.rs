@@ -169,13 +169,25 @@ pub trait OutputMaster {
     /// block plays from (the first edge after the frame), once the master knows the DC
     /// time (from the second frame in OP on).
     fn fill(&mut self, i: u64, plays_from_dc: Option<u64>, out: &mut [u8]);
+    /// Whether the frame of cycle `i` goes out at all (a master that misses a cycle).
+    fn sends(&self, i: u64) -> bool {
+        let _ = i;
+        true
+    }
 }
 
 /// The test pattern: [`update_pair`] for every update, whatever came in.
-struct ClimbingCodes;
+#[derive(Debug, Clone, Default)]
+pub struct ClimbingCodes {
+    /// Cycles whose frame the master leaves out.
+    pub skipped: Vec<u64>,
+}
 
 impl OutputMaster for ClimbingCodes {
     fn received(&mut self, _: &Block) {}
+    fn sends(&self, i: u64) -> bool {
+        !self.skipped.contains(&i)
+    }
     fn fill(&mut self, i: u64, _: Option<u64>, out: &mut [u8]) {
         let n = out.len() / 4;
         for (k, b) in out.chunks_exact_mut(4).enumerate() {
@@ -189,7 +201,7 @@ impl OutputMaster for ClimbingCodes {
 /// Runs the image with the block PDOs at `config`; the outputs (if any) climb by
 /// [`UPDATE_STEP`] per update.
 pub fn run(image: &Image, config: Config) -> Result<OsRun, String> {
-    run_with(image, config, &mut ClimbingCodes)
+    run_with(image, config, &mut ClimbingCodes::default())
 }
 
 /// [`run`] with the outputs `outputs` writes.
@@ -314,6 +326,12 @@ pub fn run_with(
                 start = board.borrow().now_ns();
             }
             let t0 = board.borrow().now_ns();
+            if !outputs.sends(i) {
+                // No frame: the board runs the cycle alone.
+                last_dc = last_dc.map(|dc| dc + cycle_ns);
+                step_to(&board, t0 + cycle_ns);
+                continue;
+            }
             if config.update_pdos > 0 {
                 let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
                 let mut out = sd.outputs_raw_mut();

@@ -398,9 +398,10 @@ impl<F: Figures> Application for AnalogIo<F> {
         Ok(())
     }
 
-    fn on_cycle_polled(&mut self, now_ns: u64, edge_lo: Option<u32>) {
+    fn on_cycle_polled(&mut self, stage: &OutputStage, now_ns: u64, edge_lo: Option<u32>) {
         if let Some(lo) = edge_lo.filter(|_| oversampling::BUILT) {
             self.stream.on_edge(now_ns, lo);
+            self.stream.on_output_holds(stage.output_holds());
         }
     }
 

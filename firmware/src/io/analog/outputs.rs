@@ -235,6 +235,15 @@ impl OutputStage {
         self.without_outputs.load(Ordering::Relaxed)
     }
 
+    /// Output oversampling: the cycles whose outputs held because their update block came
+    /// late or never ([`UpdateRing::underruns`]; 0 in a build without it).
+    pub fn output_holds(&self) -> u32 {
+        #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+        return self.blocks.underruns();
+        #[cfg(not(any(feature = "analog-io", not(target_os = "none"))))]
+        0
+    }
+
     /// PDI side: SYNC0 edges latch the outputs only in DC mode (set at PREOP -> SAFEOP).
     pub fn set_dc_mode(&self, dc: bool) {
         // Leaving SAFEOP for PREOP/INIT: the LDAC grid stops with the blocks.

@@ -58,6 +58,8 @@ impl NoStream {
     pub fn set_dc_reference(&mut self, _: u32, _: u64, _: Option<u32>) {}
     /// Ignored.
     pub fn on_edge(&mut self, _: u64, _: u32) {}
+    /// Ignored.
+    pub fn on_output_holds(&mut self, _: u32) {}
     /// Nothing to write (no oversampling PDO can be assigned).
     pub fn write(&self, _: &mut [u8]) {}
 }
@@ -97,6 +99,10 @@ pub const MAX_BYTES: usize = STATUS_BYTES + TIME_BYTES + 2 * MAX_SLOTS;
 pub const STATUS_OVERRUN: u8 = 1 << 0;
 /// Status bit 1: the block's DC time is not known (no DC reference yet).
 pub const STATUS_NOT_LOCKED: u8 = 1 << 1;
+/// Status bit 2: the outputs held since the previous block: the update block for this
+/// block's SYNC0 edge (or one before it) came too late or never, so the update interrupt
+/// played no new value that cycle (output oversampling only).
+pub const STATUS_OUTPUTS_HELD: u8 = 1 << 2;
 
 /// Scan length in ns.
 const SCAN_NS: u64 = CHANNELS as u64 * PERIOD_NS as u64;
@@ -275,6 +281,8 @@ pub struct SampleStream {
     /// The stream's first word (scan counter 0).
     first: u32,
     block: Block,
+    /// The output holds counted at the last cut (`None`: none cut yet).
+    holds: Option<u32>,
 }
 
 impl SampleStream {
@@ -297,6 +305,7 @@ impl SampleStream {
                 status: 0,
                 time_dc: 0,
             },
+            holds: None,
         }
     }
 
@@ -454,6 +463,16 @@ impl SampleStream {
             time_dc,
         };
         self.next = Some(end);
+    }
+
+    /// After [`Self::on_edge`]: `holds` is the count of cycles whose outputs held
+    /// ([`super::outputs::OutputStage::output_holds`]) at the cut; a change since the
+    /// previous cut sets [`STATUS_OUTPUTS_HELD`] in the block. The stream's first cut only
+    /// takes the count.
+    pub fn on_output_holds(&mut self, holds: u32) {
+        if self.holds.replace(holds).is_some_and(|h| h != holds) {
+            self.block.status |= STATUS_OUTPUTS_HELD;
+        }
     }
 
     /// Writes the oversampling part of the image (`out`, [`InputBlocks::byte_len`] bytes):

@@ -264,7 +264,7 @@ impl Application for AnalogCan {
         self.can.on_output_event(now_ns);
     }
 
-    fn on_cycle_polled(&mut self, now_ns: u64, edge_lo: Option<u32>) {
+    fn on_cycle_polled(&mut self, _: &Self::Stage, now_ns: u64, edge_lo: Option<u32>) {
         self.can.on_cycle_polled(now_ns, edge_lo);
     }
 

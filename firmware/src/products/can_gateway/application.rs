@@ -756,7 +756,7 @@ impl Application for Gateway {
     }
 
     /// DC: the CAN cycle starts at the SYNC0 edge.
-    fn on_cycle_polled(&mut self, now_ns: u64, edge_lo: Option<u32>) {
+    fn on_cycle_polled(&mut self, _: &Self::Stage, now_ns: u64, edge_lo: Option<u32>) {
         if edge_lo.is_some() && self.sync.mode() == SyncMode::DcSync0 {
             self.master.cycle_event(us(now_ns));
         }

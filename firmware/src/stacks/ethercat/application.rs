@@ -165,10 +165,11 @@ pub trait Application {
     }
 
     /// The background poll ran at `now_ns`, for the SYNC0 edge captured at `edge_lo` (the
-    /// low 32 bits of its time) or, `None`, for no new edge.
+    /// low 32 bits of its time) or, `None`, for no new edge; `stage` is the hand-over to the
+    /// SYNC0 task, as it was at that edge.
     #[inline(always)]
-    fn on_cycle_polled(&mut self, now_ns: u64, edge_lo: Option<u32>) {
-        let _ = (now_ns, edge_lo);
+    fn on_cycle_polled(&mut self, stage: &Self::Stage, now_ns: u64, edge_lo: Option<u32>) {
+        let _ = (stage, now_ns, edge_lo);
     }
 
     /// An Emergency the slave application sends (already in the error history): for

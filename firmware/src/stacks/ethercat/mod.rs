@@ -268,7 +268,7 @@ impl<A: Application> SlaveApp<A> {
         let new_edge = counts.edges != self.sync0_seen;
         self.sync0_seen = counts.edges;
         self.app
-            .on_cycle_polled(now_ns, new_edge.then_some(counts.last_edge_lo));
+            .on_cycle_polled(stage, now_ns, new_edge.then_some(counts.last_edge_lo));
         if self.app.sync_mut().on_sync0_counts(counts) == SyncVerdict::SyncError {
             self.sync_error(esc, stage, AlStatusCode::SynchronizationError, &mut out)?;
         }

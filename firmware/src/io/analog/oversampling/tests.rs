@@ -263,6 +263,37 @@ fn an_edge_captured_after_the_callers_time_starts_the_stream_at_counter_0() {
 }
 
 #[test]
+fn a_cycle_whose_outputs_held_flags_the_next_block_alone() {
+    let mut s = SampleStream::new();
+    let cycle = 500_000;
+    s.restart(blocks(4));
+    s.set_dc_reference(cycle as u32, FIRST_EDGE + DC_OFFSET, None);
+    s.set_word0(WORD0);
+    // The update interrupt's count of held cycles at each cut: 7 already at the stream's
+    // start (an earlier stream's), one more before edge 3, two more before edge 5.
+    let holds = [7, 7, 7, 8, 8, 10, 10];
+    let mut status = Vec::new();
+    for (c, held) in (0u64..).zip(holds) {
+        let edge = FIRST_EDGE + c * cycle;
+        let now = edge + POLL_DELAY;
+        s.set_written(written_at(now));
+        s.on_edge(now, edge as u32);
+        s.on_output_holds(held);
+        status.push(s.block().status);
+    }
+    let h = STATUS_OUTPUTS_HELD;
+    assert_eq!(status, [0, 0, 0, h, 0, h, 0]);
+    // A new stream starts from the count it finds.
+    s.restart(blocks(4));
+    s.on_edge(
+        FIRST_EDGE + 9 * cycle + POLL_DELAY,
+        (FIRST_EDGE + 9 * cycle) as u32,
+    );
+    s.on_output_holds(11);
+    assert_eq!(s.block().status & h, 0);
+}
+
+#[test]
 fn no_stream_without_oversampling_pdos_or_adc() {
     let mut s = SampleStream::new();
     s.set_word0(WORD0);
