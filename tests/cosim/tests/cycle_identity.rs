@@ -130,19 +130,19 @@ fn the_lpc1754_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
-            image: 902_464_686_783_759_582,
-            cycles: 10_687_891,
-            instructions: 4_509_128,
-            sleep_cycles: 5_017_247,
-            time_ns: 108_085_516,
-            esc_bytes: 27_843,
+            image: 4_188_261_436_876_190_755,
+            cycles: 10_687_905,
+            instructions: 4_514_518,
+            sleep_cycles: 5_010_388,
+            time_ns: 108_085_656,
+            esc_bytes: 27_835,
             fsmc_cycles: 0,
             dac_frames: 649,
             ldac_pulses: 322,
-            adc_conversions: 24_416,
+            adc_conversions: 24_413,
             sync0_captures: 326,
             samples_read: 24_376,
-            dac_trace: 7_617_277_398_250_384_185,
+            dac_trace: 2_814_931_944_645_700_883,
         }
     );
 }
@@ -206,22 +206,22 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
         (figures(&image, &r.after, trace), r.blocks.len(), blocks),
         (
             Figures {
-                image: 902_464_686_783_759_582,
+                image: 4_188_261_436_876_190_755,
                 cycles: 15_574_324,
-                instructions: 8_531_630,
-                sleep_cycles: 4_857_695,
+                instructions: 8_534_369,
+                sleep_cycles: 4_854_427,
                 time_ns: 156_949_846,
-                esc_bytes: 76_033,
+                esc_bytes: 76_019,
                 fsmc_cycles: 0,
                 dac_frames: 2_725,
                 ldac_pulses: 1_379,
-                adc_conversions: 36_632,
+                adc_conversions: 36_629,
                 sync0_captures: 71,
-                samples_read: 36_560,
+                samples_read: 36_552,
                 dac_trace: 2_446_500_947_638_559_095,
             },
             50,
-            8_961_908_674_323_433_283
+            4_147_044_467_525_012_877
         )
     );
 }
