@@ -56,6 +56,10 @@ pub struct AnalogIo<F> {
     /// it, so the others keep their layout).
     #[cfg(any(feature = "analog-io", not(target_os = "none")))]
     block_grid: Grid,
+    /// Output oversampling: the last update block's counter (0x7010:01, `None`: none since
+    /// PREOP -> SAFEOP or no 0x1610 assigned).
+    #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+    block_counter: Option<u16>,
     ao_written: Option<[i16; AO_CHANNELS]>,
 }
 
@@ -72,6 +76,8 @@ impl<F: Figures> AnalogIo<F> {
             stream: Stream::new(),
             #[cfg(any(feature = "analog-io", not(target_os = "none")))]
             block_grid: Grid::OFF,
+            #[cfg(any(feature = "analog-io", not(target_os = "none")))]
+            block_counter: None,
             ao_written: None,
         }
     }
@@ -140,6 +146,14 @@ impl<F: Figures> AnalogIo<F> {
     fn publish_block(&mut self, stage: &OutputStage) {
         if stage.block_grid() != self.block_grid {
             stage.set_block_grid(self.block_grid);
+        }
+        // A block counter equal to the last block's is the same block sent again (the
+        // master's task did not run): refused, the outputs hold rather than repeat it.
+        if let Some(counter) = self.pd.output_block_counter() {
+            if self.block_counter.replace(counter) == Some(counter) {
+                self.stream.on_output_refused();
+                return;
+            }
         }
         let mut pairs = [DacPair::default(); MAX_UPDATES];
         let n = output_blocks::decode(self.pd.output_updates(), &mut pairs);
@@ -390,6 +404,7 @@ impl<F: Figures> Application for AnalogIo<F> {
             let updates = *self.pd.output_blocks_in_effect();
             self.block_grid =
                 output_blocks::admit(&updates, inputs, outputs, cycle)?.unwrap_or(Grid::OFF);
+            self.block_counter = None;
         }
         if let Some(d) = dc {
             self.stream
@@ -398,10 +413,13 @@ impl<F: Figures> Application for AnalogIo<F> {
         Ok(())
     }
 
+    fn on_outputs_refused(&mut self) {
+        self.stream.on_output_refused();
+    }
+
     fn on_cycle_polled(&mut self, stage: &OutputStage, now_ns: u64, edge_lo: Option<u32>) {
         if let Some(lo) = edge_lo.filter(|_| oversampling::BUILT) {
-            self.stream.on_edge(now_ns, lo);
-            self.stream.on_output_holds(stage.output_holds());
+            self.stream.on_edge(now_ns, lo, stage.output_holds());
         }
     }
 

@@ -57,9 +57,9 @@ impl NoStream {
     /// Ignored.
     pub fn set_dc_reference(&mut self, _: u32, _: u64, _: Option<u32>) {}
     /// Ignored.
-    pub fn on_edge(&mut self, _: u64, _: u32) {}
+    pub fn on_edge(&mut self, _: u64, _: u32, _: u32) {}
     /// Ignored.
-    pub fn on_output_holds(&mut self, _: u32) {}
+    pub fn on_output_refused(&mut self) {}
     /// Nothing to write (no oversampling PDO can be assigned).
     pub fn write(&self, _: &mut [u8]) {}
 }
@@ -103,6 +103,10 @@ pub const STATUS_NOT_LOCKED: u8 = 1 << 1;
 /// block's SYNC0 edge (or one before it) came too late or never, so the update interrupt
 /// played no new value that cycle (output oversampling only).
 pub const STATUS_OUTPUTS_HELD: u8 = 1 << 2;
+/// Status bit 3: the module refused an update block since the previous block (no two of
+/// its reads agreed, or its block counter 0x7010:01 repeated the previous block's); that
+/// cycle's outputs held (bit 2 too).
+pub const STATUS_OUTPUTS_REFUSED: u8 = 1 << 3;
 
 /// Scan length in ns.
 const SCAN_NS: u64 = CHANNELS as u64 * PERIOD_NS as u64;
@@ -283,6 +287,8 @@ pub struct SampleStream {
     block: Block,
     /// The output holds counted at the last cut (`None`: none cut yet).
     holds: Option<u32>,
+    /// An update block was refused since the last cut.
+    refused: bool,
 }
 
 impl SampleStream {
@@ -306,6 +312,7 @@ impl SampleStream {
                 time_dc: 0,
             },
             holds: None,
+            refused: false,
         }
     }
 
@@ -393,15 +400,17 @@ impl SampleStream {
     }
 
     /// Cuts the block of the SYNC0 edge captured at `edge_lo` (low 32 bits of its MCU time
-    /// in ns), seen at MCU time `now_ns`. The first edge of a stream starts it (an empty
-    /// block, scan counter 0 next).
-    pub fn on_edge(&mut self, now_ns: u64, edge_lo: u32) {
+    /// in ns), seen at MCU time `now_ns`, with the output side's news since the previous
+    /// cut (`output_holds`: [`Self::output_status`]). The first edge of a stream starts it
+    /// (an empty block, scan counter 0 next).
+    pub fn on_edge(&mut self, now_ns: u64, edge_lo: u32, output_holds: u32) {
         if !self.blocks.any() {
             return;
         }
         let Some(word0) = self.word0_ns else {
             return;
         };
+        let outputs = self.output_status(output_holds);
         // Signed: the SYNC0 task may have captured the edge after the caller read `now_ns`
         // (it preempts the PDI task in between).
         let behind = (now_ns as u32).wrapping_sub(edge_lo) as i32;
@@ -419,16 +428,17 @@ impl SampleStream {
                 counter: 0,
                 start: end,
                 words: 0,
-                status: if edge_dc.is_some() {
-                    0
-                } else {
-                    STATUS_NOT_LOCKED
-                },
+                status: outputs
+                    | if edge_dc.is_some() {
+                        0
+                    } else {
+                        STATUS_NOT_LOCKED
+                    },
                 time_dc: 0,
             };
             return;
         };
-        let mut status = 0;
+        let mut status = outputs;
         if end.wrapping_sub(start) as i32 <= 0 {
             end = start;
         }
@@ -465,14 +475,25 @@ impl SampleStream {
         self.next = Some(end);
     }
 
-    /// After [`Self::on_edge`]: `holds` is the count of cycles whose outputs held
-    /// ([`super::outputs::OutputStage::output_holds`]) at the cut; a change since the
-    /// previous cut sets [`STATUS_OUTPUTS_HELD`] in the block. The stream's first cut only
-    /// takes the count.
-    pub fn on_output_holds(&mut self, holds: u32) {
+    /// The output side's status bits of the block cut now: `holds` is the count of cycles
+    /// whose outputs held ([`super::outputs::OutputStage::output_holds`]); a change since
+    /// the previous cut is [`STATUS_OUTPUTS_HELD`], an update block refused since then
+    /// [`STATUS_OUTPUTS_REFUSED`]. The stream's first cut only takes the count.
+    fn output_status(&mut self, holds: u32) -> u8 {
+        let mut status = 0;
         if self.holds.replace(holds).is_some_and(|h| h != holds) {
-            self.block.status |= STATUS_OUTPUTS_HELD;
+            status |= STATUS_OUTPUTS_HELD;
         }
+        if core::mem::take(&mut self.refused) {
+            status |= STATUS_OUTPUTS_REFUSED;
+        }
+        status
+    }
+
+    /// An update block was refused (its reads disagreed or its counter repeated): the next
+    /// cut's block says so.
+    pub fn on_output_refused(&mut self) {
+        self.refused = true;
     }
 
     /// Writes the oversampling part of the image (`out`, [`InputBlocks::byte_len`] bytes):

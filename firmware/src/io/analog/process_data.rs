@@ -689,6 +689,18 @@ impl ProcessData {
         self.outputs.get_mut(..n).unwrap_or(&mut [])
     }
 
+    /// The block counter in the output image (0x7010:01), if 0x1610 is assigned.
+    pub fn output_block_counter(&self) -> Option<u16> {
+        if !self.output_blocks_in_effect().counter {
+            return None;
+        }
+        let at = self.rx_layout.byte_len().min(MAX_IMAGE);
+        match self.outputs.get(at..at + output_blocks::COUNTER_BYTES) {
+            Some(&[lo, hi]) => Some(u16::from_le_bytes([lo, hi])),
+            _ => None,
+        }
+    }
+
     /// The update part of the output image (after the plain PDOs and the block counter).
     pub fn output_updates(&self) -> &[u8] {
         let b = self.output_blocks_in_effect();

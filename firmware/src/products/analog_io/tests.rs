@@ -1161,3 +1161,4 @@ fn al_status_is_read_back_and_al_control_confirmed() {
 }
 
 mod op_modes;
+mod output_blocks;

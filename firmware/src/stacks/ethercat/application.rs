@@ -157,6 +157,11 @@ pub trait Application {
     /// The input image of the cycle for SM3 (the newest inputs published), `None` if none.
     fn input_image(&mut self) -> Option<&[u8]>;
 
+    /// The outputs of an EtherCAT cycle were refused: no two of their reads agreed (the
+    /// cycle's outputs are not taken). Not on the usual path.
+    #[inline(always)]
+    fn on_outputs_refused(&mut self) {}
+
     /// The outputs of an EtherCAT cycle (SM2 event) were served at `now_ns`. On the SM2
     /// path: keep it short.
     #[inline(always)]

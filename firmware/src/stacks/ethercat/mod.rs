@@ -709,6 +709,7 @@ impl<A: Application> SlaveApp<A> {
                 Confirmed::Unstable => {
                     // Dropped: in DC mode the SYNC0 edge counts a missed SM event.
                     self.rejected_reads = self.rejected_reads.wrapping_add(1);
+                    self.app.on_outputs_refused();
                     return Ok(());
                 }
             }

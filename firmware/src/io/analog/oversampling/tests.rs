@@ -123,7 +123,7 @@ fn run(stream: &mut SampleStream, cycle_ns: u64, cycles: u64, skip: &[u64]) -> V
         let edge = FIRST_EDGE + c * cycle_ns;
         let now = edge + POLL_DELAY;
         stream.set_written(written_at(now));
-        stream.on_edge(now, edge as u32);
+        stream.on_edge(now, edge as u32, 0);
         if c > 0 {
             out.push(*stream.block());
         }
@@ -255,7 +255,7 @@ fn an_edge_captured_after_the_callers_time_starts_the_stream_at_counter_0() {
             edge + POLL_DELAY
         };
         s.set_written(written_at(now));
-        s.on_edge(now, edge as u32);
+        s.on_edge(now, edge as u32, 0);
     }
     let b = *s.block();
     assert_eq!(b.status, 0, "no overrun: {b:?}");
@@ -263,33 +263,34 @@ fn an_edge_captured_after_the_callers_time_starts_the_stream_at_counter_0() {
 }
 
 #[test]
-fn a_cycle_whose_outputs_held_flags_the_next_block_alone() {
+fn a_cycle_whose_outputs_held_or_were_refused_flags_the_next_block_alone() {
     let mut s = SampleStream::new();
     let cycle = 500_000;
     s.restart(blocks(4));
     s.set_dc_reference(cycle as u32, FIRST_EDGE + DC_OFFSET, None);
     s.set_word0(WORD0);
     // The update interrupt's count of held cycles at each cut: 7 already at the stream's
-    // start (an earlier stream's), one more before edge 3, two more before edge 5.
-    let holds = [7, 7, 7, 8, 8, 10, 10];
+    // start (an earlier stream's), one more before edge 3, two more before edge 5; a block
+    // refused before edge 5 and one before edge 6.
+    let holds = [7, 7, 7, 8, 8, 10, 10, 10];
+    let refused_before = [5, 6];
     let mut status = Vec::new();
     for (c, held) in (0u64..).zip(holds) {
+        if refused_before.contains(&c) {
+            s.on_output_refused();
+        }
         let edge = FIRST_EDGE + c * cycle;
         let now = edge + POLL_DELAY;
         s.set_written(written_at(now));
-        s.on_edge(now, edge as u32);
-        s.on_output_holds(held);
+        s.on_edge(now, edge as u32, held);
         status.push(s.block().status);
     }
-    let h = STATUS_OUTPUTS_HELD;
-    assert_eq!(status, [0, 0, 0, h, 0, h, 0]);
+    let (h, r) = (STATUS_OUTPUTS_HELD, STATUS_OUTPUTS_REFUSED);
+    assert_eq!(status, [0, 0, 0, h, 0, h | r, r, 0]);
     // A new stream starts from the count it finds.
     s.restart(blocks(4));
-    s.on_edge(
-        FIRST_EDGE + 9 * cycle + POLL_DELAY,
-        (FIRST_EDGE + 9 * cycle) as u32,
-    );
-    s.on_output_holds(11);
+    let edge = FIRST_EDGE + 9 * cycle;
+    s.on_edge(edge + POLL_DELAY, edge as u32, 11);
     assert_eq!(s.block().status & h, 0);
 }
 
@@ -297,11 +298,11 @@ fn a_cycle_whose_outputs_held_flags_the_next_block_alone() {
 fn no_stream_without_oversampling_pdos_or_adc() {
     let mut s = SampleStream::new();
     s.set_word0(WORD0);
-    s.on_edge(FIRST_EDGE, FIRST_EDGE as u32);
+    s.on_edge(FIRST_EDGE, FIRST_EDGE as u32, 0);
     assert_eq!(s.block(), &Block::default());
     let mut s = SampleStream::new();
     s.restart(blocks(1));
-    s.on_edge(FIRST_EDGE, FIRST_EDGE as u32);
+    s.on_edge(FIRST_EDGE, FIRST_EDGE as u32, 0);
     assert_eq!(s.block(), &Block::default());
 }
 
