@@ -130,19 +130,19 @@ fn the_lpc1754_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
-            image: 4_188_261_436_876_190_755,
-            cycles: 10_687_905,
-            instructions: 4_514_518,
-            sleep_cycles: 5_010_388,
-            time_ns: 108_085_656,
-            esc_bytes: 27_835,
+            image: 473_861_298_923_587_927,
+            cycles: 10_710_427,
+            instructions: 4_512_964,
+            sleep_cycles: 5_034_422,
+            time_ns: 108_310_626,
+            esc_bytes: 27_857,
             fsmc_cycles: 0,
             dac_frames: 649,
             ldac_pulses: 322,
-            adc_conversions: 24_413,
-            sync0_captures: 326,
-            samples_read: 24_376,
-            dac_trace: 2_814_931_944_645_700_883,
+            adc_conversions: 24_471,
+            sync0_captures: 327,
+            samples_read: 24_440,
+            dac_trace: 18_059_773_148_709_307_806,
         }
     );
 }
@@ -206,22 +206,22 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
         (figures(&image, &r.after, trace), r.blocks.len(), blocks),
         (
             Figures {
-                image: 4_188_261_436_876_190_755,
-                cycles: 15_574_324,
-                instructions: 8_534_369,
-                sleep_cycles: 4_854_427,
+                image: 473_861_298_923_587_927,
+                cycles: 15_574_349,
+                instructions: 8_534_556,
+                sleep_cycles: 4_853_895,
                 time_ns: 156_949_846,
-                esc_bytes: 76_019,
+                esc_bytes: 76_027,
                 fsmc_cycles: 0,
                 dac_frames: 2_725,
                 ldac_pulses: 1_379,
-                adc_conversions: 36_629,
+                adc_conversions: 36_631,
                 sync0_captures: 71,
                 samples_read: 36_552,
                 dac_trace: 2_446_500_947_638_559_095,
             },
             50,
-            4_147_044_467_525_012_877
+            5_318_238_944_196_836_329
         )
     );
 }
