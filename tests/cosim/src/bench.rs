@@ -244,6 +244,36 @@ pub fn al_status(board: &Board) -> (u16, u16) {
     )
 }
 
+/// Why a state change ethercrab asked for at `step` failed: its error and the ESC's AL
+/// status and code.
+pub fn refused(board: &Board, step: &str, e: ethercrab::error::Error) -> String {
+    let (status, code) = al_status(board);
+    format!("{step} refused: {e} (AL status {status:#06x}, AL status code {code:#06x})")
+}
+
+/// Writes `pdos` into the PDO assignment object `index` (0x1C12, 0x1C13) over SDO, as a
+/// master does it: sub 0 = 0, the entries, sub 0 = their count.
+pub async fn assign_pdos<S>(
+    sd: &ethercrab::SubDeviceRef<'_, S>,
+    index: u16,
+    pdos: &[u16],
+) -> Result<(), String>
+where
+    S: std::ops::Deref<Target = ethercrab::SubDevice>,
+{
+    sd.sdo_write(index, 0, 0u8)
+        .await
+        .map_err(|e| format!("{index:#06x}:00 = 0: {e}"))?;
+    for (sub, pdo) in (1u8..).zip(pdos) {
+        sd.sdo_write(index, sub, *pdo)
+            .await
+            .map_err(|e| format!("{index:#06x}:{sub} = {pdo:#06x}: {e}"))?;
+    }
+    sd.sdo_write(index, 0, pdos.len() as u8)
+        .await
+        .map_err(|e| format!("{index:#06x}:00 = {}: {e}", pdos.len()))
+}
+
 /// The output pair of cycle `i`: both channels change every cycle, within 0..=0x7FFF (0..10 V).
 fn pair(i: u64) -> (i16, i16) {
     (
@@ -473,14 +503,10 @@ pub fn dc_run_traffic(
             )
             .await
             .map_err(|e| format!("DC: {e}"))?;
-        let refused = |step: &str, e: ethercrab::error::Error| {
-            let (status, code) = al_status(&board);
-            format!("{step} refused: {e} (AL status {status:#06x}, AL status code {code:#06x})")
-        };
         let group = group
             .into_safe_op(&md)
             .await
-            .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
+            .map_err(|e| refused(&board, "PRE-OP -> SAFE-OP", e))?;
         if checked_ns != cycle_ns {
             let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
             restart_sync0(&sd, cycle_ns)
@@ -493,7 +519,7 @@ pub fn dc_run_traffic(
         let group = group
             .into_op(&md)
             .await
-            .map_err(|e| refused("SAFE-OP -> OP", e))?;
+            .map_err(|e| refused(&board, "SAFE-OP -> OP", e))?;
         phases.enter(board.borrow().now_ns(), "OP with process data");
         let sdo = async {
             if !traffic.mailbox_in_op {

@@ -6,7 +6,9 @@
 
 pub mod loopback;
 
-use crate::bench::{al_status, master, step_to, sync0_started, Board, Storage};
+use crate::bench::{
+    al_status, assign_pdos, master, refused, step_to, sync0_started, Board, Storage,
+};
 use crate::cosim::{Facts, Options};
 use crate::image::Image;
 use crate::run::image_target;
@@ -252,17 +254,7 @@ pub fn run_with(
         pdos.extend((0..u16::from(config.sample_pdos)).map(|b| SAMPLE_PDO + b));
         {
             let sd = group.subdevice(&md, 0).map_err(|e| e.to_string())?;
-            sd.sdo_write(0x1C13, 0, 0u8)
-                .await
-                .map_err(|e| format!("0x1C13:00 = 0: {e}"))?;
-            for (sub, pdo) in (1u8..).zip(&pdos) {
-                sd.sdo_write(0x1C13, sub, *pdo)
-                    .await
-                    .map_err(|e| format!("0x1C13:{sub} = {pdo:#06x}: {e}"))?;
-            }
-            sd.sdo_write(0x1C13, 0, pdos.len() as u8)
-                .await
-                .map_err(|e| format!("0x1C13:00 = {}: {e}", pdos.len()))?;
+            assign_pdos(&sd, 0x1C13, &pdos).await?;
             input_calc_copy_ns = sd
                 .sdo_read::<u32>(0x1C33, 6)
                 .await
@@ -271,17 +263,7 @@ pub fn run_with(
                 let rx: Vec<u16> = (0..u16::from(config.update_pdos))
                     .map(|u| UPDATE_PDO + u)
                     .collect();
-                sd.sdo_write(0x1C12, 0, 0u8)
-                    .await
-                    .map_err(|e| format!("0x1C12:00 = 0: {e}"))?;
-                for (sub, pdo) in (1u8..).zip(&rx) {
-                    sd.sdo_write(0x1C12, sub, *pdo)
-                        .await
-                        .map_err(|e| format!("0x1C12:{sub} = {pdo:#06x}: {e}"))?;
-                }
-                sd.sdo_write(0x1C12, 0, rx.len() as u8)
-                    .await
-                    .map_err(|e| format!("0x1C12:00 = {}: {e}", rx.len()))?;
+                assign_pdos(&sd, 0x1C12, &rx).await?;
             }
         }
         let mut group = group;
@@ -305,20 +287,16 @@ pub fn run_with(
             )
             .await
             .map_err(|e| format!("DC: {e}"))?;
-        let refused = |step: &str, e: ethercrab::error::Error| {
-            let (status, code) = al_status(&board);
-            format!("{step} refused: {e} (AL status {status:#06x}, AL status code {code:#06x})")
-        };
         let group = group
             .into_safe_op(&md)
             .await
-            .map_err(|e| refused("PRE-OP -> SAFE-OP", e))?;
+            .map_err(|e| refused(&board, "PRE-OP -> SAFE-OP", e))?;
         sync0_started(&board);
         (sync0_origin, sync0_origin_dc) = next_sync0(&board);
         let group = group
             .into_op(&md)
             .await
-            .map_err(|e| refused("SAFE-OP -> OP", e))?;
+            .map_err(|e| refused(&board, "SAFE-OP -> OP", e))?;
         let mut last_dc: Option<u64> = None;
         for i in 0..WARM_UP_CYCLES + config.cycles {
             if i == WARM_UP_CYCLES {
