@@ -474,31 +474,26 @@ mod tests {
         let pd = super::super::process_data();
         assert_eq!(pd.output_len(), 4);
         assert_eq!(pd.input_len(), 16);
-        let mut blocks = 0;
-        for object in DEVICE.pdo_objects(PdoDirection::Tx) {
-            if let Some(bits) = InputBlocks::pdo_bits(object.index) {
-                let mapped: u32 = DEVICE
-                    .pdo_entries(object.index)
-                    .map(|e| u32::from(e.bit_len))
-                    .sum();
-                assert_eq!(mapped, bits, "{:#06x}", object.index);
-                assert!(!pd.owns(object.index));
-                blocks += 1;
+        // The oversampling PDOs of each direction: mapped as long as their code says, and
+        // not the plain process data's.
+        let block_pdos = |direction, bits: fn(u16) -> Option<u32>| {
+            let mut count = 0;
+            for object in DEVICE.pdo_objects(direction) {
+                if let Some(bits) = bits(object.index) {
+                    let mapped: u32 = DEVICE
+                        .pdo_entries(object.index)
+                        .map(|e| u32::from(e.bit_len))
+                        .sum();
+                    assert_eq!(mapped, bits, "{:#06x}", object.index);
+                    assert!(!pd.owns(object.index));
+                    count += 1;
+                }
             }
-        }
+            count
+        };
+        let blocks = block_pdos(PdoDirection::Tx, InputBlocks::pdo_bits);
         assert_eq!(blocks, 2 + crate::io::analog::oversampling::SAMPLE_PDOS);
-        let mut updates = 0;
-        for object in DEVICE.pdo_objects(PdoDirection::Rx) {
-            if let Some(bits) = OutputBlocks::pdo_bits(object.index) {
-                let mapped: u32 = DEVICE
-                    .pdo_entries(object.index)
-                    .map(|e| u32::from(e.bit_len))
-                    .sum();
-                assert_eq!(mapped, bits, "{:#06x}", object.index);
-                assert!(!pd.owns(object.index));
-                updates += 1;
-            }
-        }
+        let updates = block_pdos(PdoDirection::Rx, OutputBlocks::pdo_bits);
         assert_eq!(updates, 1 + crate::io::analog::output_blocks::UPDATE_PDOS);
         for object in DEVICE
             .pdo_objects(PdoDirection::Rx)
