@@ -11,12 +11,14 @@
 //! | [`dac_pair`]     | the codes of both outputs in one word                              |
 //! | [`sampler`]      | the samples between the ADC path and the process data              |
 //! | [`adc_dma`]      | the PDI task's side of the GPDMA ring of scans                     |
+//! | [`block_assignment`] | the order rule both oversampling assignments share            |
 //! | [`oversampling`] | input oversampling: the sample blocks cut from the ring at DC times |
 //! | [`output_blocks`] | output oversampling: update blocks, their admission, the hand-over to the update interrupt, the LDAC grid's lock |
 //! | [`scaling`]      | codes <-> process values <-> volts                                 |
 //! | [`settings`]     | the manufacturer settings object (AI filter)                        |
 
 pub mod adc_dma;
+pub mod block_assignment;
 pub mod dac;
 pub mod dac_pair;
 pub mod objects;

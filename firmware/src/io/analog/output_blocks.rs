@@ -22,6 +22,7 @@
 use coe_core::{AlStatusCode, SdoAbortCode};
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use super::block_assignment::BlockPdos;
 use super::dac_pair::DacPair;
 
 /// Whether output oversampling is in this build: in the images of the products that offer
@@ -83,6 +84,13 @@ impl OutputBlocks {
         update_pdos: 0,
     };
 
+    /// The oversampling PDOs of the outputs: 0x1610, then the update PDOs.
+    const PDOS: BlockPdos<'static> = BlockPdos {
+        leading: &[COUNTER_PDO],
+        first: UPDATE_PDO,
+        count: UPDATE_PDOS,
+    };
+
     /// Whether `pdo` is one of the output oversampling PDOs.
     pub const fn is_block_pdo(pdo: u16) -> bool {
         pdo == COUNTER_PDO || (pdo >= UPDATE_PDO && pdo < UPDATE_PDO + UPDATE_PDOS as u16)
@@ -104,26 +112,15 @@ impl OutputBlocks {
     /// the update PDOs from 0x1620 on, one by one, at least one of them when 0x1610 is
     /// there. Anything else is 0x06040043.
     pub fn split(pdos: &[u16]) -> Result<(usize, Self), SdoAbortCode> {
-        let plain = pdos
-            .iter()
-            .position(|p| Self::is_block_pdo(*p))
-            .unwrap_or(pdos.len());
-        let mut blocks = Self::NONE;
-        let mut rest = pdos.get(plain..).unwrap_or(&[]);
-        if let [COUNTER_PDO, tail @ ..] = rest {
-            blocks.counter = true;
-            rest = tail;
-        }
-        for (u, pdo) in rest.iter().enumerate() {
-            if u >= UPDATE_PDOS || *pdo != UPDATE_PDO + u as u16 {
-                return Err(SdoAbortCode::ParameterIncompatible);
-            }
-            blocks.update_pdos += 1;
-        }
+        let split = Self::PDOS.split(pdos)?;
+        let blocks = Self {
+            counter: split.has(0),
+            update_pdos: split.numbered,
+        };
         if blocks.counter && blocks.update_pdos == 0 {
             return Err(SdoAbortCode::ParameterIncompatible);
         }
-        Ok((plain, blocks))
+        Ok((split.plain, blocks))
     }
 
     /// Whether any update PDO is assigned.

@@ -19,6 +19,7 @@
 //! 100 ppm difference moves the phase by 0.1 us per ms, which the block time reports.
 
 use super::adc_dma::RING_WORDS;
+use super::block_assignment::BlockPdos;
 use crate::platform::board::AI_CHANNELS as CHANNELS;
 use crate::platform::chip::adc_dma::{PERIOD_TICKS, TICK_NS};
 use crate::platform::div::div_u64_u32;
@@ -133,6 +134,13 @@ impl InputBlocks {
         sample_pdos: 0,
     };
 
+    /// The oversampling PDOs of the inputs: 0x1A10, 0x1A11, then the sample PDOs.
+    const PDOS: BlockPdos<'static> = BlockPdos {
+        leading: &[STATUS_PDO, TIME_PDO],
+        first: SAMPLE_PDO,
+        count: SAMPLE_PDOS,
+    };
+
     /// Whether `pdo` is one of the oversampling PDOs.
     pub const fn is_block_pdo(pdo: u16) -> bool {
         pdo == STATUS_PDO
@@ -159,30 +167,16 @@ impl InputBlocks {
     /// other oversampling PDO, since without it a master cannot tell the valid samples.
     /// Anything else is 0x06040043.
     pub fn split(pdos: &[u16]) -> Result<(usize, Self), SdoAbortCode> {
-        let plain = pdos
-            .iter()
-            .position(|p| Self::is_block_pdo(*p))
-            .unwrap_or(pdos.len());
-        let mut blocks = Self::NONE;
-        let mut rest = pdos.get(plain..).unwrap_or(&[]);
-        if let [STATUS_PDO, tail @ ..] = rest {
-            blocks.status = true;
-            rest = tail;
-        }
-        if let [TIME_PDO, tail @ ..] = rest {
-            blocks.time = true;
-            rest = tail;
-        }
-        for (b, pdo) in rest.iter().enumerate() {
-            if b >= SAMPLE_PDOS || *pdo != SAMPLE_PDO + b as u16 {
-                return Err(SdoAbortCode::ParameterIncompatible);
-            }
-            blocks.sample_pdos += 1;
-        }
+        let split = Self::PDOS.split(pdos)?;
+        let blocks = Self {
+            status: split.has(0),
+            time: split.has(1),
+            sample_pdos: split.numbered,
+        };
         if (blocks.time || blocks.sample_pdos > 0) && !blocks.status {
             return Err(SdoAbortCode::ParameterIncompatible);
         }
-        Ok((plain, blocks))
+        Ok((split.plain, blocks))
     }
 
     /// Whether any oversampling PDO is assigned.

@@ -46,6 +46,13 @@ fn split_takes_the_counter_then_update_pdos_in_order() {
 }
 
 #[test]
+fn the_block_pdos_are_the_ones_the_split_knows() {
+    assert!(
+        (0x1600..0x1800).all(|p| OutputBlocks::is_block_pdo(p) == OutputBlocks::PDOS.contains(p))
+    );
+}
+
+#[test]
 fn pdo_lengths() {
     assert_eq!(OutputBlocks::pdo_bits(0x1610), Some(16));
     assert_eq!(OutputBlocks::pdo_bits(0x1620), Some(160));

@@ -50,6 +50,11 @@ fn assignment_split_and_order_rule() {
     assert_eq!(InputBlocks::pdo_bits(0x1A00), None);
 }
 
+#[test]
+fn the_block_pdos_are_the_ones_the_split_knows() {
+    assert!((0x1A00..0x1C00).all(|p| InputBlocks::is_block_pdo(p) == InputBlocks::PDOS.contains(p)));
+}
+
 fn blocks(sample_pdos: u8) -> InputBlocks {
     InputBlocks {
         status: true,
