@@ -130,19 +130,19 @@ fn the_lpc1754_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
-            image: 473_861_298_923_587_927,
-            cycles: 10_710_427,
-            instructions: 4_512_964,
-            sleep_cycles: 5_034_422,
-            time_ns: 108_310_626,
-            esc_bytes: 27_857,
+            image: 12_776_984_039_033_536_668,
+            cycles: 10_686_232,
+            instructions: 4_511_186,
+            sleep_cycles: 5_012_880,
+            time_ns: 108_068_926,
+            esc_bytes: 27_837,
             fsmc_cycles: 0,
             dac_frames: 649,
             ldac_pulses: 322,
-            adc_conversions: 24_471,
-            sync0_captures: 327,
-            samples_read: 24_440,
-            dac_trace: 18_059_773_148_709_307_806,
+            adc_conversions: 24_408,
+            sync0_captures: 326,
+            samples_read: 24_368,
+            dac_trace: 8_234_624_367_589_629_173,
         }
     );
 }
@@ -206,22 +206,22 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
         (figures(&image, &r.after, trace), r.blocks.len(), blocks),
         (
             Figures {
-                image: 473_861_298_923_587_927,
-                cycles: 15_574_349,
-                instructions: 8_534_556,
-                sleep_cycles: 4_853_895,
+                image: 12_776_984_039_033_536_668,
+                cycles: 15_574_324,
+                instructions: 8_534_470,
+                sleep_cycles: 4_853_497,
                 time_ns: 156_949_846,
-                esc_bytes: 76_027,
+                esc_bytes: 76_017,
                 fsmc_cycles: 0,
                 dac_frames: 2_725,
                 ldac_pulses: 1_379,
-                adc_conversions: 36_631,
+                adc_conversions: 36_628,
                 sync0_captures: 71,
                 samples_read: 36_552,
                 dac_trace: 2_446_500_947_638_559_095,
             },
             50,
-            5_318_238_944_196_836_329
+            9_879_560_728_766_447_904
         )
     );
 }
