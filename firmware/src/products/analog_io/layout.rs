@@ -3,13 +3,12 @@
 //! the BOOT state, which is the bootloader's (`crate::platform::boot::layout`).
 
 use crate::io::analog::process_data::{MAX_IMAGE, MAX_INPUT_IMAGE, MAX_OUTPUT_IMAGE};
-use crate::platform::boot::layout::MAILBOX_CONTROL;
-use crate::stacks::ethercat::mailbox::MAILBOX_SIZE;
+use crate::stacks::ethercat::mailbox::MAILBOX_SYNC_MANAGERS;
 use coe_core::device::{SmRole, SyncManagerDesc};
 
 pub use crate::platform::boot::layout::BOOTSTRAP_MAILBOX;
 
-/// SyncManagers: the two mailboxes of [`MAILBOX_SIZE`] bytes, then the process-data
+/// SyncManagers: the two mailboxes ([`MAILBOX_SYNC_MANAGERS`]), then the process-data
 /// buffers, all in the first 8 KB of the ESC address space so the SPI PDI reaches them with
 /// 2-byte addresses. Each process-data SyncManager's room is the largest image of the
 /// build: [`MAX_OUTPUT_IMAGE`] at 0x1C00 (three buffers end at 0x1EBE with oversampling)
@@ -25,19 +24,10 @@ pub const PLAIN_SYNC_MANAGERS: [SyncManagerDesc; 4] =
     sync_managers(MAX_IMAGE as u16, MAX_IMAGE as u16);
 
 const fn sync_managers(output_room: u16, input_room: u16) -> [SyncManagerDesc; 4] {
+    let [mbx_out, mbx_in] = MAILBOX_SYNC_MANAGERS;
     [
-        SyncManagerDesc::new(
-            SmRole::MailboxOut,
-            0x1000,
-            MAILBOX_SIZE as u16,
-            MAILBOX_CONTROL.0,
-        ),
-        SyncManagerDesc::new(
-            SmRole::MailboxIn,
-            0x1080,
-            MAILBOX_SIZE as u16,
-            MAILBOX_CONTROL.1,
-        ),
+        mbx_out,
+        mbx_in,
         SyncManagerDesc::new(SmRole::ProcessDataOut, 0x1C00, output_room, 0x64),
         SyncManagerDesc::new(SmRole::ProcessDataIn, 0x1180, input_room, 0x20),
     ]

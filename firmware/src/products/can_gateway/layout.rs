@@ -2,11 +2,8 @@
 //! each with room for the largest image the PDO assignment can make.
 
 use super::modules::{MAX_NODES, NODE_BYTES, STATUS_BYTES};
-use crate::platform::boot::layout::MAILBOX_CONTROL;
-use crate::stacks::ethercat::mailbox::MAILBOX_SIZE;
+use crate::stacks::ethercat::mailbox::MAILBOX_SYNC_MANAGERS;
 use coe_core::device::{SmRole, SyncManagerDesc};
-
-pub use crate::platform::boot::layout::BOOTSTRAP_MAILBOX;
 
 /// The largest output image: every node's outputs.
 pub const MAX_OUTPUT_IMAGE: usize = MAX_NODES * NODE_BYTES;
@@ -17,18 +14,8 @@ pub const MAX_INPUT_IMAGE: usize = STATUS_BYTES + MAX_NODES * NODE_BYTES;
 /// mailbox is the same), then SM2 and SM3 (three buffers each), all below 0x2000 so the
 /// SPI PDI reaches them with 2-byte addresses.
 pub const SYNC_MANAGERS: [SyncManagerDesc; 4] = [
-    SyncManagerDesc::new(
-        SmRole::MailboxOut,
-        0x1000,
-        MAILBOX_SIZE as u16,
-        MAILBOX_CONTROL.0,
-    ),
-    SyncManagerDesc::new(
-        SmRole::MailboxIn,
-        0x1080,
-        MAILBOX_SIZE as u16,
-        MAILBOX_CONTROL.1,
-    ),
+    MAILBOX_SYNC_MANAGERS[0],
+    MAILBOX_SYNC_MANAGERS[1],
     SyncManagerDesc::new(
         SmRole::ProcessDataOut,
         0x1100,

@@ -37,8 +37,9 @@
 //!   the periodic safety service ([`SAFETY_SERVICE_MS`], [`Service::Registers`]), which
 //!   catches anything the events missed.
 
+use crate::platform::boot::layout::MAILBOX_CONTROL;
 use crate::platform::boot::staging::{is_firmware_name, BOOT_ONLY};
-use coe_core::device::sm_control;
+use coe_core::device::{sm_control, SmRole, SyncManagerDesc};
 use coe_core::foe::FoeError;
 use coe_core::mailbox::{MailboxErrorCode, MailboxProtocol, MAILBOX_HEADER_LEN};
 use coe_core::od::{ObjectAccess, ObjectDictionary};
@@ -50,6 +51,24 @@ use et1100::{AlEvents, Et1100, Pdi, PdiResult, SyncManager};
 
 /// Mailbox size (SM0 and SM1 length).
 pub const MAILBOX_SIZE: usize = 128;
+
+/// SM0 and SM1, the standard mailbox of every product: master -> slave at 0x1000, slave ->
+/// master at 0x1080, [`MAILBOX_SIZE`] bytes each, with the bootstrap mailbox's control
+/// bytes (`platform::boot::layout::MAILBOX_CONTROL`).
+pub const MAILBOX_SYNC_MANAGERS: [SyncManagerDesc; 2] = [
+    SyncManagerDesc::new(
+        SmRole::MailboxOut,
+        0x1000,
+        MAILBOX_SIZE as u16,
+        MAILBOX_CONTROL.0,
+    ),
+    SyncManagerDesc::new(
+        SmRole::MailboxIn,
+        0x1080,
+        MAILBOX_SIZE as u16,
+        MAILBOX_CONTROL.1,
+    ),
+];
 /// Largest object transferred in several frames (segmented SDO, complete access).
 pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait for the mailbox.
