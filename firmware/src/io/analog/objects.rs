@@ -147,8 +147,14 @@ impl<F: Figures> AnalogIo<F> {
         if stage.block_grid() != self.block_grid {
             stage.set_block_grid(self.block_grid);
         }
-        // A block counter equal to the last block's is the same block sent again (the
-        // master's task did not run): refused, the outputs hold rather than repeat it.
+        let next = stage.sync0_counts().edges.wrapping_add(1);
+        // A second frame before the same edge: its block is dropped (the first one plays).
+        if stage.blocks.has_block_for(next) {
+            return;
+        }
+        // A block counter equal to the last block's, for a new edge, is the same block sent
+        // again (the master's task did not run): refused, the outputs hold rather than
+        // repeat it.
         if let Some(counter) = self.pd.output_block_counter() {
             if self.block_counter.replace(counter) == Some(counter) {
                 self.stream.on_output_refused();
@@ -158,7 +164,6 @@ impl<F: Figures> AnalogIo<F> {
         let mut pairs = [DacPair::default(); MAX_UPDATES];
         let n = output_blocks::decode(self.pd.output_updates(), &mut pairs);
         if let (Some(block), Some(last)) = (pairs.get(..n), n.checked_sub(1)) {
-            let next = stage.sync0_counts().edges.wrapping_add(1);
             stage.blocks.publish(block, next);
             if let Some(p) = pairs.get(last) {
                 self.outputs.set_block_values(*p);

@@ -80,6 +80,18 @@ fn a_block_whose_counter_repeats_is_refused_and_the_next_input_block_says_so() {
 }
 
 #[test]
+fn a_second_frame_before_the_same_edge_is_no_refusal() {
+    let mut r = op_with_the_counter();
+    assert_eq!(cycle(&mut r, &image(1, 100)), PLAYED);
+    // Two frames in one cycle, the same block: the first plays, the second is dropped
+    // without a word; the next cycle's block plays.
+    r.esc.master_write_outputs(&image(2, 200));
+    r.irq();
+    assert_eq!(cycle(&mut r, &image(2, 200)), PLAYED);
+    assert_eq!(cycle(&mut r, &image(3, 300)), PLAYED);
+}
+
+#[test]
 fn a_new_stream_accepts_any_first_counter() {
     let mut r = op_with_the_counter();
     assert_eq!(cycle(&mut r, &image(7, 100)), PLAYED);
