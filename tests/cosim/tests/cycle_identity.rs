@@ -130,19 +130,19 @@ fn the_lpc1754_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
-            image: 12_776_984_039_033_536_668,
-            cycles: 10_686_232,
-            instructions: 4_511_186,
-            sleep_cycles: 5_012_880,
-            time_ns: 108_068_926,
-            esc_bytes: 27_837,
+            image: 4_482_242_276_785_631_184,
+            cycles: 10_689_587,
+            instructions: 4_511_434,
+            sleep_cycles: 5_015_883,
+            time_ns: 108_102_226,
+            esc_bytes: 27_835,
             fsmc_cycles: 0,
             dac_frames: 649,
             ldac_pulses: 322,
-            adc_conversions: 24_408,
+            adc_conversions: 24_415,
             sync0_captures: 326,
-            samples_read: 24_368,
-            dac_trace: 8_234_624_367_589_629_173,
+            samples_read: 24_376,
+            dac_trace: 13_498_106_780_901_743_130,
         }
     );
 }
@@ -206,22 +206,22 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
         (figures(&image, &r.after, trace), r.blocks.len(), blocks),
         (
             Figures {
-                image: 12_776_984_039_033_536_668,
-                cycles: 15_574_324,
-                instructions: 8_534_470,
-                sleep_cycles: 4_853_497,
+                image: 4_482_242_276_785_631_184,
+                cycles: 15_574_349,
+                instructions: 8_533_468,
+                sleep_cycles: 4_855_203,
                 time_ns: 156_949_846,
-                esc_bytes: 76_017,
+                esc_bytes: 76_011,
                 fsmc_cycles: 0,
                 dac_frames: 2_725,
                 ldac_pulses: 1_379,
-                adc_conversions: 36_628,
+                adc_conversions: 36_627,
                 sync0_captures: 71,
                 samples_read: 36_552,
                 dac_trace: 2_446_500_947_638_559_095,
             },
             50,
-            9_879_560_728_766_447_904
+            9_965_917_626_062_424_979
         )
     );
 }
