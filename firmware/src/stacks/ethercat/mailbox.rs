@@ -69,6 +69,7 @@ pub const MAILBOX_SYNC_MANAGERS: [SyncManagerDesc; 2] = [
         MAILBOX_CONTROL.1,
     ),
 ];
+
 /// Largest object transferred in several frames (segmented SDO, complete access).
 pub const TRANSFER_BUFFER: usize = 512;
 /// Emergencies that can wait for the mailbox.
