@@ -7,7 +7,9 @@ PRE-OP; the input assignment over SDO (0x1C13: sub 0 = 0, the block status 0x1A1
 block time 0x1A11, the sample PDOs 0x1A20.., sub 0 = n), as the book tells SOEM users;
 0x8000:03 (the slots it gives) read back. With UPDATE_PDOS (default 0) the output assignment
 too (0x1C12: the update PDOs 0x1620.., five updates of AO1 and AO2 each); SAMPLE_PDOS 0
-leaves the inputs as they are (no stream). DC with SYNC0 every CYCLE_US (default 1000);
+leaves the inputs as they are (no stream), but for the block status 0x1A10 after the plain
+inputs when there are update PDOs: its status byte says which cycles' outputs held (b2)
+and which blocks the module refused (b3). DC with SYNC0 every CYCLE_US (default 1000);
 config_map, which reads the assignment and the mappings over CoE and sizes the image;
 SAFE-OP, OP, and CYCLES process-data exchanges (default 1000) in a thread of their own,
 each keeping the input image as it came. Then INIT. With CYCLES 0: INIT right after OP.
@@ -16,7 +18,8 @@ The outputs climb: update k of the block the master sends in its exchange i is t
 (a, !a) with a = (i x n + k) x 97 (mod 2^16), n the updates per cycle, so the caller can
 tell from the DAC's loads alone which update of which exchange the module played. The
 "outputs" step lists the exchanges kept and those sent late or beside a late one (whose
-block the module may rightly never have played).
+block the module may rightly never have played), and the exchanges whose input image had
+b2 or b3 set.
 
 The blocks are judged after the run: a block read twice (the same scan counter: the master's
 frame came before the module wrote the next one) is counted once; for the others the scan
@@ -59,6 +62,10 @@ PERIOD_NS = 4000
 SCAN_NS = CHANNELS * PERIOD_NS
 # The block header: scan counter (u32), scans (u8), status (u8), block time (u64).
 HEADER = struct.Struct("<IBBQ")
+# The plain inputs (0x6401:01..08).
+PLAIN_TX_PDO = 0x1A00
+# Status bits 2 and 3 of the block status: outputs held, update block refused.
+OUTPUTS_HELD, OUTPUTS_REFUSED = 1 << 2, 1 << 3
 
 
 def update_pair(i, n, k):
@@ -78,7 +85,8 @@ class Keeping(Cyclic):
         self.keep_images = images
         self.updates = updates
         self.images = []
-        # Exchanges kept: (exchange, late or beside a late one, answered).
+        # Exchanges kept: (exchange, late or beside a late one, answered, the last input
+        # byte: the block status when 0x1A10 ends the inputs).
         self.sent = []
 
     def write_outputs(self):
@@ -92,7 +100,8 @@ class Keeping(Cyclic):
     def on_exchange(self, outputs, answered, late_beside):
         with self.lock:
             if self.keep:
-                self.sent.append((outputs, late_beside, answered))
+                status = self.slave.input[-1] if self.slave.input else 0
+                self.sent.append((outputs, late_beside, answered, status))
                 if self.keep_images:
                     phase = self.master.dc_time % self.cycle_ns
                     self.images.append((bytes(self.slave.input), late_beside, phase))
@@ -202,6 +211,8 @@ def main():
         pdos = []
         if args.sample_pdos:
             pdos = [STATUS_PDO, TIME_PDO] + [SAMPLE_PDO + b for b in range(args.sample_pdos)]
+        elif args.update_pdos:
+            pdos = [PLAIN_TX_PDO, STATUS_PDO]
         assigned = assign(slave, 0x1C13, pdos) if pdos else []
         rx_pdos = [UPDATE_PDO + u for u in range(args.update_pdos)]
         rx_assigned = assign(slave, 0x1C12, rx_pdos) if rx_pdos else []
@@ -230,7 +241,7 @@ def main():
             master.read_state()
             say(step="safeop", ok=False, state=slave.state, al_status_code=slave.al_status)
             return False
-        cyclic = Keeping(master, slave, cycle_ns, args.slowdown, bool(pdos), updates)
+        cyclic = Keeping(master, slave, cycle_ns, args.slowdown, bool(args.sample_pdos), updates)
         cyclic.start()
         try:
             time.sleep(SAFE_OP_S * args.slowdown)
@@ -270,7 +281,7 @@ def main():
         finally:
             cyclic.stop()
         ok = in_op and good == exchanges
-        if pdos:
+        if args.sample_pdos:
             verdict, ai1 = judge(images)
             ok = (
                 ok
@@ -288,8 +299,10 @@ def main():
                 good_wkc=good,
                 state=state_after,
                 kept=[sent[0][0], sent[-1][0]],
-                late=[i for i, late, _ in sent if late],
-                unanswered=[i for i, _, answered in sent if not answered],
+                late=[i for i, late, _, _ in sent if late],
+                unanswered=[i for i, _, answered, _ in sent if not answered],
+                held=[i for i, _, _, status in sent if status & OUTPUTS_HELD],
+                refused=[i for i, _, _, status in sent if status & OUTPUTS_REFUSED],
             )
         master.read_state()
         say(step="init", state=slave.state)

@@ -123,6 +123,10 @@ fn run_to_op(run: Run, pcap: &'static str) -> ScriptRun {
         assert_eq!(assign["slots"], 32 * u64::from(run.sample_pdos));
         // SOEM sized the image from the mappings: the header (14 B) and the slots.
         assert_eq!(map["inputs"], 14 + 64 * u64::from(run.sample_pdos));
+    } else if run.update_pdos > 0 {
+        // The plain inputs and the block status, for the outputs' status bits.
+        assert_eq!(assign["pdos"], serde_json::json!([0x1A00, 0x1A10]));
+        assert_eq!(map["inputs"], 16 + 6);
     }
     if run.update_pdos > 0 {
         let want: Vec<u64> = (0..u64::from(run.update_pdos))
@@ -232,12 +236,19 @@ fn pysoem_plays_every_update_through_the_oversampling_pdos_over_a_veth_pair() {
     let n = UPDATES_PER_PDO * u64::from(UPDATE_PDOS);
     assert_eq!(outputs["updates"], n);
     let [first, last] = [0, 1].map(|k| outputs["kept"][k].as_u64().unwrap());
-    let late: Vec<u64> = outputs["late"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_u64().unwrap())
-        .collect();
+    let listed = |key: &str| -> Vec<u64> {
+        serde_json::from_value(outputs[key].clone()).unwrap_or_else(|e| panic!("{key}: {e}"))
+    };
+    let late = listed("late");
+    // The block status the master read: no block refused, and outputs held only beside a
+    // late exchange of the master's.
+    assert_eq!(listed("refused"), Vec::<u64>::new(), "{outputs}");
+    for held in listed("held") {
+        assert!(
+            late.iter().any(|l| l.abs_diff(held) <= 2),
+            "the outputs held at exchange {held}, not beside a late one: {outputs}"
+        );
+    }
     let played = played_updates(&o.dac_updates);
     let verdict = judge_updates(&played, n, first, last, &late);
     eprintln!("{verdict:?}\n{}", o.facts);

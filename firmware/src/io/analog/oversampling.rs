@@ -444,7 +444,8 @@ impl SampleStream {
                 oldest.wrapping_add((CHANNELS as u32 - oldest % CHANNELS as u32) % CHANNELS as u32);
             status |= STATUS_OVERRUN;
         }
-        if end.wrapping_sub(start) > room {
+        // The block status alone (no sample PDO) carries no sample: none is lost.
+        if room > 0 && end.wrapping_sub(start) > room {
             start = end.wrapping_sub(room);
             status |= STATUS_OVERRUN;
         }

@@ -137,6 +137,24 @@ fn run(stream: &mut SampleStream, cycle_ns: u64, cycles: u64, skip: &[u64]) -> V
 }
 
 #[test]
+fn the_block_status_alone_counts_the_scans_and_flags_no_overrun() {
+    let mut s = SampleStream::new();
+    s.restart(InputBlocks {
+        status: true,
+        time: false,
+        sample_pdos: 0,
+    });
+    s.set_dc_reference(1_000_000, FIRST_EDGE + DC_OFFSET, None);
+    let got = run(&mut s, 1_000_000, 100, &[]);
+    let mut counter = 0;
+    for b in &got {
+        assert_eq!((b.status, b.counter), (0, counter), "{b:?}");
+        assert!((31..=32).contains(&b.scans()), "{b:?}");
+        counter += u32::from(b.scans());
+    }
+}
+
+#[test]
 fn every_conversion_in_exactly_one_block_at_its_time() {
     for (cycle, pdos) in [
         (1_000_000u64, 8u8),
