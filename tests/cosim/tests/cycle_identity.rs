@@ -130,19 +130,19 @@ fn the_lpc1754_image_runs_cycle_identically() {
     assert_eq!(
         got,
         Figures {
-            image: 4_482_242_276_785_631_184,
-            cycles: 10_689_587,
-            instructions: 4_511_434,
-            sleep_cycles: 5_015_883,
+            image: 5_132_822_816_997_794_988,
+            cycles: 10_689_562,
+            instructions: 4_511_005,
+            sleep_cycles: 5_016_343,
             time_ns: 108_102_226,
-            esc_bytes: 27_835,
+            esc_bytes: 27_837,
             fsmc_cycles: 0,
             dac_frames: 649,
             ldac_pulses: 322,
             adc_conversions: 24_415,
             sync0_captures: 326,
             samples_read: 24_376,
-            dac_trace: 13_498_106_780_901_743_130,
+            dac_trace: 1_416_020_112_222_759_298,
         }
     );
 }
@@ -206,12 +206,12 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
         (figures(&image, &r.after, trace), r.blocks.len(), blocks),
         (
             Figures {
-                image: 4_482_242_276_785_631_184,
-                cycles: 15_574_349,
-                instructions: 8_533_468,
-                sleep_cycles: 4_855_203,
+                image: 5_132_822_816_997_794_988,
+                cycles: 15_574_324,
+                instructions: 8_535_978,
+                sleep_cycles: 4_852_339,
                 time_ns: 156_949_846,
-                esc_bytes: 76_011,
+                esc_bytes: 76_025,
                 fsmc_cycles: 0,
                 dac_frames: 2_725,
                 ldac_pulses: 1_379,
@@ -221,7 +221,7 @@ fn the_lpc1754_oversampling_image_runs_cycle_identically() {
                 dac_trace: 2_446_500_947_638_559_095,
             },
             50,
-            9_965_917_626_062_424_979
+            8_724_289_964_679_047_468
         )
     );
 }
