@@ -395,8 +395,10 @@ impl SampleStream {
 
     /// Cuts the block of the SYNC0 edge captured at `edge_lo` (low 32 bits of its MCU time
     /// in ns), seen at MCU time `now_ns`, with the output side's news since the previous
-    /// cut (`output_holds`: [`Self::output_status`]). The first edge of a stream starts it
-    /// (an empty block, scan counter 0 next).
+    /// cut: `output_holds` is the count of cycles whose outputs held
+    /// ([`super::outputs::OutputStage::output_holds`]), and a refusal noted by
+    /// [`Self::on_output_refused`] is taken. The first edge of a stream starts it (an empty
+    /// block, scan counter 0 next).
     pub fn on_edge(&mut self, now_ns: u64, edge_lo: u32, output_holds: u32) {
         if !self.blocks.any() {
             return;
