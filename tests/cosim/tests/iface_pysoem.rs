@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::{run_script_against_with, step, ScriptRun, Serving};
+use common::{run_script_against_with, step, ScriptRun, Serving, BOARD_SLOWDOWN};
 use firmware::products::analog_io::device::DEVICE;
 use firmware::products::analog_io::identity::{IDENTITY, NAMES};
 use lpc1754_cosim::cosim::Options;
@@ -35,12 +35,6 @@ use virtual_board::tools::sim::tshark;
 const CYCLES: u32 = 2000;
 /// The script's default DC cycle (ns).
 const CYCLE_NS: u64 = 4_000_000;
-/// The board runs this many times slower than the wall clock, for the image and for SOES.
-/// The image boots by checking its application's CRC and answers SDO Information at full
-/// load, SOES polls the ESC over its SPI, and the co-simulator does not keep up with real
-/// time there on every 2-core host (the board fell 50-114 ms behind). SOEM's timeouts stay
-/// wall time, so the mailbox answers are, if anything, later for it.
-const BOARD_SLOWDOWN: u32 = 4;
 
 /// The pysoem master's process-data step checked against the board's converters: every
 /// value it read at the inputs (the lowest and the highest per channel) is the input's

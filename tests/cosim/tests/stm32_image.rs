@@ -9,7 +9,8 @@
 mod common;
 
 use lpc1754_cosim::chip::Chip;
-use lpc1754_cosim::run::load_image_of;
+use lpc1754_cosim::cosim::Options;
+use lpc1754_cosim::run::{image_target, load_image_of};
 use std::path::PathBuf;
 use virtual_board::tools::iface::pysoem_missing;
 use virtual_board::tools::sim::tshark;
@@ -38,7 +39,8 @@ fn stm32_image_boots_shows_its_identity_and_reaches_op() {
 /// SOEM (pysoem, `scripts/pysoem_master.py`, in its own process) drives the STM32 image
 /// served on a veth pair, as `iface_pysoem.rs` drives the LPC1754's: the SII, SDO identity,
 /// DC, the mapping, SAFE-OP, OP with 2 000 exchanges in step with SYNC0, the cycle monitor,
-/// the SM watchdog (0x001B), SDO Information, INIT; the capture decodes cleanly.
+/// the SM watchdog (0x001B), SDO Information, INIT; the capture decodes cleanly. The board
+/// runs [`common::BOARD_SLOWDOWN`] times slower than the wall clock, as the LPC1754's does.
 #[test]
 #[ignore = "needs root, iproute2 (ip), python3 with pysoem and tshark: `cargo xtask test` runs it as root"]
 fn pysoem_drives_the_stm32_image_over_a_veth_pair() {
@@ -48,16 +50,25 @@ fn pysoem_drives_the_stm32_image_over_a_veth_pair() {
     const CYCLES: u32 = 2000;
     let product = common::stm32_product();
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/pysoem_master.py");
-    let runs = vec![vec![CYCLES.to_string().into()]];
+    let slowdown = common::BOARD_SLOWDOWN;
+    let runs = vec![vec![
+        CYCLES.to_string().into(),
+        "--slowdown".into(),
+        slowdown.to_string().into(),
+    ]];
     let o = common::unless_the_master_was_late(|| {
         let (script, runs) = (script.clone(), runs.clone());
         std::thread::spawn(move || {
-            common::run_script_against_image_of(
-                product.name,
+            common::run_script_against_with(
+                || image_target(load_image_of(product.name)?, Options::default()),
                 script,
                 runs,
                 "iface-pysoem-stm32.pcap",
                 120.0,
+                common::Serving {
+                    slowdown,
+                    ..Default::default()
+                },
             )
         })
         .join()
