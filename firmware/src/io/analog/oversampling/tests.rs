@@ -261,15 +261,22 @@ fn a_lapped_ring_is_an_overrun_and_the_stream_goes_on() {
     assert_eq!(next.counter, lapped.counter + u32::from(lapped.scans()));
 }
 
+/// A stream of four sample PDOs at `cycle` ns, its DC reference read before the first edge
+/// and the ADC's grid known.
+fn stream_of_4_pdos(cycle: u64) -> SampleStream {
+    let mut s = SampleStream::new();
+    s.restart(blocks(4));
+    s.set_dc_reference(cycle as u32, FIRST_EDGE + DC_OFFSET, None);
+    s.set_word0(WORD0);
+    s
+}
+
 #[test]
 fn an_edge_captured_after_the_callers_time_starts_the_stream_at_counter_0() {
     // The SYNC0 task preempted the PDI task between its time read and the edge's read: the
     // edge is 2 us after `now`.
-    let mut s = SampleStream::new();
     let cycle = 500_000;
-    s.restart(blocks(4));
-    s.set_dc_reference(cycle as u32, FIRST_EDGE + DC_OFFSET, None);
-    s.set_word0(WORD0);
+    let mut s = stream_of_4_pdos(cycle);
     for c in 0..4 {
         let edge = FIRST_EDGE + c * cycle;
         let now = if c == 0 {
@@ -287,11 +294,8 @@ fn an_edge_captured_after_the_callers_time_starts_the_stream_at_counter_0() {
 
 #[test]
 fn a_cycle_whose_outputs_held_or_were_refused_flags_the_next_block_alone() {
-    let mut s = SampleStream::new();
     let cycle = 500_000;
-    s.restart(blocks(4));
-    s.set_dc_reference(cycle as u32, FIRST_EDGE + DC_OFFSET, None);
-    s.set_word0(WORD0);
+    let mut s = stream_of_4_pdos(cycle);
     // The update interrupt's count of held cycles at each cut: 7 already at the stream's
     // start (an earlier stream's), one more before edge 3, two more before edge 5; a block
     // refused before edge 5 and one before edge 6.

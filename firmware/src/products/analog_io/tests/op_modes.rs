@@ -40,7 +40,7 @@ fn sm_pdos(mode: &CycleOpMode, sm: u8) -> Vec<u16> {
 }
 
 /// Writes `pdos` into the assignment object `index` (sub 0 = 0, the entries, sub 0 = n).
-fn assign(r: &mut Rig, index: u16, pdos: &[u16]) -> Result<(), String> {
+pub(super) fn assign(r: &mut Rig, index: u16, pdos: &[u16]) -> Result<(), String> {
     let refused = |e: u32| format!("{index:#06X} refused: abort {e:#010X}");
     r.download(index, 0, &[0]).map_err(refused)?;
     for (sub, pdo) in (1u8..).zip(pdos) {

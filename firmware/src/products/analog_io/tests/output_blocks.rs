@@ -2,6 +2,7 @@
 //! PDO 0x1610) lets the module refuse a block the master sent twice, and the block status
 //! (0x1A10, without the sample stream) tells the master.
 
+use super::op_modes::assign;
 use super::Rig;
 use crate::io::analog::output_blocks::{COUNTER_PDO, UPDATES_PER_PDO, UPDATE_PDO};
 use crate::io::analog::oversampling::{STATUS_OUTPUTS_HELD, STATUS_OUTPUTS_REFUSED, STATUS_PDO};
@@ -26,19 +27,10 @@ fn op_with_the_counter() -> Rig {
     r.esc.master_sm(0, m0.start, m0.len, m0.control, true);
     r.esc.master_sm(1, m1.start, m1.len, m1.control, true);
     assert_eq!(r.request(0x02), (0x02, 0));
-    let rx = [COUNTER_PDO, UPDATE_PDO];
-    assert_eq!(r.download(0x1C12, 0, &[0]), Ok(()));
-    for (sub, pdo) in (1u8..).zip(rx) {
-        assert_eq!(r.download(0x1C12, sub, &pdo.to_le_bytes()), Ok(()));
-    }
-    assert_eq!(r.download(0x1C12, 0, &[rx.len() as u8]), Ok(()));
+    assign(&mut r, 0x1C12, &[COUNTER_PDO, UPDATE_PDO]).unwrap();
     let plain = r.upload(0x1C13, 1).expect("0x1C13:01");
-    let tx = [u16::from_le_bytes([plain[0], plain[1]]), STATUS_PDO];
-    assert_eq!(r.download(0x1C13, 0, &[0]), Ok(()));
-    for (sub, pdo) in (1u8..).zip(tx) {
-        assert_eq!(r.download(0x1C13, sub, &pdo.to_le_bytes()), Ok(()));
-    }
-    assert_eq!(r.download(0x1C13, 0, &[tx.len() as u8]), Ok(()));
+    let plain = u16::from_le_bytes([plain[0], plain[1]]);
+    assign(&mut r, 0x1C13, &[plain, STATUS_PDO]).unwrap();
     r.app.application_mut().stream.set_word0(0);
     let in_len = r.app.application().pd.input_len() as u16;
     r.esc
